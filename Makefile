@@ -1,0 +1,115 @@
+# pm: photon mapping as a pipeline of Unix tools.
+#
+#   make            all tools into bin/
+#   make demo       render the default bunny scene to out/bunny.png and out/bunny.exr
+#   make test       build and run the whole test suite
+#   make install    tools and man pages under $(PREFIX)
+#   make clean
+#
+# `make demo` and `make test` first install missing Debian packages when run
+# as root (apt-get), and say what to install otherwise.
+
+PREFIX  ?= /usr/local
+CC      ?= cc
+OPT     ?= -O2
+CFLAGS  ?= $(OPT) -g
+PKGS     = OpenEXR expat libpng zlib
+PM_CFLAGS = -std=c17 -Wall -Wextra -pthread -D_DEFAULT_SOURCE \
+	$(shell pkg-config --cflags $(PKGS) 2>/dev/null)
+# OpenEXR's pkg-config pulls in the C++ libraries; pm uses only the C core.
+PM_LIBS  = -lembree3 -lOpenEXRCore $(shell pkg-config --libs expat libpng zlib 2>/dev/null) \
+	-lm -pthread
+TEST_LIBS = $(shell pkg-config --libs cmocka 2>/dev/null || echo -lcmocka)
+
+# Debian packages the build, the demo and the tests need.
+DEBS = build-essential pkg-config libembree-dev libopenexr-dev libexpat1-dev \
+	libpng-dev zlib1g-dev libflann-dev libcmocka-dev mandoc glmark2-data \
+	python3 python3-venv libllvm19
+
+BUILD = build
+TOOLS = pm-render pm-downsample
+BINS  = $(TOOLS:%=bin/%)
+LIB   = $(BUILD)/libpm.a
+
+LIB_SRC  = $(sort $(wildcard common/*.c) $(wildcard formats/*.c))
+LIB_OBJ  = $(LIB_SRC:%.c=$(BUILD)/%.o)
+TEST_SRC = $(sort $(wildcard tests/unit/test_*.c))
+TEST_BIN = $(TEST_SRC:tests/unit/%.c=$(BUILD)/tests/%)
+MANS     = $(sort $(wildcard man/*.[1-9]))
+
+.PHONY: all demo test deps install clean check-unit check-cli check-man check-mitsuba
+
+all: $(BINS)
+
+$(BUILD)/%.o: %.c
+	@mkdir -p $(dir $@)
+	$(CC) $(PM_CFLAGS) $(CFLAGS) -MMD -MP -c $< -o $@
+
+$(LIB): $(LIB_OBJ)
+	@mkdir -p $(dir $@)
+	$(AR) rcs $@ $(LIB_OBJ)
+
+bin/%: $(BUILD)/tools/%.o $(LIB)
+	@mkdir -p bin
+	$(CC) $(CFLAGS) -pthread -o $@ $< $(LIB) $(PM_LIBS)
+
+$(BUILD)/tests/%: $(BUILD)/tests/unit/%.o $(LIB)
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS) -pthread -o $@ $< $(LIB) $(PM_LIBS) $(TEST_LIBS)
+
+-include $(LIB_OBJ:.o=.d) $(TEST_SRC:tests/unit/%.c=$(BUILD)/tests/unit/%.d) \
+	$(TOOLS:%=$(BUILD)/tools/%.d)
+
+# Installs what is missing when root, otherwise names it and stops.
+deps:
+	@missing=""; for p in $(DEBS); do \
+		dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
+	if [ -n "$$missing" ]; then \
+		if [ "$$(id -u)" = 0 ]; then \
+			echo "installing:$$missing"; \
+			DEBIAN_FRONTEND=noninteractive apt-get update -qq && \
+			DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $$missing; \
+		else \
+			echo "missing Debian packages:$$missing"; \
+			echo "run: sudo apt-get install$$missing"; exit 1; \
+		fi; \
+	fi
+
+include pipelines/bunny.mk
+
+demo: deps
+	$(MAKE) all
+	$(MAKE) out/bunny.png
+
+test: deps
+	$(MAKE) all $(TEST_BIN)
+	$(MAKE) check-unit check-cli check-man
+	$(MAKE) check-mitsuba
+
+check-unit: $(TEST_BIN)
+	@sh tests/run-unit.sh $(TEST_BIN)
+
+$(BUILD)/tests/exrutil: tests/cli/exrutil.c $(LIB)
+	@mkdir -p $(dir $@)
+	$(CC) $(PM_CFLAGS) $(CFLAGS) -o $@ tests/cli/exrutil.c $(LIB) $(PM_LIBS)
+
+check-cli: $(BINS) $(BUILD)/tests/exrutil
+	@EXRUTIL=$(BUILD)/tests/exrutil sh tests/run-cli.sh tests/cli/*.sh
+
+check-man:
+	@for m in $(MANS); do mandoc -T lint -W warning $$m || exit 1; done; \
+	echo "man pages: $(words $(MANS)) linted clean"
+
+check-mitsuba: $(BINS)
+	@sh tests/mitsuba/compare.sh
+
+install: all
+	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/man/man1 \
+		$(DESTDIR)$(PREFIX)/share/man/man5 $(DESTDIR)$(PREFIX)/share/man/man7
+	install -m 755 $(BINS) $(DESTDIR)$(PREFIX)/bin
+	for m in $(MANS); do s=$${m##*.}; \
+		install -m 644 $$m $(DESTDIR)$(PREFIX)/share/man/man$$s; done
+
+clean:
+	rm -rf $(BUILD)/*.a $(BUILD)/common $(BUILD)/formats $(BUILD)/tools \
+		$(BUILD)/tests bin out

@@ -1,0 +1,63 @@
+/*
+ * accel.h: ray casting against a scene's shapes, through Embree 3.
+ *
+ * The acceleration structure is built once per scene and is read-only
+ * afterwards, so any number of threads may query it at once.
+ */
+#ifndef PM_ACCEL_H
+#define PM_ACCEL_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "error.h"
+#include "scene.h"
+#include "vec.h"
+
+struct pm_accel;
+
+/* What a ray hit, with both normals facing the side the surface was built
+ * to face (its front), whichever side the ray came from. */
+struct pm_hit {
+	float t;
+	struct pm_vec3 p;		/* position on the surface */
+	struct pm_vec3 ng;		/* unit geometric normal */
+	struct pm_vec3 ns;		/* unit shading normal (Phong-interpolated) */
+	int shape;			/* index into scene.shapes */
+	uint32_t prim;			/* triangle index within the mesh */
+	float u, v;			/* barycentrics of vertices 1 and 2 */
+};
+
+/* Builds the structure over s, which must outlive it; *out is owned by the
+ * caller and freed with pm_accel_free. */
+enum pm_err pm_accel_build(const struct pm_scene *s, struct pm_accel **out,
+    struct pm_error *err);
+void pm_accel_free(struct pm_accel *a);
+
+/* Closest hit along o + t d for t in (tmin, tmax); d need not be unit. */
+bool pm_accel_intersect(const struct pm_accel *a, struct pm_vec3 o,
+    struct pm_vec3 d, float tmin, float tmax, struct pm_hit *h);
+/* True if anything lies along o + t d for t in (tmin, tmax). */
+bool pm_accel_occluded(const struct pm_accel *a, struct pm_vec3 o,
+    struct pm_vec3 d, float tmin, float tmax);
+
+/* The scene's bounding box, as Embree computed it. */
+void pm_accel_bounds(const struct pm_accel *a, struct pm_vec3 *lo,
+    struct pm_vec3 *hi);
+
+/*
+ * A ray origin moved off the surface at p along the geometric normal ng, to
+ * the side that dir leaves on, by an amount that scales with the magnitude
+ * of p's coordinates (float spacing), so that the same scene at any scale is
+ * free of self-intersection.
+ */
+static inline struct pm_vec3 pm_offset_origin(struct pm_vec3 p, struct pm_vec3 ng,
+    struct pm_vec3 dir)
+{
+	float m = fmaxf(fabsf(p.x), fmaxf(fabsf(p.y), fabsf(p.z)));
+	float eps = (m + 1e-3f) * 2e-5f;
+
+	return pm_madd(p, ng, pm_dot(ng, dir) >= 0.0f ? eps : -eps);
+}
+
+#endif

@@ -1,0 +1,113 @@
+/*
+ * bsdf.h: the closed set of materials, each with Mitsuba 3's meaning.
+ *
+ * All directions are unit vectors in the local shading frame (normal +z).
+ * wi points from the surface towards where the query came from (the camera
+ * side in path tracing, the light side when tracing photons); wo is the
+ * other direction.  As in Mitsuba 3:
+ *   - eval returns f(wi, wo) * |cos theta_o|, zero for delta components;
+ *   - sample returns wo, its pdf (solid angle; 1 by convention for a delta
+ *     component, in which case `delta` is set) and the weight
+ *     f * |cos theta_o| / pdf (for delta components, the discrete weight);
+ *   - pdf returns the solid-angle density sample would have produced wo
+ *     with, for the non-delta components.
+ * PM_RADIANCE and PM_IMPORTANCE select the adjoint for refraction: radiance
+ * is scaled by 1/eta^2 when it crosses an interface, importance is not
+ * (Veach 1997, ch. 5).  Photons carry importance-like flux.
+ */
+#ifndef PM_BSDF_H
+#define PM_BSDF_H
+
+#include <stdbool.h>
+
+#include "vec.h"
+
+enum pm_bsdf_type {
+	PM_BSDF_DIFFUSE,
+	PM_BSDF_CONDUCTOR,
+	PM_BSDF_ROUGHCONDUCTOR,
+	PM_BSDF_DIELECTRIC,
+	PM_BSDF_THINDIELECTRIC,
+	PM_BSDF_PLASTIC,
+	PM_BSDF_NULL,		/* invisible to rays: Mitsuba's "null" */
+};
+
+enum pm_transport {
+	PM_RADIANCE,
+	PM_IMPORTANCE,
+};
+
+/* Lobe flags: which kinds of scattering a BSDF (or a sampled event) has. */
+enum {
+	PM_LOBE_DIFFUSE = 1 << 0,
+	PM_LOBE_GLOSSY = 1 << 1,
+	PM_LOBE_DELTA_REFLECTION = 1 << 2,
+	PM_LOBE_DELTA_TRANSMISSION = 1 << 3,
+	PM_LOBE_GLOSSY_TRANSMISSION = 1 << 4,
+	PM_LOBE_DELTA = PM_LOBE_DELTA_REFLECTION | PM_LOBE_DELTA_TRANSMISSION,
+	PM_LOBE_TRANSMISSION = PM_LOBE_DELTA_TRANSMISSION | PM_LOBE_GLOSSY_TRANSMISSION,
+};
+
+struct pm_bsdf {
+	enum pm_bsdf_type type;
+	bool twosided;		/* wrapped in Mitsuba's "twosided" */
+	/* diffuse: reflectance; plastic: diffuse_reflectance */
+	struct pm_rgb diffuse;
+	/* conductor, roughconductor, dielectric, plastic: specular_reflectance */
+	struct pm_rgb specular;
+	/* dielectric, thindielectric: specular_transmittance */
+	struct pm_rgb transmittance;
+	/* conductors: complex index of refraction relative to ext_eta */
+	struct pm_rgb eta, k;
+	/* dielectrics and plastic: int_ior / ext_ior */
+	float ior;
+	/* roughconductor: GGX alpha (isotropic) */
+	float alpha;
+	bool sample_visible;	/* roughconductor: sample visible normals */
+	bool nonlinear;		/* plastic */
+	/* plastic: precomputed internal diffuse Fresnel reflectance and the
+	 * probability of choosing the specular lobe; set by pm_bsdf_prepare */
+	float fdr_int;
+	float specular_sampling_weight;
+	unsigned lobes;		/* PM_LOBE_* this BSDF can produce */
+};
+
+struct pm_bsdf_sample {
+	struct pm_vec3 wo;
+	float pdf;
+	struct pm_rgb weight;
+	float eta;		/* relative IOR along the sampled path, 1 for reflection */
+	unsigned lobe;		/* the PM_LOBE_* of the sampled event */
+};
+
+/* Fills derived fields (lobes, plastic's tables); call once after loading. */
+void pm_bsdf_prepare(struct pm_bsdf *b);
+
+struct pm_rgb pm_bsdf_eval(const struct pm_bsdf *b, struct pm_vec3 wi,
+    struct pm_vec3 wo, enum pm_transport mode);
+float pm_bsdf_pdf(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo);
+/* u1 chooses the lobe, (u2, u3) the direction; false if nothing was sampled. */
+bool pm_bsdf_sample(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
+    float u2, float u3, enum pm_transport mode, struct pm_bsdf_sample *s);
+
+/* True if every lobe is a delta (mirror, glass): no light sampling there. */
+static inline bool pm_bsdf_is_delta(const struct pm_bsdf *b)
+{
+	return (b->lobes & ~(unsigned)PM_LOBE_DELTA) == 0;
+}
+
+/* Fresnel reflectance of a dielectric interface; cos_i may be negative
+ * (inside); returns R and, in *cos_t, the signed cosine of the refracted
+ * direction (0 at total internal reflection). */
+float pm_fresnel_dielectric(float cos_i, float eta, float *cos_t);
+/* Fresnel reflectance of a conductor with complex IOR eta + i k, per channel. */
+struct pm_rgb pm_fresnel_conductor(float cos_i, struct pm_rgb eta, struct pm_rgb k);
+
+/* Named indices of refraction (Mitsuba's list: "bk7", "water", ...);
+ * returns false if the name is unknown. */
+bool pm_ior_lookup(const char *name, float *ior);
+/* Named conductors ("Au", "Ag", "Cu", "Al", "none"), eta and k in RGB;
+ * returns false if the name is unknown. */
+bool pm_conductor_lookup(const char *name, struct pm_rgb *eta, struct pm_rgb *k);
+
+#endif

@@ -1,0 +1,135 @@
+/*
+ * integrator_path.c: the reference integrator.  A unidirectional path
+ * tracer with next-event estimation and multiple importance sampling
+ * (power heuristic, Veach 1997), Russian roulette after rr_depth, and
+ * Mitsuba 3's meaning of max_depth: the longest path, counted in segments
+ * from the camera, that may carry light (1: emitters seen directly only).
+ *
+ * Every photon-map result is checked against this, so it favours being
+ * obviously right over being fast.
+ */
+#include <math.h>
+
+#include "render.h"
+
+static inline float
+power_heuristic(float a, float b)
+{
+	float a2 = a * a, b2 = b * b;
+
+	if (isinf(a2))
+		return 1.0f;
+	return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;
+}
+
+/* Light arriving at the hit point from one light sample, weighted for MIS. */
+static struct pm_rgb
+direct_light(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
+    const struct pm_hit *h, struct pm_frame fr, struct pm_vec3 wi_local,
+    struct pm_rng *rng)
+{
+	struct pm_light_sample ls;
+	struct pm_vec3 wo_local, o;
+	struct pm_rgb f;
+	float u0 = pm_rng_float(rng), u1 = pm_rng_float(rng);
+	float u2 = pm_rng_float(rng), tmax, w;
+
+	if (!pm_lights_sample(ctx->lights, ctx->scene, h->p, u0, u1, u2, &ls))
+		return pm_rgb1(0.0f);
+	wo_local = pm_to_local(fr, ls.wi);
+	f = pm_bsdf_eval(b, wi_local, wo_local, PM_RADIANCE);
+	if (pm_rgb_is_black(f))
+		return pm_rgb1(0.0f);
+	o = pm_offset_origin(h->p, h->ng, ls.wi);
+	/* Stop short of the light so that its own surface does not shadow it. */
+	tmax = isinf(ls.dist) ? INFINITY : ls.dist * (1.0f - 1e-4f);
+	if (pm_accel_occluded(ctx->accel, o, ls.wi, 0.0f, tmax))
+		return pm_rgb1(0.0f);
+	w = ls.delta ? 1.0f :
+	    power_heuristic(ls.pdf, pm_bsdf_pdf(b, wi_local, wo_local));
+	return pm_rgb_scale(pm_rgb_mul(f, ls.value), w / ls.pdf);
+}
+
+struct pm_rgb
+pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
+    float tmin, float tmax, struct pm_rng *rng)
+{
+	const struct pm_scene *s = ctx->scene;
+	struct pm_rgb L = pm_rgb1(0.0f), beta = pm_rgb1(1.0f);
+	struct pm_vec3 prev_p = o;
+	float prev_pdf = 1.0f, eta_scale = 1.0f;
+	bool prev_delta = true;	/* the camera "sampled" the first direction */
+	int depth;
+
+	for (depth = 1;; depth++) {
+		struct pm_hit h;
+		const struct pm_shape *sh;
+		const struct pm_bsdf *b;
+		struct pm_bsdf_sample bs;
+		struct pm_frame fr;
+		struct pm_vec3 wi_local;
+
+		if (!pm_accel_intersect(ctx->accel, o, d, tmin, tmax, &h)) {
+			if (s->env_light >= 0 && !(depth == 1 && ctx->hide_emitters)) {
+				float w = prev_delta ? 1.0f : power_heuristic(prev_pdf,
+				    pm_lights_pdf_env(ctx->lights, s));
+
+				L = pm_rgb_madd(L, beta, pm_rgb_scale(
+				    s->lights[s->env_light].radiance, w));
+			}
+			break;
+		}
+		sh = &s->shapes[h.shape];
+		if (sh->light >= 0 && !(depth == 1 && ctx->hide_emitters)) {
+			struct pm_rgb Le = pm_area_emitted(&s->lights[sh->light],
+			    h.ns, pm_neg(d));
+
+			if (!pm_rgb_is_black(Le)) {
+				float w = prev_delta ? 1.0f : power_heuristic(prev_pdf,
+				    pm_lights_pdf_area(ctx->lights, s, sh->light,
+				    prev_p, h.p, h.ng));
+
+				L = pm_rgb_madd(L, beta, pm_rgb_scale(Le, w));
+			}
+		}
+		if (ctx->max_depth >= 0 && depth >= ctx->max_depth)
+			break;
+
+		b = &s->bsdfs[sh->bsdf];
+		fr = pm_frame_from_normal(h.ns);
+		wi_local = pm_to_local(fr, pm_neg(d));
+		if (!pm_bsdf_is_delta(b))
+			L = pm_rgb_madd(L, beta,
+			    direct_light(ctx, b, &h, fr, wi_local, rng));
+
+		{
+			float u1 = pm_rng_float(rng), u2 = pm_rng_float(rng);
+			float u3 = pm_rng_float(rng);
+
+			if (!pm_bsdf_sample(b, wi_local, u1, u2, u3, PM_RADIANCE, &bs))
+				break;
+		}
+		beta = pm_rgb_mul(beta, bs.weight);
+		if (pm_rgb_is_black(beta))
+			break;
+		eta_scale *= bs.eta * bs.eta;
+		prev_p = h.p;
+		prev_pdf = bs.pdf;
+		prev_delta = (bs.lobe & PM_LOBE_DELTA) != 0;
+		d = pm_normalize(pm_to_world(fr, bs.wo));
+		o = pm_offset_origin(h.p, h.ng, d);
+		tmin = 0.0f;
+		tmax = INFINITY;
+
+		/* Russian roulette on the throughput, with the radiance scaling
+		 * of refraction undone so that glass does not end paths early. */
+		if (depth >= ctx->rr_depth) {
+			float q = fminf(pm_rgb_max(beta) * eta_scale, 0.95f);
+
+			if (!(pm_rng_float(rng) < q))
+				break;
+			beta = pm_rgb_scale(beta, 1.0f / q);
+		}
+	}
+	return L;
+}

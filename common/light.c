@@ -1,0 +1,225 @@
+/*
+ * light.c: light selection by power, area sampling of emitting shapes, and
+ * the densities that multiple importance sampling compares against.
+ */
+#include <math.h>
+#include <stdlib.h>
+
+#include "light.h"
+
+enum pm_err
+pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
+    struct pm_vec3 center, float radius, struct pm_error *err)
+{
+	double *w = NULL;
+	size_t i, j, maxw = s->nlights;
+	enum pm_err rc = PM_OK;
+
+	ls->n = s->nlights;
+	ls->center = center;
+	ls->radius = radius;
+	ls->tris = NULL;
+	ls->pick.cdf = NULL;
+	ls->pick.n = 0;
+	if (s->nlights == 0)
+		return PM_OK;
+	for (i = 0; i < s->nshapes; i++)
+		if (s->shapes[i].light >= 0 && s->shapes[i].mesh.ntris > maxw)
+			maxw = s->shapes[i].mesh.ntris;
+	w = calloc(maxw, sizeof(*w));
+	ls->tris = calloc(s->nlights, sizeof(*ls->tris));
+	if (w == NULL || ls->tris == NULL) {
+		rc = pm_fail(err, PM_ERR_NOMEM, "no memory for light tables");
+		goto out;
+	}
+	for (i = 0; i < s->nlights; i++) {
+		const struct pm_light *l = &s->lights[i];
+
+		w[i] = l->power;
+		if (l->type == PM_LIGHT_CONSTANT)
+			w[i] = M_PI * pm_rgb_mean(l->radiance) * 4.0 * M_PI *
+			    (double)radius * radius;
+	}
+	rc = pm_distrib_init(&ls->pick, w, s->nlights, err);
+	if (rc != PM_OK)
+		goto out;
+	for (i = 0; i < s->nlights; i++) {
+		const struct pm_light *l = &s->lights[i];
+		const struct pm_mesh *m;
+
+		if (l->type != PM_LIGHT_AREA ||
+		    s->shapes[l->shape].type != PM_SHAPE_MESH)
+			continue;
+		m = &s->shapes[l->shape].mesh;
+		for (j = 0; j < m->ntris; j++) {
+			const uint32_t *t = &m->idx[3 * j];
+			struct pm_vec3 p0 = pm_mesh_vertex(m, t[0]);
+			struct pm_vec3 e1 = pm_sub(pm_mesh_vertex(m, t[1]), p0);
+			struct pm_vec3 e2 = pm_sub(pm_mesh_vertex(m, t[2]), p0);
+
+			w[j] = 0.5 * pm_length(pm_cross(e1, e2));
+		}
+		rc = pm_distrib_init(&ls->tris[i], w, m->ntris, err);
+		if (rc != PM_OK)
+			goto out;
+	}
+out:
+	free(w);
+	if (rc != PM_OK)
+		pm_lights_free(ls);
+	return rc;
+}
+
+void
+pm_lights_free(struct pm_lights *ls)
+{
+	size_t i;
+
+	if (ls->tris != NULL)
+		for (i = 0; i < ls->n; i++)
+			pm_distrib_free(&ls->tris[i]);
+	free(ls->tris);
+	ls->tris = NULL;
+	pm_distrib_free(&ls->pick);
+}
+
+/* Spot falloff as Mitsuba 3 defines it: full inside beam_width, a linear
+ * ramp in angle down to zero at cutoff_angle. */
+static float
+spot_falloff(const struct pm_light *l, struct pm_vec3 w)
+{
+	float cos_t = pm_dot(w, l->frame.n);
+	float cutoff = l->cutoff_angle * (PM_PI / 180.0f);
+	float beam = l->beam_width * (PM_PI / 180.0f);
+	float theta;
+
+	if (cos_t <= cosf(cutoff))
+		return 0.0f;
+	if (cos_t >= cosf(beam))
+		return 1.0f;
+	theta = acosf(fminf(cos_t, 1.0f));
+	return (cutoff - theta) / (cutoff - beam);
+}
+
+bool
+pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
+    struct pm_vec3 ref, float u0, float u1, float u2, struct pm_light_sample *o)
+{
+	const struct pm_light *l;
+	struct pm_vec3 d;
+	float psel, d2, cos_l;
+	size_t li;
+
+	if (ls->n == 0)
+		return false;
+	li = pm_distrib_sample(&ls->pick, u0, NULL);
+	l = &s->lights[li];
+	psel = (float)pm_distrib_prob(&ls->pick, li);
+	o->light = (int)li;
+	o->delta = false;
+	switch (l->type) {
+	case PM_LIGHT_POINT:
+	case PM_LIGHT_SPOT:
+		d = pm_sub(l->position, ref);
+		d2 = pm_dot(d, d);
+		if (d2 <= 0.0f)
+			return false;
+		o->dist = sqrtf(d2);
+		o->wi = pm_scale(d, 1.0f / o->dist);
+		o->p = l->position;
+		o->n = pm_neg(o->wi);
+		o->value = pm_rgb_scale(l->intensity, 1.0f / d2);
+		if (l->type == PM_LIGHT_SPOT)
+			o->value = pm_rgb_scale(o->value, spot_falloff(l, o->n));
+		o->pdf = psel;
+		o->delta = true;
+		return !pm_rgb_is_black(o->value);
+	case PM_LIGHT_CONSTANT:
+		o->wi = pm_square_to_uniform_sphere(u1, u2);
+		o->dist = INFINITY;
+		o->p = pm_madd(ref, o->wi, 2.0f * ls->radius);
+		o->n = pm_neg(o->wi);
+		o->value = l->radiance;
+		o->pdf = psel * pm_uniform_sphere_pdf();
+		return true;
+	case PM_LIGHT_AREA:
+		break;
+	}
+	{
+		const struct pm_shape *sh = &s->shapes[l->shape];
+		struct pm_vec3 ns;
+
+		if (sh->type == PM_SHAPE_SPHERE) {
+			struct pm_vec3 u = pm_square_to_uniform_sphere(u1, u2);
+
+			o->p = pm_madd(sh->center, u, sh->radius);
+			o->n = sh->flip_normals ? pm_neg(u) : u;
+			ns = o->n;
+		} else {
+			const struct pm_mesh *m = &sh->mesh;
+			size_t t = pm_distrib_sample(&ls->tris[li], u1, &u1);
+			const uint32_t *ix = &m->idx[3 * t];
+			struct pm_vec3 p0 = pm_mesh_vertex(m, ix[0]);
+			struct pm_vec3 p1 = pm_mesh_vertex(m, ix[1]);
+			struct pm_vec3 p2 = pm_mesh_vertex(m, ix[2]);
+			float b1, b2;
+
+			pm_square_to_triangle(u1, u2, &b1, &b2);
+			o->p = pm_add(pm_add(pm_scale(p0, 1.0f - b1 - b2),
+			    pm_scale(p1, b1)), pm_scale(p2, b2));
+			o->n = pm_normalize(pm_cross(pm_sub(p1, p0), pm_sub(p2, p0)));
+			ns = o->n;
+			if (m->nrm != NULL) {
+				const float *nv = m->nrm;
+				struct pm_vec3 sum = pm_v3(0, 0, 0);
+				float bw[3] = {1.0f - b1 - b2, b1, b2};
+				int k;
+
+				for (k = 0; k < 3; k++)
+					sum = pm_madd(sum, pm_v3(nv[3 * ix[k]],
+					    nv[3 * ix[k] + 1], nv[3 * ix[k] + 2]), bw[k]);
+				if (pm_length(sum) > 1e-6f)
+					ns = pm_normalize(sum);
+			}
+		}
+		d = pm_sub(o->p, ref);
+		d2 = pm_dot(d, d);
+		if (d2 <= 0.0f)
+			return false;
+		o->dist = sqrtf(d2);
+		o->wi = pm_scale(d, 1.0f / o->dist);
+		/* The density converts by the geometric normal; whether the
+		 * light shines this way is decided by the shading normal, as
+		 * when a ray hits the light. */
+		cos_l = fabsf(pm_dot(o->n, o->wi));
+		o->value = pm_area_emitted(l, ns, pm_neg(o->wi));
+		if (cos_l <= 0.0f || pm_rgb_is_black(o->value))
+			return false;
+		o->pdf = psel * d2 / (cos_l * (float)l->area);
+		return true;
+	}
+}
+
+float
+pm_lights_pdf_area(const struct pm_lights *ls, const struct pm_scene *s,
+    int light, struct pm_vec3 ref, struct pm_vec3 p, struct pm_vec3 n)
+{
+	const struct pm_light *l = &s->lights[light];
+	struct pm_vec3 d = pm_sub(p, ref);
+	float d2 = pm_dot(d, d);
+	float cos_l = fabsf(pm_dot(n, d)) / sqrtf(d2);
+
+	if (cos_l <= 0.0f || d2 <= 0.0f)
+		return 0.0f;
+	return (float)pm_distrib_prob(&ls->pick, (size_t)light) * d2 /
+	    (cos_l * (float)l->area);
+}
+
+float
+pm_lights_pdf_env(const struct pm_lights *ls, const struct pm_scene *s)
+{
+	if (s->env_light < 0)
+		return 0.0f;
+	return (float)pm_distrib_prob(&ls->pick, (size_t)s->env_light) *
+	    pm_uniform_sphere_pdf();
+}

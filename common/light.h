@@ -1,0 +1,62 @@
+/*
+ * light.h: sampling the scene's lights from a point (next-event estimation)
+ * and the matching densities for multiple importance sampling.
+ *
+ * A light is chosen in proportion to its power; a point on an area light is
+ * chosen uniformly by area (triangles by area, then uniformly within).
+ */
+#ifndef PM_LIGHT_H
+#define PM_LIGHT_H
+
+#include <stdbool.h>
+
+#include "error.h"
+#include "sampling.h"
+#include "scene.h"
+#include "vec.h"
+
+struct pm_lights {
+	struct pm_distrib pick;		/* over scene.lights, by power */
+	struct pm_distrib *tris;	/* per light: over a mesh's triangles */
+	size_t n;
+	struct pm_vec3 center;		/* bounding sphere of the scene */
+	float radius;
+};
+
+struct pm_light_sample {
+	struct pm_vec3 wi;		/* unit direction from the reference point */
+	float dist;			/* to the light point; INFINITY for the environment */
+	struct pm_vec3 p, n;		/* point on the light and its normal */
+	struct pm_rgb value;		/* radiance arriving along wi, unoccluded
+					 * (point lights: intensity / dist^2) */
+	float pdf;			/* solid angle, selection included; 1 for delta */
+	bool delta;			/* point and spot lights */
+	int light;
+};
+
+/* Builds the distributions; center and radius bound the scene. */
+enum pm_err pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
+    struct pm_vec3 center, float radius, struct pm_error *err);
+void pm_lights_free(struct pm_lights *ls);
+
+/* Samples a light point as seen from ref; false if nothing can be sampled
+ * (no lights, or the chosen point cannot light ref). */
+bool pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
+    struct pm_vec3 ref, float u0, float u1, float u2, struct pm_light_sample *ls_out);
+
+/* Solid-angle density with which pm_lights_sample picks the point p (normal
+ * n) of area light `light` from ref. */
+float pm_lights_pdf_area(const struct pm_lights *ls, const struct pm_scene *s,
+    int light, struct pm_vec3 ref, struct pm_vec3 p, struct pm_vec3 n);
+/* The same for the environment in direction w. */
+float pm_lights_pdf_env(const struct pm_lights *ls, const struct pm_scene *s);
+
+/* Radiance an area light emits from a point with shading normal n towards
+ * w (unit): its radiance on the front side, zero behind. */
+static inline struct pm_rgb pm_area_emitted(const struct pm_light *l,
+    struct pm_vec3 n, struct pm_vec3 w)
+{
+	return pm_dot(n, w) > 0.0f ? l->radiance : pm_rgb1(0.0f);
+}
+
+#endif

@@ -1,0 +1,165 @@
+/*
+ * render.c: the camera pass.  Threads take 16x16 tiles from a shared atomic
+ * counter, so a costly region (glass, the bunny) never leaves a thread
+ * idle while another grinds through a fixed half of the image.  Each pixel
+ * writes only its own slot, and its random numbers depend only on (seed,
+ * pixel, sample), so the result does not depend on the thread count.
+ */
+#include <math.h>
+#include <pthread.h>
+#include <stdlib.h>
+
+#include "render.h"
+
+#define TILE 16
+
+struct job {
+	const struct pm_render_ctx *ctx;
+	const struct pm_camera *cam;
+	const struct pm_render_opts *opts;
+	struct pm_camera_rays rays;
+	struct pm_image *out;
+	int tiles_x, ntiles;
+	_Atomic int next;
+	_Atomic uint64_t dropped;
+};
+
+/* Offset from the pixel centre drawn from the reconstruction filter, so
+ * that the plain mean of the samples equals the filtered pixel value. */
+static float
+filter_offset(enum pm_rfilter f, float radius, struct pm_rng *rng)
+{
+	float u = pm_rng_float(rng);
+
+	switch (f) {
+	case PM_RFILTER_TENT:
+		return u < 0.5f ? radius * (sqrtf(2.0f * u) - 1.0f) :
+		    radius * (1.0f - sqrtf(2.0f - 2.0f * u));
+	case PM_RFILTER_GAUSSIAN:
+		/* Truncated at four standard deviations, as Mitsuba's filter. */
+		for (;;) {
+			float u2 = pm_rng_float(rng);
+			float x = radius * sqrtf(-2.0f * logf(1.0f - u)) *
+			    cosf(2.0f * PM_PI * u2);
+
+			if (fabsf(x) <= 4.0f * radius)
+				return x;
+			u = pm_rng_float(rng);
+		}
+	case PM_RFILTER_BOX:
+		break;
+	}
+	return u - 0.5f;
+}
+
+static void
+render_tile(struct job *j, int tile)
+{
+	const struct pm_camera *cam = j->cam;
+	int x0 = (tile % j->tiles_x) * TILE, y0 = (tile / j->tiles_x) * TILE;
+	int x1 = x0 + TILE < cam->width ? x0 + TILE : cam->width;
+	int y1 = y0 + TILE < cam->height ? y0 + TILE : cam->height;
+	int spp = j->opts->spp, x, y, i;
+	uint64_t dropped = 0;
+
+	for (y = y0; y < y1; y++) {
+		for (x = x0; x < x1; x++) {
+			uint64_t pix = (uint64_t)y * (uint64_t)cam->width + (uint64_t)x;
+			double acc[3] = {0, 0, 0};
+			float *dst = &j->out->rgb[3 * pix];
+
+			for (i = 0; i < spp; i++) {
+				struct pm_rng rng = pm_rng_seed(j->opts->seed, pix,
+				    (uint64_t)i);
+				float fx = (float)x + 0.5f + filter_offset(cam->rfilter,
+				    cam->filter_radius, &rng);
+				float fy = (float)y + 0.5f + filter_offset(cam->rfilter,
+				    cam->filter_radius, &rng);
+				float tmin, tmax;
+				struct pm_vec3 d = pm_camera_ray(&j->rays, fx, fy,
+				    &tmin, &tmax);
+				struct pm_rgb L = pm_path_li(j->ctx, j->rays.origin,
+				    d, tmin, tmax, &rng);
+
+				if (!pm_rgb_is_finite(L)) {
+					dropped++;
+					continue;
+				}
+				acc[0] += L.r;
+				acc[1] += L.g;
+				acc[2] += L.b;
+			}
+			/* Dropped samples count as zero: dividing by the kept
+			 * count instead would bias the pixel upwards. */
+			dst[0] = (float)(acc[0] / spp);
+			dst[1] = (float)(acc[1] / spp);
+			dst[2] = (float)(acc[2] / spp);
+		}
+	}
+	if (dropped)
+		atomic_fetch_add(&j->dropped, dropped);
+}
+
+static void *
+worker(void *arg)
+{
+	struct job *j = arg;
+	int t;
+
+	while ((t = atomic_fetch_add(&j->next, 1)) < j->ntiles) {
+		render_tile(j, t);
+		if (j->opts->tiles_done != NULL)
+			atomic_fetch_add(j->opts->tiles_done, 1);
+	}
+	return NULL;
+}
+
+enum pm_err
+pm_render(const struct pm_render_ctx *ctx, const struct pm_camera *cam,
+    const struct pm_render_opts *opts, struct pm_image *out,
+    struct pm_render_stats *stats, struct pm_error *err)
+{
+	struct job j;
+	pthread_t *tid;
+	int i, nthreads = opts->threads < 1 ? 1 : opts->threads, started = 0;
+	enum pm_err rc;
+
+	if (cam->width < 1 || cam->height < 1 || opts->spp < 1)
+		return pm_fail(err, PM_ERR_INVALID,
+		    "image size and samples per pixel must be positive");
+	rc = pm_image_alloc(out, cam->width, cam->height, err);
+	if (rc != PM_OK)
+		return rc;
+	j.ctx = ctx;
+	j.cam = cam;
+	j.opts = opts;
+	j.out = out;
+	pm_camera_setup(&j.rays, cam);
+	j.tiles_x = (cam->width + TILE - 1) / TILE;
+	j.ntiles = j.tiles_x * ((cam->height + TILE - 1) / TILE);
+	atomic_init(&j.next, 0);
+	atomic_init(&j.dropped, 0);
+	if (opts->tiles_total != NULL)
+		*opts->tiles_total = j.ntiles;
+
+	tid = calloc((size_t)nthreads, sizeof(*tid));
+	if (tid == NULL) {
+		pm_image_free(out);
+		return pm_fail(err, PM_ERR_NOMEM, "no memory for threads");
+	}
+	/* The calling thread works too; if a thread cannot be started the
+	 * others simply take more tiles. */
+	for (i = 1; i < nthreads; i++)
+		if (pthread_create(&tid[i], NULL, worker, &j) == 0)
+			tid[started++] = tid[i];
+	worker(&j);
+	for (i = 0; i < started; i++)
+		pthread_join(tid[i], NULL);
+	free(tid);
+	if (stats != NULL) {
+		stats->samples = (uint64_t)cam->width * (uint64_t)cam->height *
+		    (uint64_t)opts->spp;
+		stats->dropped = atomic_load(&j.dropped);
+	}
+	return PM_OK;
+}

@@ -1,0 +1,228 @@
+/*
+ * sampling.c: warps from the unit square to disks, hemispheres, spheres,
+ * cones and triangles, and the discrete distribution that picks lights by
+ * power and triangles by area.
+ *
+ * The warps allocate nothing and never fail; inputs are expected in [0,1).
+ * The discrete distribution keeps a normalised cdf in double so that
+ * millions of tiny weights still get their share, and it is written so
+ * that an entry whose probability is zero can never be returned, whatever
+ * u the caller passes: a zero-probability light would otherwise divide by
+ * zero further down the pipeline.
+ */
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+
+#include "sampling.h"
+
+/* The largest float below one; warps and u_reuse never return 1. */
+#define ONE_MINUS_EPS 0x1.fffffep-1f
+
+/* Shirley and Chiu's concentric map keeps strata compact and adjacent. */
+void
+pm_square_to_disk(float u1, float u2, float *x, float *y)
+{
+	float a = 2.0f * u1 - 1.0f, b = 2.0f * u2 - 1.0f;
+	float r, phi;
+
+	if (a == 0.0f && b == 0.0f) {
+		*x = 0.0f;
+		*y = 0.0f;
+		return;
+	}
+	if (fabsf(a) > fabsf(b)) {
+		r = a;
+		phi = (PM_PI / 4.0f) * (b / a);
+	} else {
+		r = b;
+		phi = PM_PI / 2.0f - (PM_PI / 4.0f) * (a / b);
+	}
+	*x = r * cosf(phi);
+	*y = r * sinf(phi);
+}
+
+/* Malley's method: project the uniform disk up onto the hemisphere. */
+struct pm_vec3
+pm_square_to_cosine_hemisphere(float u1, float u2)
+{
+	float x, y;
+
+	pm_square_to_disk(u1, u2, &x, &y);
+	return pm_v3(x, y, sqrtf(fmaxf(0.0f, 1.0f - x * x - y * y)));
+}
+
+/* Density cos(theta)/pi above the horizon, zero below it. */
+float
+pm_cosine_hemisphere_pdf(struct pm_vec3 v)
+{
+	return v.z > 0.0f ? v.z * PM_INV_PI : 0.0f;
+}
+
+/* Archimedes: z uniform in [0,1] gives uniform area on the hemisphere. */
+struct pm_vec3
+pm_square_to_uniform_hemisphere(float u1, float u2)
+{
+	float z = u1;
+	float r = sqrtf(fmaxf(0.0f, 1.0f - z * z));
+	float phi = 2.0f * PM_PI * u2;
+
+	return pm_v3(r * cosf(phi), r * sinf(phi), z);
+}
+
+/* 1/(2 pi) on the upper hemisphere (z >= 0), zero below. */
+float
+pm_uniform_hemisphere_pdf(struct pm_vec3 v)
+{
+	return v.z >= 0.0f ? 1.0f / (2.0f * PM_PI) : 0.0f;
+}
+
+/* Archimedes again, with z uniform in [-1,1]. */
+struct pm_vec3
+pm_square_to_uniform_sphere(float u1, float u2)
+{
+	float z = 1.0f - 2.0f * u1;
+	float r = sqrtf(fmaxf(0.0f, 1.0f - z * z));
+	float phi = 2.0f * PM_PI * u2;
+
+	return pm_v3(r * cosf(phi), r * sinf(phi), z);
+}
+
+/* 1/(4 pi) everywhere. */
+float
+pm_uniform_sphere_pdf(void)
+{
+	return 1.0f / (4.0f * PM_PI);
+}
+
+/*
+ * z uniform in [cos_max, 1].  sin^2 is formed from 1 - z directly so that
+ * the tiny cones of distant small lights keep their precision.
+ */
+struct pm_vec3
+pm_square_to_uniform_cone(float u1, float u2, float cos_max)
+{
+	float one_minus_z = u1 * (1.0f - cos_max);
+	float z = 1.0f - one_minus_z;
+	float r = sqrtf(fmaxf(0.0f, one_minus_z * (2.0f - one_minus_z)));
+	float phi = 2.0f * PM_PI * u2;
+
+	return pm_v3(r * cosf(phi), r * sinf(phi), z);
+}
+
+/* One over the cone's solid angle. */
+float
+pm_uniform_cone_pdf(float cos_max)
+{
+	return 1.0f / (2.0f * PM_PI * (1.0f - cos_max));
+}
+
+/* The square-root map: b0 = 1 - sqrt(u1) makes the area uniform. */
+void
+pm_square_to_triangle(float u1, float u2, float *b1, float *b2)
+{
+	float t = sqrtf(u1);
+
+	*b1 = 1.0f - t;
+	*b2 = u2 * t;
+}
+
+/* Builds the normalised cdf; rejects empty, negative or all-zero weights. */
+enum pm_err
+pm_distrib_init(struct pm_distrib *d, const double *w, size_t n,
+    struct pm_error *err)
+{
+	size_t i, last = 0;
+	double sum = 0.0;
+
+	d->n = 0;
+	d->sum = 0.0;
+	d->cdf = NULL;
+	if (n == 0)
+		return pm_fail(err, PM_ERR_INVALID,
+		    "distribution: expected at least one weight");
+	if (n >= SIZE_MAX / sizeof(double) - 1)
+		return pm_fail(err, PM_ERR_LIMIT,
+		    "distribution: %zu weights is too many", n);
+	for (i = 0; i < n; i++) {
+		if (!(w[i] >= 0.0) || !isfinite(w[i]))
+			return pm_fail(err, PM_ERR_INVALID,
+			    "distribution: weight %zu is %g, expected a finite "
+			    "value >= 0", i, w[i]);
+		if (w[i] > 0.0)
+			last = i;
+		sum += w[i];
+	}
+	if (!(sum > 0.0) || !isfinite(sum))
+		return pm_fail(err, PM_ERR_INVALID,
+		    "distribution: weights sum to %g, expected a finite "
+		    "positive sum", sum);
+	d->cdf = malloc((n + 1) * sizeof(double));
+	if (d->cdf == NULL)
+		return pm_fail(err, PM_ERR_NOMEM,
+		    "distribution: cannot allocate %zu entries", n + 1);
+	d->cdf[0] = 0.0;
+	for (i = 0; i < n; i++)
+		d->cdf[i + 1] = d->cdf[i] + w[i];
+	for (i = 1; i <= n; i++)
+		d->cdf[i] /= sum;
+	/*
+	 * Rounding may leave the running sum a hair below one; pin every
+	 * entry from the last positive weight on, so that the final bins of
+	 * zero weight have zero width and the last positive one reaches 1.
+	 */
+	for (i = last + 1; i <= n; i++)
+		d->cdf[i] = 1.0;
+	d->n = n;
+	d->sum = sum;
+	return PM_OK;
+}
+
+/* Frees the cdf; the struct may be initialised again afterwards. */
+void
+pm_distrib_free(struct pm_distrib *d)
+{
+	free(d->cdf);
+	d->cdf = NULL;
+	d->n = 0;
+	d->sum = 0.0;
+}
+
+/*
+ * The index i with cdf[i] <= u < cdf[i+1]: such a bin has positive width,
+ * so zero weights are never chosen.  u outside [0,1) is clamped first.
+ */
+size_t
+pm_distrib_sample(const struct pm_distrib *d, float u, float *u_reuse)
+{
+	double x = u;
+	size_t lo = 0, hi = d->n - 1, mid;
+
+	if (!(x >= 0.0))
+		x = 0.0;
+	if (x >= 1.0)
+		x = 0x1.fffffffffffffp-1;
+	/* smallest i with cdf[i + 1] > x; cdf[n] = 1 > x guarantees one */
+	while (lo < hi) {
+		mid = lo + (hi - lo) / 2;
+		if (d->cdf[mid + 1] > x)
+			hi = mid;
+		else
+			lo = mid + 1;
+	}
+	if (u_reuse != NULL) {
+		float r = (float)((x - d->cdf[lo]) /
+		    (d->cdf[lo + 1] - d->cdf[lo]));
+		*u_reuse = fminf(fmaxf(r, 0.0f), ONE_MINUS_EPS);
+	}
+	return lo;
+}
+
+/* The width of bin i, which is exactly what sampling uses. */
+double
+pm_distrib_prob(const struct pm_distrib *d, size_t i)
+{
+	if (i >= d->n)
+		return 0.0;
+	return d->cdf[i + 1] - d->cdf[i];
+}

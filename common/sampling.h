@@ -1,0 +1,58 @@
+/*
+ * sampling.h: warps from the unit square to the domains a renderer samples,
+ * each with the density it produces, and a discrete distribution for
+ * choosing lights by power and triangles by area.
+ *
+ * Every warp takes uniform numbers in [0,1) and returns a point; the pdf
+ * functions give the density of that point with respect to the domain's own
+ * measure (area for the disk and triangle, solid angle for directions).
+ */
+#ifndef PM_SAMPLING_H
+#define PM_SAMPLING_H
+
+#include <stddef.h>
+
+#include "error.h"
+#include "vec.h"
+
+/* Concentric map (Shirley and Chiu 1997) onto the unit disk; pdf 1/pi. */
+void pm_square_to_disk(float u1, float u2, float *x, float *y);
+
+/* Cosine-weighted hemisphere around +z; pdf cos(theta)/pi. */
+struct pm_vec3 pm_square_to_cosine_hemisphere(float u1, float u2);
+float pm_cosine_hemisphere_pdf(struct pm_vec3 v);
+
+/* Uniform hemisphere around +z; pdf 1/(2 pi). */
+struct pm_vec3 pm_square_to_uniform_hemisphere(float u1, float u2);
+float pm_uniform_hemisphere_pdf(struct pm_vec3 v);
+
+/* Uniform sphere; pdf 1/(4 pi). */
+struct pm_vec3 pm_square_to_uniform_sphere(float u1, float u2);
+float pm_uniform_sphere_pdf(void);
+
+/* Uniform cone around +z with cos(theta) >= cos_max; pdf 1/(2 pi (1 - cos_max)). */
+struct pm_vec3 pm_square_to_uniform_cone(float u1, float u2, float cos_max);
+float pm_uniform_cone_pdf(float cos_max);
+
+/* Barycentric (b1, b2) uniform over a triangle (b0 = 1 - b1 - b2). */
+void pm_square_to_triangle(float u1, float u2, float *b1, float *b2);
+
+/*
+ * A discrete distribution over n weights (n >= 1, weights >= 0, sum > 0):
+ * sample returns an index with probability w[i] / sum and, when u_reuse is
+ * not NULL, a fresh uniform number reused from what u had left.
+ */
+struct pm_distrib {
+	size_t n;
+	double sum;		/* sum of the weights */
+	double *cdf;		/* n + 1 entries, cdf[0] = 0, cdf[n] = 1 */
+};
+
+enum pm_err pm_distrib_init(struct pm_distrib *d, const double *w, size_t n,
+    struct pm_error *err);
+void pm_distrib_free(struct pm_distrib *d);
+size_t pm_distrib_sample(const struct pm_distrib *d, float u, float *u_reuse);
+/* Probability of index i. */
+double pm_distrib_prob(const struct pm_distrib *d, size_t i);
+
+#endif

@@ -1,0 +1,266 @@
+/*
+ * scene.c: the scene model's life cycle: defaults, growth of the flat
+ * arrays, and the preparation every tool needs after loading (BSDF tables,
+ * light areas and powers, index checks).
+ *
+ * Nothing here knows about files; formats/scene_xml.c fills the arrays.
+ */
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "scene.h"
+
+/* Mitsuba's perspective camera defaults to a 50 mm lens on 36 x 24 mm film,
+ * that is a diagonal field of view of 2 atan(sqrt(36^2 + 24^2) / 100). */
+#define PM_DEFAULT_DIAGONAL_FOV 46.79300f
+
+/* Empties s and sets Mitsuba's defaults for the camera and integrator. */
+void
+pm_scene_init(struct pm_scene *s)
+{
+	memset(s, 0, sizeof(*s));
+	s->env_light = -1;
+
+	s->camera.to_world = pm_mat4_identity();
+	s->camera.fov = PM_DEFAULT_DIAGONAL_FOV;
+	s->camera.fov_axis = PM_FOV_DIAGONAL;
+	s->camera.near_clip = 0.01f;
+	s->camera.far_clip = 10000.0f;
+	s->camera.width = 768;
+	s->camera.height = 576;
+	s->camera.spp = 4;
+	s->camera.rfilter = PM_RFILTER_GAUSSIAN;
+	s->camera.filter_radius = 0.5f;
+	s->has_camera = false;
+
+	s->integrator.type = PM_INTEGRATOR_PATH;
+	s->integrator.max_depth = -1;
+	s->integrator.rr_depth = 5;
+	s->integrator.hide_emitters = false;
+	s->integrator.photon.global_photons = 250000;
+	s->integrator.photon.caustic_photons = 250000;
+	s->integrator.photon.global_lookup_radius = 0.05f;
+	s->integrator.photon.caustic_lookup_radius = 0.0125f;
+	s->integrator.photon.lookup_size = 120;
+	s->integrator.photon.direct_samples = 16;
+	s->integrator.photon.glossy_samples = 32;
+	s->integrator.photon.granularity = 0;
+	s->integrator.photon.final_gather = false;
+	s->integrator.photon.final_gather_samples = 64;
+}
+
+/* Frees the arrays, meshes and path; s is left empty. */
+void
+pm_scene_free(struct pm_scene *s)
+{
+	size_t i;
+
+	for (i = 0; i < s->nshapes; i++)
+		pm_mesh_free(&s->shapes[i].mesh);
+	free(s->shapes);
+	free(s->bsdfs);
+	free(s->lights);
+	free(s->path);
+	memset(s, 0, sizeof(*s));
+	s->env_light = -1;
+}
+
+/*
+ * Grows *arr so that it can hold n + 1 elements of size sz.  The capacity
+ * is implicit: the next power of two at or above n (at least 8), so the
+ * array is reallocated only when n reaches one.
+ */
+static int
+grow(void **arr, size_t n, size_t sz)
+{
+	size_t cap;
+	void *p;
+
+	if (n >= (size_t)INT32_MAX)
+		return -1;
+	if (n >= 8 && (n & (n - 1)) != 0)
+		return 0;
+	cap = n < 8 ? 8 : 2 * n;
+	p = realloc(*arr, cap * sz);
+	if (p == NULL)
+		return -1;
+	*arr = p;
+	return 0;
+}
+
+/* Appends a zeroed shape (with light -1); its index, or -1. */
+int
+pm_scene_add_shape(struct pm_scene *s)
+{
+	struct pm_shape *sh;
+
+	if (grow((void **)&s->shapes, s->nshapes, sizeof(*s->shapes)) < 0)
+		return -1;
+	sh = &s->shapes[s->nshapes];
+	memset(sh, 0, sizeof(*sh));
+	sh->light = -1;		/* zero would name a light that may not exist */
+	return (int)s->nshapes++;
+}
+
+/* Appends a zeroed BSDF; its index, or -1. */
+int
+pm_scene_add_bsdf(struct pm_scene *s)
+{
+	if (grow((void **)&s->bsdfs, s->nbsdfs, sizeof(*s->bsdfs)) < 0)
+		return -1;
+	memset(&s->bsdfs[s->nbsdfs], 0, sizeof(*s->bsdfs));
+	return (int)s->nbsdfs++;
+}
+
+/* Appends a zeroed light (with shape -1); its index, or -1. */
+int
+pm_scene_add_light(struct pm_scene *s)
+{
+	struct pm_light *l;
+
+	if (grow((void **)&s->lights, s->nlights, sizeof(*s->lights)) < 0)
+		return -1;
+	l = &s->lights[s->nlights];
+	memset(l, 0, sizeof(*l));
+	l->shape = -1;
+	return (int)s->nlights++;
+}
+
+/* Bounding sphere of the scene's geometry, Mitsuba's way: the sphere
+ * around the bounding box; a scene without geometry gets the unit sphere. */
+static double
+scene_bsphere_radius(const struct pm_scene *s)
+{
+	double lo[3] = {INFINITY, INFINITY, INFINITY};
+	double hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+	double d2;
+	size_t i;
+	uint32_t v;
+	int a;
+
+	for (i = 0; i < s->nshapes; i++) {
+		const struct pm_shape *sh = &s->shapes[i];
+
+		if (sh->type == PM_SHAPE_SPHERE) {
+			float c[3] = {sh->center.x, sh->center.y, sh->center.z};
+
+			for (a = 0; a < 3; a++) {
+				lo[a] = fmin(lo[a], c[a] - sh->radius);
+				hi[a] = fmax(hi[a], c[a] + sh->radius);
+			}
+			continue;
+		}
+		for (v = 0; v < sh->mesh.nverts; v++) {
+			for (a = 0; a < 3; a++) {
+				lo[a] = fmin(lo[a], sh->mesh.pos[3 * v + a]);
+				hi[a] = fmax(hi[a], sh->mesh.pos[3 * v + a]);
+			}
+		}
+	}
+	if (!(lo[0] <= hi[0]))
+		return 1.0;
+	d2 = 0.0;
+	for (a = 0; a < 3; a++)
+		d2 += (hi[a] - lo[a]) * (hi[a] - lo[a]);
+	return d2 > 0.0 ? 0.5 * sqrt(d2) : 1.0;
+}
+
+/* Prepares BSDFs, computes light areas and powers, checks indices. */
+enum pm_err
+pm_scene_prepare(struct pm_scene *s, struct pm_error *err)
+{
+	const double pi = 3.14159265358979323846;
+	double radius = -1.0;
+	size_t i;
+
+	for (i = 0; i < s->nbsdfs; i++)
+		pm_bsdf_prepare(&s->bsdfs[i]);
+
+	for (i = 0; i < s->nshapes; i++) {
+		const struct pm_shape *sh = &s->shapes[i];
+
+		if (sh->bsdf < 0 || (size_t)sh->bsdf >= s->nbsdfs)
+			return pm_fail(err, PM_ERR_INVALID,
+			    "shape %s: BSDF index %d out of range (%zu BSDFs)",
+			    sh->name, sh->bsdf, s->nbsdfs);
+		if (sh->light == -1)
+			continue;
+		if (sh->light < 0 || (size_t)sh->light >= s->nlights)
+			return pm_fail(err, PM_ERR_INVALID,
+			    "shape %s: light index %d out of range (%zu lights)",
+			    sh->name, sh->light, s->nlights);
+		if (s->lights[sh->light].type != PM_LIGHT_AREA ||
+		    s->lights[sh->light].shape != (int)i)
+			return pm_fail(err, PM_ERR_INVALID,
+			    "shape %s: light %d is not its area light",
+			    sh->name, sh->light);
+	}
+
+	if (s->env_light != -1 && (s->env_light < 0 ||
+	    (size_t)s->env_light >= s->nlights ||
+	    s->lights[s->env_light].type != PM_LIGHT_CONSTANT))
+		return pm_fail(err, PM_ERR_INVALID,
+		    "environment light index %d is not a constant light",
+		    s->env_light);
+
+	for (i = 0; i < s->nlights; i++) {
+		struct pm_light *l = &s->lights[i];
+		const struct pm_shape *sh;
+		double mean, theta;
+
+		switch (l->type) {
+		case PM_LIGHT_AREA:
+			if (l->shape < 0 || (size_t)l->shape >= s->nshapes ||
+			    s->shapes[l->shape].light != (int)i)
+				return pm_fail(err, PM_ERR_INVALID,
+				    "area light %zu: shape index %d does not "
+				    "name a shape that carries it", i, l->shape);
+			sh = &s->shapes[l->shape];
+			if (sh->type == PM_SHAPE_SPHERE)
+				l->area = 4.0 * pi * (double)sh->radius *
+				    (double)sh->radius;
+			else
+				l->area = pm_mesh_area(&sh->mesh);
+			mean = pm_rgb_mean(l->radiance);
+			/* One-sided Lambertian emitter: M = pi L. */
+			l->power = pi * l->area * mean;
+			break;
+		case PM_LIGHT_POINT:
+			l->area = 0.0;
+			l->power = 4.0 * pi * pm_rgb_mean(l->intensity);
+			break;
+		case PM_LIGHT_SPOT:
+			/* The cone whose half-angle lies halfway along the
+			 * linear falloff from beam_width to cutoff_angle. */
+			l->area = 0.0;
+			theta = 0.5 * ((double)l->cutoff_angle +
+			    (double)l->beam_width) * pi / 180.0;
+			l->power = 2.0 * pi * (1.0 - cos(theta)) *
+			    pm_rgb_mean(l->intensity);
+			break;
+		case PM_LIGHT_CONSTANT:
+			if (s->env_light != (int)i)
+				return pm_fail(err, PM_ERR_INVALID,
+				    "constant light %zu is not the scene's "
+				    "environment light", i);
+			if (radius < 0.0)
+				radius = scene_bsphere_radius(s);
+			l->area = 0.0;
+			/* Radiance L arriving over the disk of the bounding
+			 * sphere from every direction: pi L times 4 pi R^2. */
+			l->power = pi * pm_rgb_mean(l->radiance) *
+			    4.0 * pi * radius * radius;
+			break;
+		default:
+			return pm_fail(err, PM_ERR_INVALID,
+			    "light %zu: unknown type %d", i, (int)l->type);
+		}
+		if (!isfinite(l->power) || l->power < 0.0)
+			return pm_fail(err, PM_ERR_INVALID,
+			    "light %zu: power %g is not a finite non-negative "
+			    "number", i, l->power);
+	}
+	return PM_OK;
+}

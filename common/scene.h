@@ -1,0 +1,144 @@
+/*
+ * scene.h: the scene model every tool works on, independent of files.
+ *
+ * formats/scene_xml.c fills it from a Mitsuba 3 XML file; geometry is baked
+ * into world space at load time.  Shapes, BSDFs and lights live in flat
+ * arrays and refer to each other by index.
+ */
+#ifndef PM_SCENE_H
+#define PM_SCENE_H
+
+#include <stdbool.h>
+#include <stddef.h>
+
+#include "bsdf.h"
+#include "error.h"
+#include "mesh.h"
+#include "transform.h"
+#include "vec.h"
+
+enum pm_shape_type {
+	PM_SHAPE_MESH,		/* obj, ply, rectangle, cube, disk */
+	PM_SHAPE_SPHERE,
+};
+
+struct pm_shape {
+	enum pm_shape_type type;
+	struct pm_mesh mesh;		/* PM_SHAPE_MESH, world space */
+	struct pm_vec3 center;		/* PM_SHAPE_SPHERE */
+	float radius;
+	bool flip_normals;		/* spheres: normals point inwards */
+	int bsdf;			/* index into scene.bsdfs */
+	int light;			/* index into scene.lights, or -1 */
+	char name[64];			/* id, or type and ordinal, for messages */
+};
+
+enum pm_light_type {
+	PM_LIGHT_AREA,
+	PM_LIGHT_POINT,
+	PM_LIGHT_SPOT,
+	PM_LIGHT_CONSTANT,
+};
+
+struct pm_light {
+	enum pm_light_type type;
+	struct pm_rgb radiance;		/* area, constant: emitted radiance */
+	struct pm_rgb intensity;	/* point, spot: radiant intensity */
+	int shape;			/* area: the shape it is attached to */
+	struct pm_vec3 position;	/* point, spot */
+	struct pm_frame frame;		/* spot: frame.n is the axis */
+	float cutoff_angle;		/* spot, degrees (Mitsuba default 20) */
+	float beam_width;		/* spot, degrees (default 3/4 of cutoff) */
+	/* Filled by pm_scene_prepare: */
+	double power;			/* luminous-ish power (mean of RGB), watts */
+	double area;			/* area: surface area of the shape */
+};
+
+enum pm_fov_axis {
+	PM_FOV_X,
+	PM_FOV_Y,
+	PM_FOV_DIAGONAL,
+	PM_FOV_SMALLER,
+	PM_FOV_LARGER,
+};
+
+enum pm_rfilter {
+	PM_RFILTER_BOX,
+	PM_RFILTER_TENT,
+	PM_RFILTER_GAUSSIAN,
+};
+
+struct pm_camera {
+	struct pm_mat4 to_world;	/* camera looks down +z, +y up, +x left */
+	float fov;			/* degrees, along fov_axis */
+	enum pm_fov_axis fov_axis;
+	float near_clip, far_clip;
+	int width, height;		/* film size in pixels */
+	int spp;			/* sampler sample_count */
+	enum pm_rfilter rfilter;
+	float filter_radius;		/* tent: radius; gaussian: stddev */
+};
+
+enum pm_integrator_type {
+	PM_INTEGRATOR_PATH,
+	PM_INTEGRATOR_PHOTONMAPPER,
+};
+
+/*
+ * The photonmapper integrator's parameters, under Mitsuba 0.6's names; the
+ * photon tools use them, the path tracer ignores them.
+ */
+struct pm_photon_params {
+	long global_photons;		/* globalPhotons, 250000 */
+	long caustic_photons;		/* causticPhotons, 250000 */
+	float global_lookup_radius;	/* globalLookupRadius, 0.05: a fraction */
+	float caustic_lookup_radius;	/* causticLookupRadius, 0.0125: of the
+					 * scene's bounding-sphere radius */
+	int lookup_size;		/* lookupSize, 120 */
+	int direct_samples;		/* directSamples, 16 */
+	int glossy_samples;		/* glossySamples, 32 */
+	int granularity;		/* granularity, 0: automatic */
+	bool final_gather;		/* finalGather, false */
+	int final_gather_samples;	/* finalGatherSamples, 64 */
+};
+
+struct pm_integrator {
+	enum pm_integrator_type type;
+	int max_depth;			/* -1: unlimited (Mitsuba's default) */
+	int rr_depth;			/* Mitsuba default 5 */
+	bool hide_emitters;
+	struct pm_photon_params photon;	/* PM_INTEGRATOR_PHOTONMAPPER */
+};
+
+struct pm_scene {
+	struct pm_shape *shapes;
+	size_t nshapes;
+	struct pm_bsdf *bsdfs;
+	size_t nbsdfs;
+	struct pm_light *lights;
+	size_t nlights;
+	struct pm_camera camera;
+	bool has_camera;
+	struct pm_integrator integrator;
+	int env_light;			/* index of the constant light, or -1 */
+	char *path;			/* the file it was loaded from */
+	size_t dropped_triangles;	/* degenerate triangles left out of meshes */
+};
+
+/* Sets the defaults of an empty scene (Mitsuba's where they exist). */
+void pm_scene_init(struct pm_scene *s);
+/* Frees everything the scene owns, including meshes; s may be re-initialised. */
+void pm_scene_free(struct pm_scene *s);
+
+/* Appends a zeroed element and returns its index, or -1 when out of memory. */
+int pm_scene_add_shape(struct pm_scene *s);
+int pm_scene_add_bsdf(struct pm_scene *s);
+int pm_scene_add_light(struct pm_scene *s);
+
+/*
+ * After loading: prepares BSDFs, computes light areas and powers, checks
+ * that indices are in range.  Geometry and ray casting are built elsewhere.
+ */
+enum pm_err pm_scene_prepare(struct pm_scene *s, struct pm_error *err);
+
+#endif

@@ -1,0 +1,176 @@
+/*
+ * png.c: writes 8-bit RGB PNG files through libpng.
+ *
+ * libpng reports errors by calling a handler that must not return; ours
+ * keeps the message and longjmps back to pm_png_write, so that nothing is
+ * printed and the temporary file is removed.  Warnings are dropped: the
+ * only ones a writer can raise concern options we do not use.
+ */
+#include <errno.h>
+#include <fcntl.h>
+#include <setjmp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include <png.h>
+
+#include "png.h"
+
+/* What libpng's callbacks share with pm_png_write. */
+struct png_io {
+	jmp_buf jmp;
+	char msg[512];
+};
+
+static void
+png_on_error(png_structp png, png_const_charp msg)
+{
+	struct png_io *io = png_get_error_ptr(png);
+
+	snprintf(io->msg, sizeof(io->msg), "%s", msg != NULL ? msg : "error");
+	longjmp(io->jmp, 1);
+}
+
+static void
+png_on_warning(png_structp png, png_const_charp msg)
+{
+	(void)png;
+	(void)msg;
+}
+
+/* Opens a new file beside path with a unique name and permissions 0666
+ * less the umask, as a stdio stream; its name goes to tmp. */
+static FILE *
+png_open_temp(const char *path, char *tmp, size_t tmpsize)
+{
+	static unsigned serial;
+	FILE *fp;
+	int fd = -1, tries;
+
+	for (tries = 0; tries < 100; tries++) {
+		int n = snprintf(tmp, tmpsize, "%s.tmp%ld.%u", path,
+		    (long)getpid(), serial++);
+
+		if (n < 0 || (size_t)n >= tmpsize) {
+			errno = ENAMETOOLONG;
+			return NULL;
+		}
+		fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+		if (fd >= 0)
+			break;
+		if (errno != EEXIST)
+			return NULL;
+	}
+	if (fd < 0)
+		return NULL;
+	if ((fp = fdopen(fd, "wb")) == NULL) {
+		int saved = errno;
+
+		close(fd);
+		unlink(tmp);
+		errno = saved;
+	}
+	return fp;
+}
+
+/*
+ * Encodes the image into fp.  Kept apart from the file handling so that
+ * the setjmp here guards no local that changes after it.
+ */
+static int
+png_encode(FILE *fp, const uint8_t *rgb, int width, int height,
+    struct png_io *io)
+{
+	png_structp png;
+	png_infop info;
+	int y;
+
+	png = png_create_write_struct(PNG_LIBPNG_VER_STRING, io, png_on_error,
+	    png_on_warning);
+	if (png == NULL) {
+		snprintf(io->msg, sizeof(io->msg), "cannot start libpng");
+		return -1;
+	}
+	/* Both handles exist before setjmp, so that the longjmp finds them
+	 * unchanged. */
+	info = png_create_info_struct(png);
+	if (info == NULL) {
+		png_destroy_write_struct(&png, NULL);
+		snprintf(io->msg, sizeof(io->msg), "out of memory");
+		return -1;
+	}
+	if (setjmp(io->jmp)) {
+		png_destroy_write_struct(&png, &info);
+		return -1;
+	}
+	png_init_io(png, fp);
+	png_set_IHDR(png, info, (png_uint_32)width, (png_uint_32)height, 8,
+	    PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
+	    PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+	/* The bytes are already sRGB-encoded; say so, so that viewers do
+	 * not apply a gamma of their own. */
+	png_set_sRGB_gAMA_and_cHRM(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
+	png_write_info(png, info);
+	for (y = 0; y < height; y++)
+		png_write_row(png, rgb + (size_t)y * (size_t)width * 3);
+	png_write_end(png, info);
+	png_destroy_write_struct(&png, &info);
+	return 0;
+}
+
+/* Writes rgb as an 8-bit RGB PNG to path (through a temporary file that
+ * is renamed on success), or to stdout when path is "-". */
+enum pm_err
+pm_png_write(const char *path, const uint8_t *rgb, int width, int height,
+    struct pm_error *err)
+{
+	struct png_io io;
+	char tmp[4096];
+	FILE *fp;
+	enum pm_err e;
+
+	if (rgb == NULL || width < 1 || height < 1)
+		return pm_fail(err, PM_ERR_INVALID, "%s: empty image", path);
+	memset(&io, 0, sizeof(io));
+
+	if (strcmp(path, "-") == 0) {
+		/* The caller owns stdout and closes it; flushing here is how
+		 * a write error on a pipe or a full disk shows up. */
+		if (png_encode(stdout, rgb, width, height, &io) != 0)
+			return pm_fail(err, PM_ERR_IO, "stdout: %s", io.msg);
+		if (fflush(stdout) != 0 || ferror(stdout))
+			return pm_fail(err, PM_ERR_IO, "stdout: %s",
+			    strerror(errno));
+		return PM_OK;
+	}
+
+	if ((fp = png_open_temp(path, tmp, sizeof(tmp))) == NULL)
+		return pm_fail(err, PM_ERR_IO, "%s: cannot create a temporary "
+		    "file beside it: %s", path, strerror(errno));
+	if (png_encode(fp, rgb, width, height, &io) != 0) {
+		e = pm_fail(err, PM_ERR_IO, "%s: %s", path, io.msg);
+		fclose(fp);
+		unlink(tmp);
+		return e;
+	}
+	if (fflush(fp) != 0 || ferror(fp)) {
+		e = pm_fail(err, PM_ERR_IO, "%s: %s", tmp, strerror(errno));
+		fclose(fp);
+		unlink(tmp);
+		return e;
+	}
+	if (fclose(fp) != 0) {
+		e = pm_fail(err, PM_ERR_IO, "%s: %s", tmp, strerror(errno));
+		unlink(tmp);
+		return e;
+	}
+	if (rename(tmp, path) != 0) {
+		e = pm_fail(err, PM_ERR_IO, "%s: cannot rename %s to it: %s",
+		    path, tmp, strerror(errno));
+		unlink(tmp);
+		return e;
+	}
+	return PM_OK;
+}

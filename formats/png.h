@@ -1,0 +1,16 @@
+/*
+ * png.h: 8-bit RGB PNG output through libpng.
+ */
+#ifndef PM_PNG_H
+#define PM_PNG_H
+
+#include <stdint.h>
+
+#include "../common/error.h"
+
+/* Writes rgb (3 * width * height bytes, top row first) to path through a
+ * temporary file that is renamed on success; "-" writes to stdout. */
+enum pm_err pm_png_write(const char *path, const uint8_t *rgb, int width,
+    int height, struct pm_error *err);
+
+#endif

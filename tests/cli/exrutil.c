@@ -1,0 +1,111 @@
+/*
+ * exrutil.c: makes and measures the small images that the CLI tests of
+ * pm-downsample feed it and read back; a test helper, never installed.
+ *
+ *   exrutil make OUT.exr W H R G B [ramp]
+ *	writes a W x H float image of colour (R, G, B); with "ramp", x / W
+ *	is added to every channel of column x, so that filters have
+ *	something to move.
+ *   exrutil stat IN.exr
+ *	prints "W H meanR meanG meanB min max" with %.9g.
+ *   exrutil pngstat IN.png
+ *	prints "W H min max" over every byte of the decoded RGB.
+ *
+ * Exit status 0 on success, 1 on any failure (with a message on stderr).
+ */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <png.h>
+
+#include "../../common/image.h"
+#include "../../formats/exr.h"
+
+int
+main(int argc, char **argv)
+{
+	struct pm_error err;
+
+	if (argc >= 2 && strcmp(argv[1], "make") == 0 &&
+	    (argc == 8 || (argc == 9 && strcmp(argv[8], "ramp") == 0))) {
+		struct pm_image im;
+		int w = atoi(argv[3]), h = atoi(argv[4]), x, y, k;
+		float c[3];
+
+		for (k = 0; k < 3; k++)
+			c[k] = strtof(argv[5 + k], NULL);
+		if (pm_image_alloc(&im, w, h, &err) != PM_OK) {
+			fprintf(stderr, "exrutil: %s\n", err.msg);
+			return 1;
+		}
+		for (y = 0; y < h; y++)
+		for (x = 0; x < w; x++)
+		for (k = 0; k < 3; k++)
+			im.rgb[((size_t)y * w + x) * 3 + k] = c[k] +
+			    (argc == 9 ? (float)x / w : 0.0f);
+		if (pm_exr_write(argv[2], &im, false, &err) != PM_OK) {
+			fprintf(stderr, "exrutil: %s\n", err.msg);
+			return 1;
+		}
+		pm_image_free(&im);
+		return 0;
+	}
+	if (argc == 3 && strcmp(argv[1], "stat") == 0) {
+		struct pm_image im;
+		double mean[3] = { 0, 0, 0 }, lo = INFINITY, hi = -INFINITY;
+		size_t i, n;
+
+		if (pm_exr_read(argv[2], &im, &err) != PM_OK) {
+			fprintf(stderr, "exrutil: %s\n", err.msg);
+			return 1;
+		}
+		n = (size_t)im.width * im.height;
+		for (i = 0; i < 3 * n; i++) {
+			mean[i % 3] += im.rgb[i];
+			if (im.rgb[i] < lo)
+				lo = im.rgb[i];
+			if (im.rgb[i] > hi)
+				hi = im.rgb[i];
+		}
+		printf("%d %d %.9g %.9g %.9g %.9g %.9g\n", im.width, im.height,
+		    mean[0] / n, mean[1] / n, mean[2] / n, lo, hi);
+		pm_image_free(&im);
+		return 0;
+	}
+	if (argc == 3 && strcmp(argv[1], "pngstat") == 0) {
+		png_image img;
+		unsigned char *buf;
+		size_t i, n;
+		int lo = 255, hi = 0;
+
+		memset(&img, 0, sizeof(img));
+		img.version = PNG_IMAGE_VERSION;
+		if (!png_image_begin_read_from_file(&img, argv[2])) {
+			fprintf(stderr, "exrutil: %s: %s\n", argv[2],
+			    img.message);
+			return 1;
+		}
+		img.format = PNG_FORMAT_RGB;
+		n = PNG_IMAGE_SIZE(img);
+		if ((buf = malloc(n)) == NULL ||
+		    !png_image_finish_read(&img, NULL, buf, 0, NULL)) {
+			fprintf(stderr, "exrutil: %s: %s\n", argv[2],
+			    img.message);
+			return 1;
+		}
+		for (i = 0; i < n; i++) {
+			if (buf[i] < lo)
+				lo = buf[i];
+			if (buf[i] > hi)
+				hi = buf[i];
+		}
+		printf("%u %u %d %d\n", img.width, img.height, lo, hi);
+		free(buf);
+		return 0;
+	}
+	fprintf(stderr, "usage: exrutil make OUT.exr W H R G B [ramp]\n"
+	    "       exrutil stat IN.exr\n       exrutil pngstat IN.png\n");
+	return 1;
+}

@@ -1,0 +1,201 @@
+#!/bin/sh
+# compare.sh: check pm-render against Mitsuba 3 on the same scene files.
+#
+#   sh tests/mitsuba/compare.sh              pm-render versus Mitsuba
+#   sh tests/mitsuba/compare.sh --selftest   Mitsuba versus itself, to prove
+#                                            the comparison can pass and fail
+#
+# Run from the repository root. Each scene is rendered twice by each renderer
+# with different seeds (the second render tells compare.py how noisy each side
+# is); Mitsuba's renders are cached under build/mitsuba-cache/, so after the
+# first run only pm-render's cost remains. Outputs land in build/mitsuba-out/.
+# The scenes: data/cornell-box.xml (ours, must exist) and Mitsuba's own
+# Cornell box from ../shared/scenes/mitsuba-cbox (skipped when ../shared is
+# absent). Results are TAP-like lines and a closing "mitsuba: N passed,
+# N failed"; the exit status is non-zero when anything failed, including
+# the set-up of Mitsuba itself (no network means failure, never a pass).
+#
+# Knobs (environment): MITSUBA_RES (256), MITSUBA_SPP (256, per Mitsuba
+# render), PM_SPP (64, per pm-render render), PM_RENDER (bin/pm-render),
+# PM_THREADS (pm-render's -t, unset: its default), MITSUBA_VARIANT,
+# PM_VENV (build/venv).
+
+set -u
+
+RES=${MITSUBA_RES:-256}
+MI_SPP=${MITSUBA_SPP:-256}
+PM_SPP=${PM_SPP:-64}
+PM_RENDER=${PM_RENDER:-bin/pm-render}
+OUT=build/mitsuba-out
+VENV=${PM_VENV:-build/venv}
+PY=$VENV/bin/python
+HERE=tests/mitsuba
+
+selftest=0
+case "${1:-}" in
+--selftest) selftest=1 ;;
+"") ;;
+*) echo "usage: sh tests/mitsuba/compare.sh [--selftest]" >&2; exit 2 ;;
+esac
+
+n=0
+passed=0
+failed=0
+
+ok() { n=$((n + 1)); passed=$((passed + 1)); echo "ok $n - $*"; }
+notok() { n=$((n + 1)); failed=$((failed + 1)); echo "not ok $n - $*"; }
+diag() { sed 's/^/# /'; }
+finish() {
+	echo "mitsuba: $passed passed, $failed failed"
+	[ "$failed" = 0 ]
+	exit
+}
+
+if [ ! -f "$HERE/compare.py" ]; then
+	echo "compare.sh: run me from the repository root" >&2
+	exit 2
+fi
+
+mkdir -p "$OUT"
+if PM_VENV=$VENV sh "$HERE/setup-venv.sh" >"$OUT/setup.log" 2>&1; then
+	diag <"$OUT/setup.log"
+else
+	diag <"$OUT/setup.log"
+	notok "set up Mitsuba 3 in $VENV (pip install mitsuba numpy)"
+	finish
+fi
+VARIANT=${MITSUBA_VARIANT:-$(cat "$VENV/pm-variant")}
+
+now() { date +%s; }
+
+# mitsuba NAME TAG SCENE SPP SEED [render_mitsuba options]: one Mitsuba
+# render to $OUT/NAME-TAG.exr; its log goes to the TAP diagnostics.
+mitsuba() {
+	_out=$OUT/$1-$2.exr
+	_scene=$3
+	_spp=$4
+	_seed=$5
+	shift 5
+	"$PY" "$HERE/render_mitsuba.py" "$_scene" "$_out" --spp "$_spp" \
+	    -D "res=$RES" --seed "$_seed" --variant "$VARIANT" "$@" \
+	    >"$OUT/log" 2>&1
+	_rc=$?
+	diag <"$OUT/log"
+	return $_rc
+}
+
+# pmrender NAME SCENE SEED: one pm-render render to $OUT/NAME-pm-SEED.exr.
+pmrender() {
+	_t0=$(now)
+	_seed=$3
+	set -- "$2" -o "$OUT/$1-pm-$3.exr" --spp "$PM_SPP" \
+	    --size "${RES}x${RES}" -D "res=$RES" --seed "$3" -q
+	[ -n "${PM_THREADS:-}" ] && set -- "$@" -t "$PM_THREADS"
+	"$PM_RENDER" "$@" >"$OUT/log" 2>&1
+	_rc=$?
+	tail -n 20 "$OUT/log" | diag
+	echo "pm-render: $1 seed $_seed spp $PM_SPP in $(($(now) - _t0)) s (exit $_rc)" |
+	    diag
+	return $_rc
+}
+
+# compare NAME WHAT A A2 B B2: runs compare.py; 0 when it passed.
+compare() {
+	"$PY" "$HERE/compare.py" "$3" "$5" --a2 "$4" --b2 "$6" \
+	    --name "$1" --diff "$OUT/$1-$2-diff.exr" >"$OUT/$1-$2.txt" 2>&1
+	_rc=$?
+	diag <"$OUT/$1-$2.txt"
+	return $_rc
+}
+
+# check NAME SCENE: pm-render against Mitsuba.
+check() {
+	name=$1
+	scene=$2
+	if ! mitsuba "$name" mi-1 "$scene" "$MI_SPP" 1 ||
+	    ! mitsuba "$name" mi-2 "$scene" "$MI_SPP" 2; then
+		notok "$name: Mitsuba cannot render $scene"
+		return
+	fi
+	if [ ! -x "$PM_RENDER" ]; then
+		notok "$name: $PM_RENDER not built"
+		return
+	fi
+	if ! pmrender "$name" "$scene" 1; then
+		notok "$name: pm-render failed on $scene"
+		return
+	fi
+	if ! pmrender "$name" "$scene" 2; then
+		notok "$name: pm-render failed on $scene"
+		return
+	fi
+	if compare "$name" vs "$OUT/$name-mi-1.exr" "$OUT/$name-mi-2.exr" \
+	    "$OUT/$name-pm-1.exr" "$OUT/$name-pm-2.exr"; then
+		ok "$name: pm-render agrees with Mitsuba ($RES x $RES, Mitsuba 2x$MI_SPP spp, pm-render 2x$PM_SPP spp)"
+	else
+		notok "$name: pm-render differs from Mitsuba (see build/mitsuba-out/$name-vs.txt, $name-vs-diff.exr)"
+	fi
+}
+
+# selfcheck NAME SCENE: Mitsuba against itself must pass with other seeds
+# and fail, on the mean check, with a light 5% brighter.
+selfcheck() {
+	name=$1
+	scene=$2
+	if ! mitsuba "$name" mi-1 "$scene" "$MI_SPP" 1 ||
+	    ! mitsuba "$name" mi-2 "$scene" "$MI_SPP" 2 ||
+	    ! mitsuba "$name" self-3 "$scene" "$PM_SPP" 3 ||
+	    ! mitsuba "$name" self-4 "$scene" "$PM_SPP" 4 ||
+	    ! mitsuba "$name" bright-3 "$scene" "$PM_SPP" 3 --light-scale 1.05 ||
+	    ! mitsuba "$name" bright-4 "$scene" "$PM_SPP" 4 --light-scale 1.05
+	then
+		notok "$name: Mitsuba cannot render $scene"
+		return
+	fi
+	if compare "$name" self "$OUT/$name-mi-1.exr" "$OUT/$name-mi-2.exr" \
+	    "$OUT/$name-self-3.exr" "$OUT/$name-self-4.exr"; then
+		ok "$name: Mitsuba agrees with itself under other seeds"
+	else
+		notok "$name: Mitsuba disagrees with itself under other seeds"
+	fi
+	if compare "$name" bright "$OUT/$name-mi-1.exr" "$OUT/$name-mi-2.exr" \
+	    "$OUT/$name-bright-3.exr" "$OUT/$name-bright-4.exr"; then
+		notok "$name: a light 5% brighter went unnoticed"
+	elif grep -q ' mean *FAIL' "$OUT/$name-bright.txt"; then
+		ok "$name: a light 5% brighter fails the mean check"
+	else
+		notok "$name: a light 5% brighter failed, but not the mean check"
+	fi
+}
+
+run() {
+	if [ "$selftest" = 1 ]; then
+		selfcheck "$@"
+	else
+		check "$@"
+	fi
+}
+
+t0=$(now)
+echo "# Mitsuba variant $VARIANT, ${RES}x${RES}"
+
+if [ -f data/cornell-box.xml ]; then
+	run cornell-box data/cornell-box.xml
+else
+	notok "cornell-box: data/cornell-box.xml is missing"
+fi
+
+if [ -f data/materials.xml ]; then
+	run materials data/materials.xml
+else
+	notok "materials: data/materials.xml is missing"
+fi
+
+if [ -f ../shared/scenes/mitsuba-cbox/cbox-rgb.xml ]; then
+	run mitsuba-cbox ../shared/scenes/mitsuba-cbox/cbox-rgb.xml
+else
+	echo "# ../shared/scenes/mitsuba-cbox absent: Mitsuba's own Cornell box skipped"
+fi
+
+echo "# total $(($(now) - t0)) s"
+finish

@@ -1,0 +1,230 @@
+#!/usr/bin/env python3
+"""render_mitsuba.py: render a scene file with Mitsuba 3, as the reference
+that pm-render is checked against.
+
+    render_mitsuba.py SCENE.xml OUT.exr [--spp N] [-D name=value ...]
+                      [--variant V] [--seed N] [--light-scale F] [--no-cache]
+
+The scene is rendered with its own integrator (the Cornell boxes use `path`),
+so both renderers read exactly the same file. OUT.exr holds linear RGB float32.
+
+Reference renders are slow to make and never change for a given input, so
+they are cached under build/mitsuba-cache/, keyed by a hash of every file
+under the scene's directory (includes, meshes, textures), of any file the
+scene names outside that directory, and of the options that change the
+picture. --light-scale multiplies the first emitter's radiance, which the
+self-test uses to prove that the comparison notices a 5% brighter light.
+"""
+
+import argparse
+import hashlib
+import json
+import os
+import shutil
+import sys
+import time
+import xml.etree.ElementTree as ET
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(HERE))
+CACHE = os.environ.get("PM_MITSUBA_CACHE",
+                       os.path.join(ROOT, "build", "mitsuba-cache"))
+
+# Bumped when this script changes what it writes for the same key.
+CACHE_FORMAT = "1"
+
+
+def parse_args(argv):
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("scene")
+    p.add_argument("out")
+    p.add_argument("--spp", type=int, default=None,
+                   help="samples per pixel (default: the scene's own)")
+    p.add_argument("-D", dest="defines", action="append", default=[],
+                   metavar="NAME=VALUE", help="scene parameter ($NAME)")
+    p.add_argument("--variant", default=None,
+                   help="Mitsuba variant (default: build/venv/pm-variant, "
+                   "else scalar_rgb)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--light-scale", type=float, default=1.0,
+                   help="multiply the first emitter's radiance by this")
+    p.add_argument("--no-cache", action="store_true")
+    p.add_argument("-q", "--quiet", action="store_true")
+    return p.parse_args(argv)
+
+
+def default_variant():
+    env = os.environ.get("MITSUBA_VARIANT")
+    if env:
+        return env
+    path = os.path.join(sys.prefix, "pm-variant")
+    try:
+        with open(path) as f:
+            v = f.read().strip()
+            if v:
+                return v
+    except OSError:
+        pass
+    return "scalar_rgb"
+
+
+def parse_defines(items):
+    out = {}
+    for d in items:
+        if "=" not in d:
+            sys.exit("render_mitsuba: -D wants NAME=VALUE, got %r" % d)
+        k, v = d.split("=", 1)
+        out[k.strip()] = v.strip()
+    return out
+
+
+def referenced_files(scene_path, seen=None):
+    """Files a scene names (includes and `filename` strings), followed
+    through includes; unresolved `$name` references are skipped."""
+    seen = set() if seen is None else seen
+    scene_path = os.path.abspath(scene_path)
+    if scene_path in seen:
+        return seen
+    seen.add(scene_path)
+    base = os.path.dirname(scene_path)
+    try:
+        tree = ET.parse(scene_path)
+    except (OSError, ET.ParseError):
+        return seen
+    for el in tree.iter():
+        name = None
+        if el.tag == "include":
+            name = el.get("filename")
+        elif el.tag == "string" and el.get("name") == "filename":
+            name = el.get("value")
+        if not name or "$" in name:
+            continue
+        path = name if os.path.isabs(name) else os.path.join(base, name)
+        if not os.path.isfile(path):
+            continue
+        if el.tag == "include":
+            referenced_files(path, seen)
+        else:
+            seen.add(os.path.abspath(path))
+    return seen
+
+
+def cache_key(args, defines, variant, mitsuba_version):
+    """Content hash of the scene's inputs and the options that matter."""
+    h = hashlib.sha256()
+    scene = os.path.abspath(args.scene)
+    sdir = os.path.dirname(scene)
+    files = set()
+    for dirpath, dirnames, filenames in os.walk(sdir):
+        dirnames[:] = sorted(d for d in dirnames if not d.startswith("."))
+        for fn in filenames:
+            if not fn.startswith("."):
+                files.add(os.path.join(dirpath, fn))
+    files |= referenced_files(scene)
+    for path in sorted(files):
+        h.update(path.encode() if not path.startswith(sdir + os.sep)
+                 else os.path.relpath(path, sdir).encode())
+        h.update(b"\0")
+        with open(path, "rb") as f:
+            for chunk in iter(lambda: f.read(1 << 20), b""):
+                h.update(chunk)
+        h.update(b"\0")
+    opts = {
+        "format": CACHE_FORMAT,
+        "scene": os.path.relpath(scene, sdir),
+        "spp": args.spp,
+        "defines": sorted(defines.items()),
+        "variant": variant,
+        "seed": args.seed,
+        "light_scale": args.light_scale,
+        "mitsuba": mitsuba_version,
+    }
+    h.update(json.dumps(opts, sort_keys=True).encode())
+    return h.hexdigest()[:32]
+
+
+def scale_first_emitter(mi, scene, factor):
+    emitters = scene.emitters()
+    if not emitters:
+        sys.exit("render_mitsuba: --light-scale: the scene has no emitter")
+    params = mi.traverse(emitters[0])
+    for key in ("radiance.value", "intensity.value", "irradiance.value",
+                "radiance.data", "data"):
+        if key in params:
+            params[key] = params[key] * factor
+            params.update()
+            return
+    sys.exit("render_mitsuba: --light-scale: no radiance parameter in %s"
+             % list(params.keys()))
+
+
+def render(args, defines, variant, out):
+    import mitsuba as mi
+    import numpy as np
+    mi.set_variant(variant)
+    scene = mi.load_file(args.scene, **defines)
+    if args.light_scale != 1.0:
+        scale_first_emitter(mi, scene, args.light_scale)
+    t0 = time.time()
+    kw = {"seed": args.seed}
+    if args.spp is not None:
+        kw["spp"] = args.spp
+    img = mi.render(scene, **kw)
+    arr = np.array(img, dtype=np.float32)
+    seconds = time.time() - t0
+    if arr.ndim != 3 or arr.shape[2] < 3:
+        sys.exit("render_mitsuba: expected an RGB film, got shape %s"
+                 % (arr.shape,))
+    arr = np.ascontiguousarray(arr[:, :, :3])
+    bmp = mi.Bitmap(arr, pixel_format=mi.Bitmap.PixelFormat.RGB)
+    bmp.write(out)
+    return seconds, arr.shape
+
+
+def main(argv):
+    args = parse_args(argv)
+    if not os.path.isfile(args.scene):
+        sys.exit("render_mitsuba: no scene file %s" % args.scene)
+    defines = parse_defines(args.defines)
+    variant = args.variant or default_variant()
+    import mitsuba
+    version = mitsuba.__version__
+
+    key = cache_key(args, defines, variant, version)
+    cached = os.path.join(CACHE, key + ".exr")
+    meta_path = os.path.join(CACHE, key + ".json")
+    if not args.no_cache and os.path.isfile(cached) \
+            and os.path.isfile(meta_path):
+        shutil.copyfile(cached, args.out)
+        with open(meta_path) as f:
+            meta = json.load(f)
+        if not args.quiet:
+            print("render_mitsuba: %s (cached %s; rendered in %.1f s with "
+                  "mitsuba %s %s)" % (args.out, key, meta["seconds"],
+                                      meta["mitsuba"], meta["variant"]))
+        return 0
+
+    seconds, shape = render(args, defines, variant, args.out)
+    if not args.quiet:
+        print("render_mitsuba: %s %dx%d spp=%s seed=%d in %.1f s "
+              "(mitsuba %s %s)" % (args.out, shape[1], shape[0],
+                                   args.spp if args.spp else "scene",
+                                   args.seed, seconds, version, variant))
+    if not args.no_cache:
+        os.makedirs(CACHE, exist_ok=True)
+        tmp = cached + ".tmp%d" % os.getpid()
+        shutil.copyfile(args.out, tmp)
+        os.replace(tmp, cached)
+        meta = {"scene": os.path.abspath(args.scene), "spp": args.spp,
+                "defines": defines, "seed": args.seed,
+                "light_scale": args.light_scale, "variant": variant,
+                "mitsuba": version, "seconds": round(seconds, 3),
+                "width": shape[1], "height": shape[0]}
+        with open(meta_path + ".tmp", "w") as f:
+            json.dump(meta, f, indent=1)
+        os.replace(meta_path + ".tmp", meta_path)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -1,0 +1,225 @@
+/*
+ * test_render.c: the path tracer against analytic answers.
+ *
+ * Furnaces: inside a closed sphere that emits radiance Le inwards and
+ * reflects diffusely with albedo rho, the radiance everywhere is
+ * Le / (1 - rho); with max_depth d it is Le (1 + rho + ... + rho^(d-1)).
+ * A convex diffuse object of albedo a inside a black emitting sphere
+ * reflects a Le exactly.  Also: the image is identical with 1 and 2 threads.
+ */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "../../common/render.h"
+
+struct furnace {
+	struct pm_scene scene;
+	struct pm_accel *accel;
+	struct pm_lights lights;
+	struct pm_render_ctx ctx;
+};
+
+static void
+furnace_build(struct furnace *f, float rho, float inner_albedo, int max_depth)
+{
+	struct pm_scene *s = &f->scene;
+	struct pm_error err;
+	int b, sh, l;
+
+	pm_scene_init(s);
+	b = pm_scene_add_bsdf(s);
+	s->bsdfs[b].type = PM_BSDF_DIFFUSE;
+	s->bsdfs[b].diffuse = pm_rgb1(rho);
+	sh = pm_scene_add_shape(s);
+	s->shapes[sh].type = PM_SHAPE_SPHERE;
+	s->shapes[sh].center = pm_v3(0, 0, 0);
+	s->shapes[sh].radius = 10.0f;
+	s->shapes[sh].flip_normals = true;
+	s->shapes[sh].bsdf = b;
+	l = pm_scene_add_light(s);
+	s->lights[l].type = PM_LIGHT_AREA;
+	s->lights[l].radiance = pm_rgb(1.0f, 2.0f, 0.5f);
+	s->lights[l].shape = sh;
+	s->shapes[sh].light = l;
+	if (inner_albedo >= 0.0f) {
+		b = pm_scene_add_bsdf(s);
+		s->bsdfs[b].type = PM_BSDF_DIFFUSE;
+		s->bsdfs[b].diffuse = pm_rgb1(inner_albedo);
+		sh = pm_scene_add_shape(s);
+		s->shapes[sh].type = PM_SHAPE_SPHERE;
+		s->shapes[sh].center = pm_v3(0, 0, 0);
+		s->shapes[sh].radius = 1.0f;
+		s->shapes[sh].bsdf = b;
+		s->shapes[sh].light = -1;
+	}
+	s->integrator.max_depth = max_depth;
+	s->has_camera = true;
+	s->camera.to_world = pm_mat4_lookat(pm_v3(0, 0, 5), pm_v3(0, 0, 0),
+	    pm_v3(0, 1, 0));
+	s->camera.fov = 20.0f;
+	s->camera.fov_axis = PM_FOV_X;
+	s->camera.near_clip = 0.01f;
+	s->camera.far_clip = 1000.0f;
+	s->camera.width = 32;
+	s->camera.height = 32;
+	s->camera.spp = 16;
+	s->camera.rfilter = PM_RFILTER_BOX;
+	assert_int_equal(pm_scene_prepare(s, &err), PM_OK);
+	assert_int_equal(pm_accel_build(s, &f->accel, &err), PM_OK);
+	assert_int_equal(pm_lights_init(&f->lights, s, pm_v3(0, 0, 0), 10.0f, &err),
+	    PM_OK);
+	f->ctx.scene = s;
+	f->ctx.accel = f->accel;
+	f->ctx.lights = &f->lights;
+	f->ctx.max_depth = max_depth;
+	f->ctx.rr_depth = 5;
+	f->ctx.hide_emitters = false;
+}
+
+static void
+furnace_free(struct furnace *f)
+{
+	pm_lights_free(&f->lights);
+	pm_accel_free(f->accel);
+	pm_scene_free(&f->scene);
+}
+
+/* Renders and returns the per-channel mean over the central square of half
+ * width `half` pixels. */
+static void
+render_mean(struct furnace *f, int threads, int half, double mean[3],
+    struct pm_image *keep)
+{
+	struct pm_render_opts o;
+	struct pm_render_stats st;
+	struct pm_image im;
+	struct pm_error err;
+	const struct pm_camera *c = &f->scene.camera;
+	int x, y, n = 0;
+
+	memset(&o, 0, sizeof(o));
+	o.method = PM_METHOD_PATH;
+	o.spp = c->spp;
+	o.seed = 3;
+	o.threads = threads;
+	assert_int_equal(pm_render(&f->ctx, c, &o, &im, &st, &err), PM_OK);
+	assert_int_equal(st.dropped, 0);
+	mean[0] = mean[1] = mean[2] = 0;
+	for (y = c->height / 2 - half; y < c->height / 2 + half; y++)
+		for (x = c->width / 2 - half; x < c->width / 2 + half; x++) {
+			const float *p = &im.rgb[3 * (y * c->width + x)];
+
+			mean[0] += p[0];
+			mean[1] += p[1];
+			mean[2] += p[2];
+			n++;
+		}
+	mean[0] /= n;
+	mean[1] /= n;
+	mean[2] /= n;
+	if (keep != NULL)
+		*keep = im;
+	else
+		pm_image_free(&im);
+}
+
+static void
+assert_close(const double got[3], struct pm_rgb want, double rel)
+{
+	print_message("got %.5f %.5f %.5f, want %.5f %.5f %.5f (rel %g)\n",
+	    got[0], got[1], got[2], want.r, want.g, want.b, rel);
+	assert_true(fabs(got[0] - want.r) <= rel * want.r);
+	assert_true(fabs(got[1] - want.g) <= rel * want.g);
+	assert_true(fabs(got[2] - want.b) <= rel * want.b);
+}
+
+/* A diffuse sphere under uniform light Le reflects albedo * Le. */
+static void
+test_convex_object_in_furnace(void **state)
+{
+	struct furnace f;
+	double m[3];
+
+	(void)state;
+	furnace_build(&f, 0.0f, 0.6f, -1);
+	f.scene.camera.spp = 256;
+	/* The unit sphere at distance 5 fills the central 2 * 11 pixels. */
+	render_mean(&f, 2, 8, m, NULL);
+	assert_close(m, pm_rgb(0.6f, 1.2f, 0.3f), 0.01);
+	furnace_free(&f);
+}
+
+/* Multiple bounces: Le / (1 - rho), through recursion and roulette. */
+static void
+test_closed_furnace_infinite_depth(void **state)
+{
+	struct furnace f;
+	double m[3];
+
+	(void)state;
+	furnace_build(&f, 0.8f, -1.0f, -1);
+	f.scene.camera.spp = 64;
+	render_mean(&f, 2, 16, m, NULL);
+	assert_close(m, pm_rgb(5.0f, 10.0f, 2.5f), 0.015);
+	furnace_free(&f);
+}
+
+/* Mitsuba's max_depth: 1 shows emitters only, 3 adds two bounces. */
+static void
+test_max_depth_meaning(void **state)
+{
+	struct furnace f;
+	double m[3];
+
+	(void)state;
+	furnace_build(&f, 0.8f, -1.0f, 1);
+	render_mean(&f, 2, 16, m, NULL);
+	assert_close(m, pm_rgb(1.0f, 2.0f, 0.5f), 1e-6);
+	furnace_free(&f);
+
+	furnace_build(&f, 0.8f, -1.0f, 3);
+	f.scene.camera.spp = 32;
+	render_mean(&f, 2, 16, m, NULL);
+	/* 1 + 0.8 + 0.64 */
+	assert_close(m, pm_rgb(2.44f, 4.88f, 1.22f), 0.01);
+	furnace_free(&f);
+}
+
+static void
+test_threads_give_identical_images(void **state)
+{
+	struct furnace f;
+	struct pm_image a, b;
+	double m[3];
+
+	(void)state;
+	furnace_build(&f, 0.5f, 0.7f, -1);
+	f.scene.camera.width = 40;	/* not a multiple of the tile size */
+	f.scene.camera.height = 24;
+	render_mean(&f, 1, 4, m, &a);
+	render_mean(&f, 2, 4, m, &b);
+	assert_memory_equal(a.rgb, b.rgb, sizeof(float) * 3 * 40 * 24);
+	pm_image_free(&a);
+	pm_image_free(&b);
+	furnace_free(&f);
+}
+
+int
+main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_convex_object_in_furnace),
+		cmocka_unit_test(test_closed_furnace_infinite_depth),
+		cmocka_unit_test(test_max_depth_meaning),
+		cmocka_unit_test(test_threads_give_identical_images),
+	};
+
+	return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,598 @@
+/*
+ * test_sampling.c: the warps produce the densities they claim, frames are
+ * orthonormal and right-handed, and the discrete distribution picks each
+ * index with its weight's share and never an index of weight zero.
+ *
+ * Distributions are checked with Pearson's chi-square test on histograms
+ * of a million samples (fixed seeds), expected counts coming from the pdf
+ * functions integrated numerically over each bin.  Bins expecting fewer
+ * than five samples are pooled.  Each test rejects at 1e-3 divided by the
+ * number of chi-square tests in this file (Bonferroni), so a correct
+ * implementation fails once in a thousand seeds at most.
+ */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "../../common/rng.h"
+#include "../../common/sampling.h"
+
+#define NCHI2 9
+#define SIGNIFICANCE (1e-3 / NCHI2)
+#define NSAMPLES 1000000
+#define NZ 50
+#define NPHI 50
+#define TWO_PI 6.283185307179586
+
+/* Regularised upper incomplete gamma Q(a, x), for chi-square p-values. */
+static double
+gamma_q(double a, double x)
+{
+	double lead, sum, term, b, c, d, h, an, del;
+	int i;
+
+	if (x <= 0.0)
+		return 1.0;
+	lead = exp(-x + a * log(x) - lgamma(a));
+	if (x < a + 1.0) {
+		/* series for P(a, x) */
+		sum = term = 1.0 / a;
+		for (i = 1; i < 100000; i++) {
+			term *= x / (a + i);
+			sum += term;
+			if (fabs(term) < fabs(sum) * 1e-15)
+				break;
+		}
+		return 1.0 - sum * lead;
+	}
+	/* continued fraction for Q(a, x), modified Lentz */
+	b = x + 1.0 - a;
+	c = 1e300;
+	d = 1.0 / b;
+	h = d;
+	for (i = 1; i < 100000; i++) {
+		an = -i * (i - a);
+		b += 2.0;
+		d = an * d + b;
+		if (fabs(d) < 1e-300)
+			d = 1e-300;
+		c = b + an / c;
+		if (fabs(c) < 1e-300)
+			c = 1e-300;
+		d = 1.0 / d;
+		del = d * c;
+		h *= del;
+		if (fabs(del - 1.0) < 1e-15)
+			break;
+	}
+	return lead * h;
+}
+
+/*
+ * Pearson's test of observed against expected counts; bins expecting
+ * fewer than 5 are pooled (and the pool joins the smallest bin if it is
+ * still small).  A sample where nothing was expected gives p = 0.
+ */
+static double
+chi2_test(const double *obs, const double *expd, size_t n, const char *what)
+{
+	double pool_e = 0.0, pool_o = 0.0, chi2 = 0.0, p;
+	double *ke = malloc((n + 1) * sizeof(double));
+	double *ko = malloc((n + 1) * sizeof(double));
+	size_t i, k = 0, smallest = 0;
+
+	assert_non_null(ke);
+	assert_non_null(ko);
+	for (i = 0; i < n; i++) {
+		if (expd[i] < 5.0) {
+			pool_e += expd[i];
+			pool_o += obs[i];
+		} else {
+			ke[k] = expd[i];
+			ko[k] = obs[i];
+			k++;
+		}
+	}
+	if (pool_e <= 1e-9 && pool_o > 0.0) {
+		fprintf(stderr, "%s: %g samples where none were expected\n",
+		    what, pool_o);
+		free(ke);
+		free(ko);
+		return 0.0;
+	}
+	if (pool_e > 0.0) {
+		if (pool_e >= 5.0 || k == 0) {
+			ke[k] = pool_e;
+			ko[k] = pool_o;
+			k++;
+		} else {
+			for (i = 1; i < k; i++)
+				if (ke[i] < ke[smallest])
+					smallest = i;
+			ke[smallest] += pool_e;
+			ko[smallest] += pool_o;
+		}
+	}
+	for (i = 0; i < k; i++)
+		chi2 += (ko[i] - ke[i]) * (ko[i] - ke[i]) / ke[i];
+	p = k > 1 ? gamma_q(0.5 * (double)(k - 1), 0.5 * chi2) : 1.0;
+	if (p < SIGNIFICANCE)
+		fprintf(stderr, "%s: chi2 %.1f with %zu dof, p = %g\n", what,
+		    chi2, k - 1, p);
+	free(ke);
+	free(ko);
+	return p;
+}
+
+/* Bin of a direction on the (z, phi) grid over the sphere. */
+static size_t
+sphere_bin(struct pm_vec3 v)
+{
+	double phi = atan2(v.y, v.x);
+	int iz, ip;
+
+	if (phi < 0.0)
+		phi += TWO_PI;
+	iz = (int)floor((v.z + 1.0) * 0.5 * NZ);
+	ip = (int)floor(phi / TWO_PI * NPHI);
+	iz = iz < 0 ? 0 : iz >= NZ ? NZ - 1 : iz;
+	ip = ip < 0 ? 0 : ip >= NPHI ? NPHI - 1 : ip;
+	return (size_t)iz * NPHI + (size_t)ip;
+}
+
+/* N times the integral of pdf over each (z, phi) bin; dw = dz dphi. */
+static void
+sphere_expected(double (*pdf)(struct pm_vec3, const void *), const void *ctx,
+    double n, double *expd)
+{
+	const int sub = 8;
+	double dz = 2.0 / NZ, dp = TWO_PI / NPHI, z, phi, r, sum;
+	int iz, ip, a, c;
+
+	for (iz = 0; iz < NZ; iz++)
+		for (ip = 0; ip < NPHI; ip++) {
+			sum = 0.0;
+			for (a = 0; a < sub; a++)
+				for (c = 0; c < sub; c++) {
+					z = -1.0 + dz * (iz + (a + 0.5) / sub);
+					phi = dp * (ip + (c + 0.5) / sub);
+					r = sqrt(fmax(0.0, 1.0 - z * z));
+					sum += pdf(pm_v3((float)(r * cos(phi)),
+					    (float)(r * sin(phi)), (float)z),
+					    ctx);
+				}
+			expd[iz * NPHI + ip] = n * sum * dz * dp /
+			    (sub * sub);
+		}
+}
+
+static double
+cosine_pdf(struct pm_vec3 v, const void *ctx)
+{
+	(void)ctx;
+	return pm_cosine_hemisphere_pdf(v);
+}
+
+static double
+hemisphere_pdf(struct pm_vec3 v, const void *ctx)
+{
+	(void)ctx;
+	return pm_uniform_hemisphere_pdf(v);
+}
+
+static double
+sphere_pdf(struct pm_vec3 v, const void *ctx)
+{
+	(void)ctx;
+	(void)v;
+	return pm_uniform_sphere_pdf();
+}
+
+enum warp { WARP_COSINE, WARP_HEMISPHERE, WARP_SPHERE };
+
+static void
+check_direction_warp(enum warp w, double (*pdf)(struct pm_vec3, const void *),
+    uint64_t seed, const char *what)
+{
+	static double obs[NZ * NPHI], expd[NZ * NPHI];
+	struct pm_rng rng = pm_rng_seed(seed, 0, 0);
+	struct pm_vec3 v;
+	float u1, u2;
+	int i;
+
+	memset(obs, 0, sizeof(obs));
+	for (i = 0; i < NSAMPLES; i++) {
+		u1 = pm_rng_float(&rng);
+		u2 = pm_rng_float(&rng);
+		v = w == WARP_COSINE ? pm_square_to_cosine_hemisphere(u1, u2) :
+		    w == WARP_HEMISPHERE ?
+		    pm_square_to_uniform_hemisphere(u1, u2) :
+		    pm_square_to_uniform_sphere(u1, u2);
+		assert_true(fabsf(pm_length(v) - 1.0f) < 1e-5f);
+		if (w != WARP_SPHERE)
+			assert_true(v.z >= 0.0f);
+		obs[sphere_bin(v)] += 1.0;
+	}
+	sphere_expected(pdf, NULL, NSAMPLES, expd);
+	assert_true(chi2_test(obs, expd, NZ * NPHI, what) > SIGNIFICANCE);
+}
+
+static void
+test_cosine_hemisphere(void **state)
+{
+	(void)state;
+	check_direction_warp(WARP_COSINE, cosine_pdf, 1, "cosine hemisphere");
+}
+
+static void
+test_uniform_hemisphere(void **state)
+{
+	(void)state;
+	check_direction_warp(WARP_HEMISPHERE, hemisphere_pdf, 2,
+	    "uniform hemisphere");
+}
+
+static void
+test_uniform_sphere(void **state)
+{
+	(void)state;
+	check_direction_warp(WARP_SPHERE, sphere_pdf, 3, "uniform sphere");
+}
+
+/* The pdfs integrate to one over their domains. */
+static void
+test_pdf_normalisation(void **state)
+{
+	static double expd[NZ * NPHI];
+	double sum;
+	size_t i;
+
+	(void)state;
+	sphere_expected(cosine_pdf, NULL, 1.0, expd);
+	for (sum = 0.0, i = 0; i < NZ * NPHI; i++)
+		sum += expd[i];
+	assert_true(fabs(sum - 1.0) < 1e-4);
+	sphere_expected(hemisphere_pdf, NULL, 1.0, expd);
+	for (sum = 0.0, i = 0; i < NZ * NPHI; i++)
+		sum += expd[i];
+	assert_true(fabs(sum - 1.0) < 1e-4);
+	assert_true(fabs(pm_uniform_sphere_pdf() * 4.0 * M_PI - 1.0) < 1e-6);
+	assert_true(fabs(pm_uniform_cone_pdf(0.25f) * TWO_PI * 0.75 - 1.0) <
+	    1e-6);
+	assert_true(pm_cosine_hemisphere_pdf(pm_v3(0, 0, -1)) == 0.0f);
+	assert_true(pm_uniform_hemisphere_pdf(pm_v3(0, 0.6f, -0.8f)) == 0.0f);
+}
+
+/*
+ * Cones: the normalised distance from the axis, (1 - z) / (1 - cos_max),
+ * and phi must both be uniform.  1 - z comes from x^2 + y^2 to keep its
+ * precision in narrow cones.
+ */
+static double
+check_cone(float cos_max, uint64_t seed, int nt, int np, const char *what)
+{
+	double *obs = calloc((size_t)(nt * np), sizeof(double));
+	double *expd = malloc((size_t)(nt * np) * sizeof(double));
+	struct pm_rng rng = pm_rng_seed(seed, 0, 0);
+	struct pm_vec3 v;
+	double t, phi, p;
+	int i, it, ip;
+
+	assert_non_null(obs);
+	assert_non_null(expd);
+	for (i = 0; i < NSAMPLES; i++) {
+		v = pm_square_to_uniform_cone(pm_rng_float(&rng),
+		    pm_rng_float(&rng), cos_max);
+		assert_true(fabsf(pm_length(v) - 1.0f) < 1e-5f);
+		assert_true(v.z >= cos_max - 1e-6f);
+		t = ((double)v.x * v.x + (double)v.y * v.y) / (1.0 + v.z) /
+		    (1.0 - cos_max);
+		phi = atan2(v.y, v.x);
+		if (phi < 0.0)
+			phi += TWO_PI;
+		it = (int)floor(t * nt);
+		ip = (int)floor(phi / TWO_PI * np);
+		it = it < 0 ? 0 : it >= nt ? nt - 1 : it;
+		ip = ip < 0 ? 0 : ip >= np ? np - 1 : ip;
+		obs[it * np + ip] += 1.0;
+	}
+	for (i = 0; i < nt * np; i++)
+		expd[i] = (double)NSAMPLES / (nt * np);
+	p = chi2_test(obs, expd, (size_t)(nt * np), what);
+	free(obs);
+	free(expd);
+	return p;
+}
+
+static void
+test_uniform_cone(void **state)
+{
+	(void)state;
+	assert_true(check_cone(0.3f, 4, NZ, NPHI, "cone 0.3") >
+	    SIGNIFICANCE);
+	/* a cone a tenth of a degree wide: the distant-sun case */
+	assert_true(check_cone(0.99999f, 5, 100, 8, "cone 0.99999") >
+	    SIGNIFICANCE);
+}
+
+/* Uniform disk: r^2 and phi are uniform. */
+static void
+test_disk(void **state)
+{
+	static double obs[NZ * NPHI], expd[NZ * NPHI];
+	struct pm_rng rng = pm_rng_seed(6, 0, 0);
+	double r2, phi;
+	float x, y;
+	int i, ir, ip;
+
+	(void)state;
+	memset(obs, 0, sizeof(obs));
+	for (i = 0; i < NSAMPLES; i++) {
+		pm_square_to_disk(pm_rng_float(&rng), pm_rng_float(&rng), &x,
+		    &y);
+		r2 = (double)x * x + (double)y * y;
+		assert_true(r2 <= 1.0 + 1e-6);
+		phi = atan2(y, x);
+		if (phi < 0.0)
+			phi += TWO_PI;
+		ir = (int)floor(r2 * NZ);
+		ip = (int)floor(phi / TWO_PI * NPHI);
+		ir = ir >= NZ ? NZ - 1 : ir;
+		ip = ip >= NPHI ? NPHI - 1 : ip;
+		obs[ir * NPHI + ip] += 1.0;
+	}
+	for (i = 0; i < NZ * NPHI; i++)
+		expd[i] = (double)NSAMPLES / (NZ * NPHI);
+	assert_true(chi2_test(obs, expd, NZ * NPHI, "disk") > SIGNIFICANCE);
+	/* the centre of the square is the centre of the disk */
+	pm_square_to_disk(0.5f, 0.5f, &x, &y);
+	assert_true(x == 0.0f && y == 0.0f);
+}
+
+/*
+ * Uniform triangle in barycentrics: density 2 on b1 + b2 <= 1.  The grid
+ * is aligned with the hypotenuse, so the diagonal bins are exactly half.
+ */
+static void
+test_triangle(void **state)
+{
+	static double obs[NZ * NZ], expd[NZ * NZ];
+	struct pm_rng rng = pm_rng_seed(7, 0, 0);
+	float b1, b2;
+	int i, j, a, c;
+
+	(void)state;
+	memset(obs, 0, sizeof(obs));
+	for (i = 0; i < NSAMPLES; i++) {
+		pm_square_to_triangle(pm_rng_float(&rng), pm_rng_float(&rng),
+		    &b1, &b2);
+		assert_true(b1 >= 0.0f && b2 >= 0.0f);
+		assert_true(b1 + b2 <= 1.0f + 1e-6f);
+		a = (int)floorf(b1 * NZ);
+		c = (int)floorf(b2 * NZ);
+		a = a >= NZ ? NZ - 1 : a;
+		c = c >= NZ ? NZ - 1 : c;
+		obs[a * NZ + c] += 1.0;
+	}
+	for (i = 0; i < NZ; i++)
+		for (j = 0; j < NZ; j++)
+			expd[i * NZ + j] = (double)NSAMPLES / (NZ * NZ) *
+			    (i + j < NZ - 1 ? 2.0 : i + j == NZ - 1 ? 1.0 :
+			    0.0);
+	assert_true(chi2_test(obs, expd, NZ * NZ, "triangle") >
+	    SIGNIFICANCE);
+}
+
+static void
+check_frame(struct pm_vec3 n)
+{
+	struct pm_frame f;
+	struct pm_vec3 c, v, back;
+	const float tol = 2e-6f;
+
+	n = pm_normalize(n);
+	f = pm_frame_from_normal(n);
+	assert_true(fabsf(pm_length(f.s) - 1.0f) < tol);
+	assert_true(fabsf(pm_length(f.t) - 1.0f) < tol);
+	assert_true(fabsf(pm_dot(f.s, f.t)) < tol);
+	assert_true(fabsf(pm_dot(f.s, n)) < tol);
+	assert_true(fabsf(pm_dot(f.t, n)) < tol);
+	/* right-handed: s x t = n */
+	c = pm_cross(f.s, f.t);
+	assert_true(pm_length(pm_sub(c, n)) < 4.0f * tol);
+	/* to_local and to_world are inverses, and n maps to +z */
+	v = pm_to_local(f, n);
+	assert_true(fabsf(v.z - 1.0f) < tol);
+	v = pm_normalize(pm_v3(0.3f, -0.5f, 0.81f));
+	back = pm_to_world(f, pm_to_local(f, v));
+	assert_true(pm_length(pm_sub(back, v)) < 4.0f * tol);
+}
+
+static void
+test_frame(void **state)
+{
+	struct pm_rng rng = pm_rng_seed(8, 0, 0);
+	static const float special[][3] = {
+		{ 0, 0, 1 }, { 0, 0, -1 }, { 1, 0, 0 }, { 0, -1, 0 },
+		{ 1e-4f, 0, -1 }, { 0, 1e-3f, -1 }, { 1e-7f, 1e-7f, -1 },
+		{ -3e-4f, 2e-4f, -1 }, { 1, 1, -1e-6f }, { 1, 0, -0.0f },
+		{ 0.01f, -0.02f, -1 }, { -1e-5f, -1e-5f, 1 },
+	};
+	size_t i;
+	int k;
+
+	(void)state;
+	for (i = 0; i < sizeof(special) / sizeof(special[0]); i++)
+		check_frame(pm_v3(special[i][0], special[i][1],
+		    special[i][2]));
+	for (k = 0; k < 100000; k++)
+		check_frame(pm_square_to_uniform_sphere(pm_rng_float(&rng),
+		    pm_rng_float(&rng)));
+	/* concentrate on the southern cap, where the branch flips */
+	for (k = 0; k < 100000; k++) {
+		struct pm_vec3 v = pm_square_to_uniform_cone(
+		    pm_rng_float(&rng), pm_rng_float(&rng), 0.9999f);
+		check_frame(pm_v3(v.x, v.y, -v.z));
+	}
+}
+
+static const double weights[] = { 0, 2, 0, 0, 5, 1, 0, 0.5, 0 };
+#define NW (sizeof(weights) / sizeof(weights[0]))
+
+static void
+test_distrib_frequencies(void **state)
+{
+	struct pm_distrib d;
+	struct pm_error err;
+	struct pm_rng rng = pm_rng_seed(9, 0, 0);
+	double obs[NW] = { 0 }, expd[NW], robs[100] = { 0 }, rexp[100];
+	double sum = 0.0, total = 0.0;
+	float ur;
+	size_t i, k;
+	int s;
+
+	(void)state;
+	assert_int_equal(pm_distrib_init(&d, weights, NW, &err), PM_OK);
+	assert_int_equal(d.n, NW);
+	for (i = 0; i < NW; i++)
+		sum += weights[i];
+	assert_true(fabs(d.sum - sum) < 1e-12);
+	for (i = 0; i < NW; i++) {
+		assert_true(fabs(pm_distrib_prob(&d, i) - weights[i] / sum) <
+		    1e-12);
+		total += pm_distrib_prob(&d, i);
+	}
+	assert_true(fabs(total - 1.0) < 1e-12);
+	assert_true(d.cdf[0] == 0.0 && d.cdf[NW] == 1.0);
+	for (s = 0; s < NSAMPLES; s++) {
+		k = pm_distrib_sample(&d, pm_rng_float(&rng), &ur);
+		assert_true(k < NW);
+		assert_true(weights[k] > 0.0);
+		assert_true(ur >= 0.0f && ur < 1.0f);
+		obs[k] += 1.0;
+		robs[(int)(ur * 100.0f)] += 1.0;
+	}
+	for (i = 0; i < NW; i++)
+		expd[i] = NSAMPLES * weights[i] / sum;
+	assert_true(chi2_test(obs, expd, NW, "distrib") > SIGNIFICANCE);
+	/* what is left of u is itself uniform */
+	for (i = 0; i < 100; i++)
+		rexp[i] = NSAMPLES / 100.0;
+	assert_true(chi2_test(robs, rexp, 100, "u_reuse") > SIGNIFICANCE);
+	pm_distrib_free(&d);
+	assert_null(d.cdf);
+}
+
+/* No u at all, however unlucky, returns an index of zero weight. */
+static void
+test_distrib_zero_weights(void **state)
+{
+	struct pm_distrib d;
+	struct pm_rng rng = pm_rng_seed(10, 0, 0);
+	static const float edge[] = { 0.0f, 0x1.fffffep-1f, 1.0f, -0.5f, 2.0f,
+	    1e-30f, 0.5f };
+	double *w;
+	float u, ur;
+	size_t i, k, n = 100000;
+	int j, step;
+
+	(void)state;
+	assert_int_equal(pm_distrib_init(&d, weights, NW, NULL), PM_OK);
+	for (i = 0; i < sizeof(edge) / sizeof(edge[0]); i++) {
+		k = pm_distrib_sample(&d, edge[i], &ur);
+		assert_true(weights[k] > 0.0);
+		assert_true(ur >= 0.0f && ur < 1.0f);
+	}
+	assert_int_equal(pm_distrib_sample(&d, 0.0f, NULL), 1);
+	assert_int_equal(pm_distrib_sample(&d, 0x1.fffffep-1f, NULL), 7);
+	k = pm_distrib_sample(&d, NAN, NULL);
+	assert_true(weights[k] > 0.0);
+	/* every float in a neighbourhood of every cdf step */
+	for (i = 0; i <= NW; i++) {
+		u = (float)d.cdf[i];
+		for (step = 0; step < 64; step++)
+			u = nextafterf(u, -1.0f);
+		for (step = 0; step < 128; step++, u = nextafterf(u, 2.0f))
+			if (u >= 0.0f && u < 1.0f)
+				assert_true(weights[pm_distrib_sample(&d, u,
+				    NULL)] > 0.0);
+	}
+	pm_distrib_free(&d);
+
+	/* many weights, a third of them zero, some tiny */
+	w = malloc(n * sizeof(double));
+	assert_non_null(w);
+	for (i = 0; i < n; i++) {
+		double r = pm_rng_double(&rng);
+		w[i] = r < 0.33 ? 0.0 : r < 0.4 ? 1e-12 * r : r;
+	}
+	assert_int_equal(pm_distrib_init(&d, w, n, NULL), PM_OK);
+	for (j = 0; j < 200000; j++) {
+		k = pm_distrib_sample(&d, pm_rng_float(&rng), NULL);
+		assert_true(k < n);
+		assert_true(w[k] > 0.0);
+		assert_true(pm_distrib_prob(&d, k) > 0.0);
+	}
+	pm_distrib_free(&d);
+	free(w);
+
+	/* a single weight */
+	{
+		double one = 3.0;
+
+		assert_int_equal(pm_distrib_init(&d, &one, 1, NULL), PM_OK);
+		assert_int_equal(pm_distrib_sample(&d, 0.7f, &ur), 0);
+		assert_true(fabsf(ur - 0.7f) < 1e-6f);
+		assert_true(pm_distrib_prob(&d, 0) == 1.0);
+		pm_distrib_free(&d);
+	}
+}
+
+static void
+test_distrib_invalid(void **state)
+{
+	struct pm_distrib d;
+	struct pm_error err;
+	double zeros[3] = { 0, 0, 0 }, neg[3] = { 1, -1, 2 };
+	double nan[2] = { 1, NAN }, inf[2] = { 1, INFINITY };
+	double ok = 1.0;
+
+	(void)state;
+	err.msg[0] = '\0';
+	assert_int_equal(pm_distrib_init(&d, &ok, 0, &err), PM_ERR_INVALID);
+	assert_true(strlen(err.msg) > 0);
+	assert_null(d.cdf);
+	assert_int_equal(pm_distrib_init(&d, zeros, 3, &err), PM_ERR_INVALID);
+	assert_int_equal(pm_distrib_init(&d, neg, 3, &err), PM_ERR_INVALID);
+	assert_int_equal(pm_distrib_init(&d, nan, 2, &err), PM_ERR_INVALID);
+	assert_int_equal(pm_distrib_init(&d, inf, 2, NULL), PM_ERR_INVALID);
+	assert_null(d.cdf);
+	pm_distrib_free(&d);
+}
+
+int
+main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_cosine_hemisphere),
+		cmocka_unit_test(test_uniform_hemisphere),
+		cmocka_unit_test(test_uniform_sphere),
+		cmocka_unit_test(test_pdf_normalisation),
+		cmocka_unit_test(test_uniform_cone),
+		cmocka_unit_test(test_disk),
+		cmocka_unit_test(test_triangle),
+		cmocka_unit_test(test_frame),
+		cmocka_unit_test(test_distrib_frequencies),
+		cmocka_unit_test(test_distrib_zero_weights),
+		cmocka_unit_test(test_distrib_invalid),
+	};
+
+	return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,458 @@
+/*
+ * pm-downsample: averages rendered passes, filters them down by an integer
+ * factor and writes the result as a linear OpenEXR file or as an 8-bit
+ * sRGB PNG.
+ *
+ * pm-render renders supersampled and, for progressive rendering, in
+ * independent passes; this is the last stage of the pipeline, the heir of
+ * Radiance's pfilt.  Passes are summed pairwise (each sum adds two images
+ * holding the same number of passes), so the rounding error grows with
+ * the logarithm of the number of passes rather than with the number, while
+ * only a logarithmic number of images is held at once.
+ */
+#include <errno.h>
+#include <getopt.h>
+#include <limits.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <unistd.h>
+
+#include "../common/error.h"
+#include "../common/image.h"
+#include "../formats/exr.h"
+#include "../formats/png.h"
+
+#ifndef PM_VERSION
+#define PM_VERSION "0.1"
+#endif
+
+#define PROG		"pm-downsample"
+#define MAX_FACTOR	32768
+#define MAX_EXPOSURE	64.0
+/* Enough partial sums for 2^40 passes. */
+#define MAX_LEVELS	40
+
+static const char usage_line[] =
+    "usage: pm-downsample [-hqv] [-e ev] [-F filter] [-f factor] [--half] "
+    "-o output input ...";
+
+static const char *const filter_names[] = {
+	"box", "tent", "gaussian", "mitchell", "lanczos",
+};
+
+enum { OPT_HALF = 256, OPT_VERSION };
+
+static const struct option longopts[] = {
+	{ "exposure",	required_argument,	NULL,	'e' },
+	{ "filter",	required_argument,	NULL,	'F' },
+	{ "factor",	required_argument,	NULL,	'f' },
+	{ "half",	no_argument,		NULL,	OPT_HALF },
+	{ "help",	no_argument,		NULL,	'h' },
+	{ "output",	required_argument,	NULL,	'o' },
+	{ "quiet",	no_argument,		NULL,	'q' },
+	{ "verbose",	no_argument,		NULL,	'v' },
+	{ "version",	no_argument,		NULL,	OPT_VERSION },
+	{ NULL,		0,			NULL,	0 },
+};
+
+static int verbosity = 1;	/* 0 with -q, 2 with -v */
+
+static void
+help(void)
+{
+	printf("%s\n\n", usage_line);
+	printf(
+	    "Average OpenEXR passes of equal size, filter them down by an\n"
+	    "integer factor and write OpenEXR (linear) or PNG (sRGB).\n\n"
+	    "  -e, --exposure ev   scale by 2^ev before the sRGB curve (PNG;"
+	    " default 0)\n"
+	    "  -F, --filter name   box, tent, gaussian, mitchell or lanczos"
+	    " (default box)\n"
+	    "  -f, --factor n      output pixel = n x n input pixels"
+	    " (default 1)\n"
+	    "      --half          write half floats instead of float32"
+	    " (OpenEXR)\n"
+	    "  -h, --help          print this help and exit\n"
+	    "  -o, --output file   output, .exr or .png; - is PNG on"
+	    " standard output\n"
+	    "  -q, --quiet         no warnings\n"
+	    "  -v, --verbose       describe the inputs and the result\n"
+	    "      --version       print the version and exit\n");
+}
+
+/* Reports a usage error in one line and exits 2. */
+static void __attribute__((noreturn, format(printf, 1, 2)))
+usage_error(const char *fmt, ...)
+{
+	va_list ap;
+
+	fputs(PROG ": ", stderr);
+	va_start(ap, fmt);
+	vfprintf(stderr, fmt, ap);
+	va_end(ap);
+	fputs(" (see --help)\n", stderr);
+	exit(2);
+}
+
+/*
+ * Parses the whole of s as a number within [min, max]: a decimal integer
+ * when integer is set, otherwise a real.  Anything else, trailing text or
+ * overflow included, is a usage error that names the option.
+ */
+static double
+parse_number(const char *opt, const char *s, double min, double max,
+    bool integer)
+{
+	char *end;
+	double v;
+
+	errno = 0;
+	if (*s == '\0' || *s == ' ' || *s == '\t' || *s == '\n')
+		usage_error("%s: expected a number, got '%s'", opt, s);
+	if (integer) {
+		long l = strtol(s, &end, 10);
+
+		v = (double)l;
+	} else
+		v = strtod(s, &end);
+	if (*end != '\0')
+		usage_error("%s: '%s' is not %s", opt, s,
+		    integer ? "a whole number" : "a number");
+	if (errno == ERANGE || !(v >= min && v <= max))
+		usage_error("%s: '%s' is out of range (%g to %g)", opt, s, min,
+		    max);
+	return v;
+}
+
+/* Names what getopt_long refused: arg is the word it stopped at. */
+static void __attribute__((noreturn))
+bad_option(const char *arg, int opt)
+{
+	const struct option *o;
+	size_t len;
+
+	if (arg[0] != '-' || arg[1] != '-')
+		usage_error("unknown option -%c", opt > 0 && opt < 256 ? opt :
+		    '?');
+	len = strcspn(arg + 2, "=");
+	for (o = longopts; o->name != NULL; o++)
+		if (strlen(o->name) == len &&
+		    strncmp(o->name, arg + 2, len) == 0 &&
+		    arg[2 + len] == '=' && o->has_arg == no_argument)
+			usage_error("option --%s takes no argument", o->name);
+	usage_error("unknown or ambiguous option --%.*s", (int)len, arg + 2);
+}
+
+/* Which writer the output's name asks for. */
+enum out_kind { OUT_EXR, OUT_PNG };
+
+static bool
+output_kind(const char *path, enum out_kind *kind)
+{
+	const char *dot;
+
+	if (strcmp(path, "-") == 0) {
+		*kind = OUT_PNG;
+		return true;
+	}
+	dot = strrchr(path, '.');
+	if (dot == NULL || strchr(dot, '/') != NULL)
+		return false;
+	if (strcasecmp(dot, ".exr") == 0)
+		*kind = OUT_EXR;
+	else if (strcasecmp(dot, ".png") == 0)
+		*kind = OUT_PNG;
+	else
+		return false;
+	return true;
+}
+
+/*
+ * Says whether the directory that will hold output accepts new files, so
+ * that a typo in -o fails before the inputs are read rather than after.
+ */
+static bool
+output_dir_ok(const char *output)
+{
+	char dir[4096];
+	const char *slash = strrchr(output, '/');
+	size_t len;
+
+	if (slash == NULL)
+		snprintf(dir, sizeof(dir), ".");
+	else {
+		len = slash == output ? 1 : (size_t)(slash - output);
+		if (len >= sizeof(dir)) {
+			fprintf(stderr, "%s: %s: name too long\n", PROG, output);
+			return false;
+		}
+		memcpy(dir, output, len);
+		dir[len] = '\0';
+	}
+	if (access(dir, W_OK | X_OK) != 0) {
+		fprintf(stderr, "%s: %s: cannot create files in %s: %s\n", PROG,
+		    output, dir, strerror(errno));
+		return false;
+	}
+	return true;
+}
+
+static size_t
+count_nonfinite(const struct pm_image *im)
+{
+	size_t i, n = (size_t)im->width * im->height * 3, bad = 0;
+
+	for (i = 0; i < n; i++)
+		if (!isfinite(im->rgb[i]))
+			bad++;
+	return bad;
+}
+
+/* Fraction of channels that the sRGB conversion saturates. */
+static double
+clipped_fraction(const uint8_t *rgb, const struct pm_image *im, float ev)
+{
+	size_t i, n = (size_t)im->width * im->height * 3, hi = 0;
+	float m = exp2f(ev);
+
+	for (i = 0; i < n; i++)
+		if (rgb[i] == 255 && im->rgb[i] * m > 1.0f)
+			hi++;
+	return n > 0 ? (double)hi / n : 0.0;
+}
+
+/* Releases every partial sum. */
+static void
+free_levels(struct pm_image *level)
+{
+	int k;
+
+	for (k = 0; k < MAX_LEVELS; k++)
+		pm_image_free(&level[k]);
+}
+
+int
+main(int argc, char *argv[])
+{
+	struct pm_image level[MAX_LEVELS], sum, out;
+	struct pm_error err;
+	enum out_kind kind = OUT_EXR;
+	const char *output = NULL, *first = NULL;
+	double exposure = 0.0;
+	bool half = false, exposure_set = false;
+	int filter = PM_FILTER_BOX, factor = 1;
+	int ch, i, k, ninputs, width = 0, height = 0;
+	uint8_t *srgb = NULL;
+
+	memset(level, 0, sizeof(level));
+	memset(&sum, 0, sizeof(sum));
+	memset(&out, 0, sizeof(out));
+	opterr = 0;
+	while ((ch = getopt_long(argc, argv, ":e:F:f:ho:qv", longopts,
+	    NULL)) != -1) {
+		switch (ch) {
+		case 'e':
+			exposure = parse_number("--exposure", optarg,
+			    -MAX_EXPOSURE, MAX_EXPOSURE, false);
+			exposure_set = true;
+			break;
+		case 'F':
+			if ((filter = pm_filter_parse(optarg)) < 0)
+				usage_error("--filter: unknown filter '%s'; "
+				    "expected box, tent, gaussian, mitchell "
+				    "or lanczos", optarg);
+			break;
+		case 'f':
+			factor = (int)parse_number("--factor", optarg, 1,
+			    MAX_FACTOR, true);
+			break;
+		case 'h':
+			help();
+			goto close_stdout;
+		case 'o':
+			output = optarg;
+			break;
+		case 'q':
+			verbosity = 0;
+			break;
+		case 'v':
+			verbosity = 2;
+			break;
+		case OPT_HALF:
+			half = true;
+			break;
+		case OPT_VERSION:
+			printf("%s (pm) %s\n", PROG, PM_VERSION);
+			goto close_stdout;
+		case ':':
+			if (optopt > 0 && optopt < 256 &&
+			    argv[optind - 1][1] != '-')
+				usage_error("option -%c needs an argument",
+				    optopt);
+			usage_error("option %s needs an argument",
+			    argv[optind - 1]);
+		case '?':
+		default:
+			bad_option(argv[optind - 1], optopt);
+		}
+	}
+	argc -= optind;
+	argv += optind;
+
+	if (output == NULL)
+		usage_error("no output: give -o file.exr, -o file.png or -o -");
+	if (argc < 1)
+		usage_error("no input files");
+	if (!output_kind(output, &kind))
+		usage_error("-o %s: cannot tell the format; the name must end "
+		    "in .exr or .png, or be - for PNG on standard output",
+		    output);
+	if (half && kind != OUT_EXR)
+		usage_error("--half applies to OpenEXR output only");
+	if (exposure_set && kind != OUT_PNG)
+		usage_error("--exposure applies to PNG output only; OpenEXR "
+		    "output stays linear");
+	for (i = 0; i < argc; i++)
+		if (strcmp(argv[i], "-") == 0)
+			usage_error("inputs must be files: OpenEXR cannot be "
+			    "read from standard input");
+	/* Checked before any work, so that nothing is read in vain. */
+	if (strcmp(output, "-") == 0 && isatty(STDOUT_FILENO)) {
+		fprintf(stderr, "%s: -: refusing to write PNG data to a "
+		    "terminal\n", PROG);
+		return 1;
+	}
+
+	if (strcmp(output, "-") != 0 && !output_dir_ok(output))
+		return 1;
+
+	/* Sum the passes pairwise: level[k] holds 2^k of them. */
+	ninputs = argc;
+	for (i = 0; i < ninputs; i++) {
+		struct pm_image carry;
+		size_t bad;
+
+		if (pm_exr_read(argv[i], &carry, &err) != PM_OK) {
+			fprintf(stderr, "%s: %s\n", PROG, err.msg);
+			goto fail;
+		}
+		if (i == 0) {
+			first = argv[i];
+			width = carry.width;
+			height = carry.height;
+			if (width % factor != 0 || height % factor != 0) {
+				fprintf(stderr, "%s: %s: size %dx%d is not "
+				    "divisible by factor %d\n", PROG, argv[i],
+				    width, height, factor);
+				pm_image_free(&carry);
+				goto fail;
+			}
+		} else if (carry.width != width || carry.height != height) {
+			fprintf(stderr, "%s: %s: size %dx%d differs from %s "
+			    "(%dx%d)\n", PROG, argv[i], carry.width,
+			    carry.height, first, width, height);
+			pm_image_free(&carry);
+			goto fail;
+		}
+		if (verbosity >= 2)
+			fprintf(stderr, "%s: %s: %dx%d\n", PROG, argv[i],
+			    carry.width, carry.height);
+		if (verbosity >= 1 && (bad = count_nonfinite(&carry)) > 0)
+			fprintf(stderr, "%s: %s: warning: %zu channel values "
+			    "are infinite or NaN\n", PROG, argv[i], bad);
+		for (k = 0; k < MAX_LEVELS - 1 && level[k].rgb != NULL; k++) {
+			/* Sizes were checked above; this cannot fail. */
+			if (pm_image_accumulate(&carry, &level[k], &err) !=
+			    PM_OK) {
+				fprintf(stderr, "%s: %s\n", PROG, err.msg);
+				pm_image_free(&carry);
+				goto fail;
+			}
+			pm_image_free(&level[k]);
+		}
+		level[k] = carry;
+	}
+	/* Add the partial sums, smallest first. */
+	for (k = 0; k < MAX_LEVELS; k++) {
+		if (level[k].rgb == NULL)
+			continue;
+		if (sum.rgb == NULL) {
+			sum = level[k];
+			memset(&level[k], 0, sizeof(level[k]));
+			continue;
+		}
+		if (pm_image_accumulate(&sum, &level[k], &err) != PM_OK) {
+			fprintf(stderr, "%s: %s\n", PROG, err.msg);
+			goto fail;
+		}
+		pm_image_free(&level[k]);
+	}
+	if (ninputs > 1)
+		pm_image_scale(&sum, (float)(1.0 / ninputs));
+
+	if (pm_image_downsample(&sum, factor, (enum pm_filter)filter, &out,
+	    &err) != PM_OK) {
+		fprintf(stderr, "%s: %s: %s\n", PROG, first, err.msg);
+		goto fail;
+	}
+	pm_image_free(&sum);
+	if (verbosity >= 2)
+		fprintf(stderr, "%s: averaged %d input%s; %s filter, factor "
+		    "%d: %dx%d -> %dx%d\n", PROG, ninputs,
+		    ninputs == 1 ? "" : "s", filter_names[filter], factor,
+		    width, height, out.width, out.height);
+
+	if (kind == OUT_EXR) {
+		if (pm_exr_write(output, &out, half, &err) != PM_OK) {
+			fprintf(stderr, "%s: %s\n", PROG, err.msg);
+			goto fail;
+		}
+		if (verbosity >= 2)
+			fprintf(stderr, "%s: %s: %dx%d OpenEXR, %s, ZIP\n",
+			    PROG, output, out.width, out.height,
+			    half ? "half" : "float");
+	} else {
+		srgb = malloc((size_t)out.width * out.height * 3);
+		if (srgb == NULL) {
+			fprintf(stderr, "%s: %s: out of memory\n", PROG,
+			    output);
+			goto fail;
+		}
+		pm_image_to_srgb8(&out, (float)exposure, srgb);
+		if (pm_png_write(output, srgb, out.width, out.height,
+		    &err) != PM_OK) {
+			fprintf(stderr, "%s: %s\n", PROG, err.msg);
+			goto fail;
+		}
+		if (verbosity >= 2)
+			fprintf(stderr, "%s: %s: %dx%d sRGB PNG, exposure "
+			    "%+g EV, %.2f%% of channels clipped\n", PROG,
+			    output, out.width, out.height, exposure,
+			    100.0 * clipped_fraction(srgb, &out,
+			    (float)exposure));
+		free(srgb);
+	}
+	pm_image_free(&out);
+
+close_stdout:
+	/* A full disk or a closed pipe shows up only here. */
+	errno = 0;
+	if (fflush(stdout) != 0 || ferror(stdout) || fclose(stdout) != 0) {
+		fprintf(stderr, "%s: stdout: %s\n", PROG,
+		    errno != 0 ? strerror(errno) : "write error");
+		return 1;
+	}
+	return 0;
+
+fail:
+	free_levels(level);
+	pm_image_free(&sum);
+	pm_image_free(&out);
+	free(srgb);
+	return 1;
+}
