@@ -27,8 +27,9 @@ DEBS = build-essential pkg-config libembree-dev libopenexr-dev libexpat1-dev \
 	python3 python3-venv libllvm19
 
 BUILD = build
+BIN   = bin
 TOOLS = pm-render pm-downsample
-BINS  = $(TOOLS:%=bin/%)
+BINS  = $(TOOLS:%=$(BIN)/%)
 LIB   = $(BUILD)/libpm.a
 
 LIB_SRC  = $(sort $(wildcard common/*.c) $(wildcard formats/*.c))
@@ -37,7 +38,8 @@ TEST_SRC = $(sort $(wildcard tests/unit/test_*.c))
 TEST_BIN = $(TEST_SRC:tests/unit/%.c=$(BUILD)/tests/%)
 MANS     = $(sort $(wildcard man/*.[1-9]))
 
-.PHONY: all demo test deps install clean check-unit check-cli check-man check-mitsuba
+.PHONY: all demo test deps install clean check-unit check-cli check-man check-mitsuba \
+	check-sanitize
 
 all: $(BINS)
 
@@ -49,8 +51,8 @@ $(LIB): $(LIB_OBJ)
 	@mkdir -p $(dir $@)
 	$(AR) rcs $@ $(LIB_OBJ)
 
-bin/%: $(BUILD)/tools/%.o $(LIB)
-	@mkdir -p bin
+$(BIN)/%: $(BUILD)/tools/%.o $(LIB)
+	@mkdir -p $(BIN)
 	$(CC) $(CFLAGS) -pthread -o $@ $< $(LIB) $(PM_LIBS)
 
 $(BUILD)/tests/%: $(BUILD)/tests/unit/%.o $(LIB)
@@ -84,6 +86,7 @@ demo: deps
 test: deps
 	$(MAKE) all $(TEST_BIN)
 	$(MAKE) check-unit check-cli check-man
+	$(MAKE) check-sanitize
 	$(MAKE) check-mitsuba
 
 check-unit: $(TEST_BIN)
@@ -94,7 +97,16 @@ $(BUILD)/tests/exrutil: tests/cli/exrutil.c $(LIB)
 	$(CC) $(PM_CFLAGS) $(CFLAGS) -o $@ tests/cli/exrutil.c $(LIB) $(PM_LIBS)
 
 check-cli: $(BINS) $(BUILD)/tests/exrutil
-	@EXRUTIL=$(BUILD)/tests/exrutil sh tests/run-cli.sh tests/cli/*.sh
+	@BIN=$(BIN) EXRUTIL=$(BUILD)/tests/exrutil sh tests/run-cli.sh tests/cli/*.sh
+
+# The unit and CLI tests again, built with AddressSanitizer and UBSan.
+SAN_FLAGS = -O1 -g -fsanitize=address,undefined -fno-omit-frame-pointer \
+	-fno-sanitize-recover=undefined
+check-sanitize:
+	$(MAKE) BUILD=build/san BIN=build/san/bin CFLAGS="$(SAN_FLAGS)" \
+		build/san/bin/pm-render build/san/bin/pm-downsample
+	$(MAKE) BUILD=build/san BIN=build/san/bin CFLAGS="$(SAN_FLAGS)" \
+		check-unit check-cli
 
 check-man:
 	@for m in $(MANS); do mandoc -T lint -W warning $$m || exit 1; done; \
@@ -111,5 +123,5 @@ install: all
 		install -m 644 $$m $(DESTDIR)$(PREFIX)/share/man/man$$s; done
 
 clean:
-	rm -rf $(BUILD)/*.a $(BUILD)/common $(BUILD)/formats $(BUILD)/tools \
+	rm -rf $(BUILD)/*.a $(BUILD)/common $(BUILD)/formats $(BUILD)/tools $(BUILD)/san \
 		$(BUILD)/tests bin out

@@ -9,7 +9,7 @@ n=0
 fail=0
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-D=bin/pm-downsample
+D=${BIN:-bin}/pm-downsample
 
 check() { # description, then a command whose status decides
 	n=$((n + 1))

@@ -5,7 +5,7 @@ n=0
 fail=0
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-R=bin/pm-render
+R=${BIN:-bin}/pm-render
 
 check() { # description, then a command whose status decides
 	n=$((n + 1))

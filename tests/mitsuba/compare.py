@@ -207,7 +207,10 @@ def main(argv):
     n = b * b
     da = block_sums(ma, b) / n
     db = block_sums(mb, b) / n
-    var = va + vb
+    # A floor of 1e-5 relative keeps noiseless blocks (a constant sky)
+    # from turning float rounding of the same constant (Mitsuba stores
+    # 0.8 as 0.8000019) into an infinite z.
+    var = va + vb + (1e-5 * 0.5 * (np.abs(da) + np.abs(db))) ** 2
     diff = db - da
     with np.errstate(divide="ignore", invalid="ignore"):
         z = np.where(var > 0, diff / np.sqrt(var),

@@ -191,6 +191,14 @@ else
 	notok "materials: data/materials.xml is missing"
 fi
 
+for scene in point-lights sky bunny; do
+	if [ -f data/$scene.xml ]; then
+		run $scene data/$scene.xml
+	else
+		notok "$scene: data/$scene.xml is missing"
+	fi
+done
+
 if [ -f ../shared/scenes/mitsuba-cbox/cbox-rgb.xml ]; then
 	run mitsuba-cbox ../shared/scenes/mitsuba-cbox/cbox-rgb.xml
 else
