@@ -17,7 +17,7 @@ PKGS     = OpenEXR expat libpng zlib
 PM_CFLAGS = -std=c17 -Wall -Wextra -pthread -D_DEFAULT_SOURCE \
 	$(shell pkg-config --cflags $(PKGS) 2>/dev/null)
 # OpenEXR's pkg-config pulls in the C++ libraries; pm uses only the C core.
-PM_LIBS  = -lembree3 -lOpenEXRCore $(shell pkg-config --libs expat libpng zlib 2>/dev/null) \
+PM_LIBS  = -lembree3 -lOpenEXRCore -lflann $(shell pkg-config --libs expat libpng zlib 2>/dev/null) \
 	-lm -pthread
 TEST_LIBS = $(shell pkg-config --libs cmocka 2>/dev/null || echo -lcmocka)
 
@@ -28,7 +28,7 @@ DEBS = build-essential pkg-config libembree-dev libopenexr-dev libexpat1-dev \
 
 BUILD = build
 BIN   = bin
-TOOLS = pm-render pm-downsample
+TOOLS = pm-shoot pm-balance pm-render pm-downsample pm-inspect
 BINS  = $(TOOLS:%=$(BIN)/%)
 LIB   = $(BUILD)/libpm.a
 
@@ -39,7 +39,7 @@ TEST_BIN = $(TEST_SRC:tests/unit/%.c=$(BUILD)/tests/%)
 MANS     = $(sort $(wildcard man/*.[1-9]))
 
 .PHONY: all demo test deps install clean check-unit check-cli check-man check-mitsuba \
-	check-sanitize
+	check-sanitize turntable
 
 all: $(BINS)
 
@@ -78,6 +78,7 @@ deps:
 	fi
 
 include pipelines/bunny.mk
+include pipelines/turntable.mk
 
 demo: deps
 	$(MAKE) all
@@ -104,7 +105,7 @@ SAN_FLAGS = -O1 -g -fsanitize=address,undefined -fno-omit-frame-pointer \
 	-fno-sanitize-recover=undefined
 check-sanitize:
 	$(MAKE) BUILD=build/san BIN=build/san/bin CFLAGS="$(SAN_FLAGS)" \
-		build/san/bin/pm-render build/san/bin/pm-downsample
+		$(TOOLS:%=build/san/bin/%)
 	$(MAKE) BUILD=build/san BIN=build/san/bin CFLAGS="$(SAN_FLAGS)" \
 		check-unit check-cli
 

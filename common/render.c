@@ -78,8 +78,10 @@ render_tile(struct job *j, int tile)
 				float tmin, tmax;
 				struct pm_vec3 d = pm_camera_ray(&j->rays, fx, fy,
 				    &tmin, &tmax);
-				struct pm_rgb L = pm_path_li(j->ctx, j->rays.origin,
-				    d, tmin, tmax, &rng);
+				struct pm_rgb L = j->opts->method == PM_METHOD_PHOTON ?
+				    pm_photon_li(j->ctx, j->rays.origin, d, tmin, tmax,
+				    &rng) : pm_path_li(j->ctx, j->rays.origin, d, tmin,
+				    tmax, &rng);
 
 				if (!pm_rgb_is_finite(L)) {
 					dropped++;

@@ -17,6 +17,24 @@
 #include "rng.h"
 #include "scene.h"
 
+/* Balanced photon maps and how to look them up (integrator_pm.c). */
+struct pm_photon_maps {
+	const struct pm_photon *global;	/* kd-tree order */
+	size_t nglobal;
+	float global_scale;		/* 1 / photon paths emitted */
+	const struct pm_photon *caustic;
+	size_t ncaustic;
+	float caustic_scale;
+	float global_r2, caustic_r2;	/* squared maximum lookup radii */
+	int lookup_size;		/* k nearest photons per estimate */
+	int direct_samples;		/* light samples per non-specular hit */
+	bool final_gather;
+	int final_gather_samples;
+};
+
+/* Largest lookupSize: estimates keep their neighbours on the stack. */
+#define PM_MAX_LOOKUP 4096
+
 /* What an integrator needs to look at; read-only while rendering. */
 struct pm_render_ctx {
 	const struct pm_scene *scene;
@@ -25,10 +43,12 @@ struct pm_render_ctx {
 	int max_depth;			/* -1: unlimited */
 	int rr_depth;
 	bool hide_emitters;
+	const struct pm_photon_maps *maps;	/* PM_METHOD_PHOTON only */
 };
 
 enum pm_method {
 	PM_METHOD_PATH,
+	PM_METHOD_PHOTON,
 };
 
 struct pm_render_opts {
@@ -49,6 +69,12 @@ struct pm_render_stats {
 /* Radiance along a camera ray by path tracing with next-event estimation
  * and multiple importance sampling (integrator_path.c). */
 struct pm_rgb pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o,
+    struct pm_vec3 d, float tmin, float tmax, struct pm_rng *rng);
+
+/* Radiance along a camera ray from photon maps: exact direct light,
+ * specular recursion, caustic and global maps or final gathering
+ * (integrator_pm.c). */
+struct pm_rgb pm_photon_li(const struct pm_render_ctx *ctx, struct pm_vec3 o,
     struct pm_vec3 d, float tmin, float tmax, struct pm_rng *rng);
 
 /*

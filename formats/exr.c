@@ -233,8 +233,13 @@ out:
 	return rv;
 }
 
-/* Writes im to path as a ZIP-compressed scanline file with channels B, G
- * and R in float or half, through a temporary file renamed on success. */
+/*
+ * Writes im to path as a PIZ-compressed scanline file with channels B, G
+ * and R in float or half, through a temporary file renamed on success.
+ * Not ZIP: OpenEXRCore 3.1.5 (Debian 12) writes corrupt ZIP and ZIPS
+ * chunks when the data does not compress (noisy float renders at high
+ * sample counts); test_image's incompressible round trip guards this.
+ */
 enum pm_err
 pm_exr_write(const char *path, const struct pm_image *im, bool half,
     struct pm_error *err)
@@ -269,7 +274,7 @@ pm_exr_write(const char *path, const struct pm_image *im, bool half,
 	rv = exr_add_part(ctxt, "rgb", EXR_STORAGE_SCANLINE, &part);
 	if (rv == EXR_ERR_SUCCESS)
 		rv = exr_initialize_required_attr_simple(ctxt, part,
-		    im->width, im->height, EXR_COMPRESSION_ZIP);
+		    im->width, im->height, EXR_COMPRESSION_PIZ);
 	for (k = 0; k < 3 && rv == EXR_ERR_SUCCESS; k++)
 		rv = exr_add_channel(ctxt, part, exr_names[k], type,
 		    EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);

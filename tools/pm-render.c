@@ -1,5 +1,7 @@
 /*
- * pm-render: renders a scene's camera to a linear EXR.
+ * pm-render: renders a scene's camera, or a list of cameras, to linear
+ * EXR images: by path tracing (the reference), or from a photon map made
+ * by pm-shoot and pm-balance (the gather pass of photon mapping).
  *
  * This file only parses options, loads the inputs, calls the library and
  * reports; the rendering itself lives in common/.
@@ -17,17 +19,29 @@
 #include "../common/accel.h"
 #include "../common/parse.h"
 #include "../common/render.h"
+#include "../common/shoot.h"
 #include "../formats/exr.h"
+#include "../formats/pmap.h"
 #include "../formats/scene_xml.h"
 
 #define PROG "pm-render"
-#define VERSION "0.1.0"
+#define VERSION "0.2.0"
 #define MAX_DEFINES 64
+#define MAX_CAMERAS 100000
 
 static const char usage_line[] =
-    "usage: pm-render [-qv] [--method path] [--spp N] [--size WxH] [--eye X,Y,Z]\n"
-    "                 [--target X,Y,Z] [--up X,Y,Z] [--fov DEG] [-D NAME=VALUE]\n"
-    "                 [--seed N] [-t THREADS] [--half] -o OUT.exr SCENE.xml\n";
+    "usage: pm-render [-qv] [--method path|photon] [--spp N] [--size WxH]\n"
+    "                 [--eye X,Y,Z] [--target X,Y,Z] [--up X,Y,Z] [--fov DEG]\n"
+    "                 [--cameras FILE] [-D NAME=VALUE] [--seed N] [-t THREADS]\n"
+    "                 [--half] [--global-radius R] [--caustic-radius R]\n"
+    "                 [--lookup-size K] [--direct-samples N] [--final-gather]\n"
+    "                 [--no-final-gather] [--final-gather-samples N]\n"
+    "                 -o OUT.exr SCENE.xml [MAP.pmap]\n";
+
+struct cam_override {
+	struct pm_vec3 eye, target, up;
+	float fov;			/* 0: keep */
+};
 
 static void
 usage_error(const char *fmt, const char *arg)
@@ -65,6 +79,111 @@ check_output_dir(const char *path)
 	return ok;
 }
 
+/*
+ * Reads a camera list: one camera per line, "EYE TARGET UP [FOV]" with
+ * each vector as X,Y,Z; blank lines and lines starting with # are skipped.
+ * Returns the count, or -1 after printing an error naming file and line.
+ */
+static long
+read_cameras(const char *path, struct cam_override **out)
+{
+	FILE *f = fopen(path, "r");
+	char line[1024];
+	long n = 0, lineno = 0, cap = 0;
+	struct cam_override *cams = NULL;
+
+	if (f == NULL) {
+		fprintf(stderr, PROG ": %s: %s\n", path, strerror(errno));
+		return -1;
+	}
+	while (fgets(line, sizeof(line), f) != NULL) {
+		char *tok[5], *save = NULL, *p = line;
+		int nt = 0;
+		struct cam_override c;
+
+		lineno++;
+		while (nt < 5 && (tok[nt] = strtok_r(p, " \t\r\n", &save)) != NULL) {
+			p = NULL;
+			nt++;
+		}
+		if (nt == 0 || tok[0][0] == '#')
+			continue;
+		c.fov = 0.0f;
+		if (nt < 3 || nt > 4 || strtok_r(NULL, " \t\r\n", &save) != NULL ||
+		    !pm_parse_vec3(tok[0], &c.eye) || !pm_parse_vec3(tok[1], &c.target) ||
+		    !pm_parse_vec3(tok[2], &c.up) ||
+		    (nt == 4 && !pm_parse_float(tok[3], 1e-3f, 179.0f, &c.fov))) {
+			fprintf(stderr, PROG ": %s:%ld: expected EYE TARGET UP [FOV], "
+			    "each vector as X,Y,Z\n", path, lineno);
+			free(cams);
+			fclose(f);
+			return -1;
+		}
+		if (n == MAX_CAMERAS) {
+			fprintf(stderr, PROG ": %s:%ld: more than %d cameras\n", path,
+			    lineno, MAX_CAMERAS);
+			free(cams);
+			fclose(f);
+			return -1;
+		}
+		if (n == cap) {
+			struct cam_override *nc;
+
+			cap = cap ? 2 * cap : 16;
+			nc = realloc(cams, (size_t)cap * sizeof(*nc));
+			if (nc == NULL) {
+				fprintf(stderr, PROG ": %s: out of memory\n", path);
+				free(cams);
+				fclose(f);
+				return -1;
+			}
+			cams = nc;
+		}
+		cams[n++] = c;
+	}
+	fclose(f);
+	if (n == 0) {
+		fprintf(stderr, PROG ": %s: no cameras in the file\n", path);
+		free(cams);
+		return -1;
+	}
+	*out = cams;
+	return n;
+}
+
+/* Output name of camera i of n: the name itself for a single camera;
+ * otherwise a printf pattern if it has one (frame-%04d.exr), else the
+ * number inserted before the extension (out.exr -> out-0001.exr). */
+static void
+output_name(const char *pattern, long i, long n, char *buf, size_t len)
+{
+	const char *dot = strrchr(pattern, '.'), *pct = strchr(pattern, '%');
+
+	if (n == 1)
+		snprintf(buf, len, "%s", pattern);
+	else if (pct != NULL && pct[1] != '\0')
+		snprintf(buf, len, pattern, (int)(i + 1));
+	else if (dot != NULL && strchr(dot, '/') == NULL)
+		snprintf(buf, len, "%.*s-%04ld%s", (int)(dot - pattern), pattern,
+		    i + 1, dot);
+	else
+		snprintf(buf, len, "%s-%04ld", pattern, i + 1);
+}
+
+/* Only %d-style patterns are accepted: the name is used as a format. */
+static int
+pattern_ok(const char *s)
+{
+	const char *p = strchr(s, '%');
+
+	if (p == NULL)
+		return 1;
+	p++;
+	while (*p >= '0' && *p <= '9')
+		p++;
+	return *p == 'd' && strchr(p, '%') == NULL;
+}
+
 struct progress {
 	_Atomic long done;
 	long total;
@@ -87,12 +206,75 @@ progress_thread(void *arg)
 	return NULL;
 }
 
+/* Loads a balanced map for this scene into maps; prints and returns 0 on
+ * failure. */
+static int
+load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
+    struct pm_pmap *pm, struct pm_photon_maps *maps, int verbose)
+{
+	struct pm_error err = {PM_OK, ""};
+	const struct pm_photon_params *pp = &scene->integrator.photon;
+	uint64_t want = pm_scene_hash(scene);
+	int i;
+
+	if (pm_pmap_read(path, pm, true, &err) != PM_OK) {
+		fprintf(stderr, PROG ": %s\n", err.msg);
+		return 0;
+	}
+	if (pm->scene_hash != want) {
+		fprintf(stderr, PROG ": %s: the photons were shot in another scene "
+		    "(scene hash %016llx, %s has %016llx); shoot them again\n", path,
+		    (unsigned long long)pm->scene_hash, scene->path ? scene->path :
+		    "this scene", (unsigned long long)want);
+		return 0;
+	}
+	memset(maps, 0, sizeof(*maps));
+	for (i = 0; i < pm->nmaps; i++) {
+		const struct pm_map *m = &pm->maps[i];
+
+		if (!m->balanced && m->count > 1) {
+			fprintf(stderr, PROG ": %s: the %s map is not balanced; run "
+			    "pm-balance on it first\n", path,
+			    m->kind == PM_MAP_GLOBAL ? "global" : "caustic");
+			return 0;
+		}
+		if (m->kind == PM_MAP_GLOBAL) {
+			maps->global = m->photons;
+			maps->nglobal = (size_t)m->count;
+			maps->global_scale = m->emitted ? 1.0f / (float)m->emitted : 0.0f;
+		} else {
+			maps->caustic = m->photons;
+			maps->ncaustic = (size_t)m->count;
+			maps->caustic_scale = m->emitted ? 1.0f / (float)m->emitted : 0.0f;
+		}
+	}
+	/* Radii are fractions of the scene's bounding-sphere radius, as in
+	 * Mitsuba 0.6's photon mapper. */
+	maps->global_r2 = pp->global_lookup_radius * scene_radius;
+	maps->global_r2 *= maps->global_r2;
+	maps->caustic_r2 = pp->caustic_lookup_radius * scene_radius;
+	maps->caustic_r2 *= maps->caustic_r2;
+	maps->lookup_size = pp->lookup_size;
+	maps->direct_samples = pp->direct_samples;
+	maps->final_gather = pp->final_gather;
+	maps->final_gather_samples = pp->final_gather_samples;
+	if (verbose >= 2)
+		fprintf(stderr, PROG ": %s: %zu global photons, %zu caustic photons, "
+		    "radii %g and %g, k = %d, %d direct samples, final gathering %s\n",
+		    path, maps->nglobal, maps->ncaustic, sqrt(maps->global_r2),
+		    sqrt(maps->caustic_r2), maps->lookup_size, maps->direct_samples,
+		    maps->final_gather ? "on" : "off");
+	return 1;
+}
+
 int
 main(int argc, char **argv)
 {
 	enum {
 		OPT_METHOD = 256, OPT_SPP, OPT_SIZE, OPT_EYE, OPT_TARGET, OPT_UP,
-		OPT_FOV, OPT_SEED, OPT_HALF, OPT_HELP, OPT_VERSION,
+		OPT_FOV, OPT_SEED, OPT_HALF, OPT_HELP, OPT_VERSION, OPT_CAMERAS,
+		OPT_GRADIUS, OPT_CRADIUS, OPT_LOOKUP, OPT_DIRECT, OPT_FG, OPT_NOFG,
+		OPT_FGSAMPLES,
 	};
 	static const struct option longopts[] = {
 		{"method", required_argument, NULL, OPT_METHOD},
@@ -102,11 +284,19 @@ main(int argc, char **argv)
 		{"target", required_argument, NULL, OPT_TARGET},
 		{"up", required_argument, NULL, OPT_UP},
 		{"fov", required_argument, NULL, OPT_FOV},
+		{"cameras", required_argument, NULL, OPT_CAMERAS},
 		{"define", required_argument, NULL, 'D'},
 		{"seed", required_argument, NULL, OPT_SEED},
 		{"threads", required_argument, NULL, 't'},
 		{"half", no_argument, NULL, OPT_HALF},
 		{"output", required_argument, NULL, 'o'},
+		{"global-radius", required_argument, NULL, OPT_GRADIUS},
+		{"caustic-radius", required_argument, NULL, OPT_CRADIUS},
+		{"lookup-size", required_argument, NULL, OPT_LOOKUP},
+		{"direct-samples", required_argument, NULL, OPT_DIRECT},
+		{"final-gather", no_argument, NULL, OPT_FG},
+		{"no-final-gather", no_argument, NULL, OPT_NOFG},
+		{"final-gather-samples", required_argument, NULL, OPT_FGSAMPLES},
 		{"quiet", no_argument, NULL, 'q'},
 		{"verbose", no_argument, NULL, 'v'},
 		{"help", no_argument, NULL, OPT_HELP},
@@ -115,12 +305,16 @@ main(int argc, char **argv)
 	};
 	struct pm_define defs[MAX_DEFINES];
 	size_t ndefs = 0;
-	const char *out_path = NULL, *scene_path;
-	struct pm_vec3 eye, target, up = {0, 1, 0};
+	const char *out_path = NULL, *scene_path, *map_path = NULL;
+	const char *cameras_path = NULL, *method = NULL;
+	struct cam_override one = {{0, 0, 0}, {0, 0, 0}, {0, 1, 0}, 0.0f};
+	struct cam_override *cams = NULL;
+	long ncams = 0, ci;
 	int have_eye = 0, have_target = 0, width = 0, height = 0, half = 0;
-	int verbose = 1, c;
+	int verbose = 1, c, fg = -1;
 	long spp = 0, threads = sysconf(_SC_NPROCESSORS_ONLN);
-	float fov = 0.0f;
+	long lookup = 0, direct = 0, fg_samples = 0;
+	float fov = 0.0f, gradius = 0.0f, cradius = 0.0f;
 	unsigned long long seed = 0;
 	struct pm_scene scene;
 	struct pm_accel *accel = NULL;
@@ -128,14 +322,13 @@ main(int argc, char **argv)
 	struct pm_render_ctx ctx;
 	struct pm_render_opts opts;
 	struct pm_render_stats stats;
-	struct pm_image img = {0, 0, NULL};
 	struct pm_error err = {PM_OK, ""};
-	struct pm_camera cam;
 	struct pm_vec3 lo, hi;
-	struct progress prog;
-	pthread_t prog_tid;
-	int show_progress;
-	double t0, t_load, t_render;
+	struct pm_pmap pmap;
+	struct pm_photon_maps maps;
+	float radius;
+	double t0, t_load;
+	int status = 0, have_pmap = 0;
 
 	if (threads < 1)
 		threads = 1;
@@ -169,9 +362,9 @@ main(int argc, char **argv)
 			verbose = 2;
 			break;
 		case OPT_METHOD:
-			if (strcmp(optarg, "path") != 0)
-				usage_error("unknown method '%s' (this build knows: path)",
-				    optarg);
+			if (strcmp(optarg, "path") != 0 && strcmp(optarg, "photon") != 0)
+				usage_error("unknown method '%s' (path or photon)", optarg);
+			method = optarg;
 			break;
 		case OPT_SPP:
 			if (!pm_parse_long(optarg, 1, 1L << 24, &spp))
@@ -184,23 +377,26 @@ main(int argc, char **argv)
 				    optarg);
 			break;
 		case OPT_EYE:
-			if (!pm_parse_vec3(optarg, &eye))
+			if (!pm_parse_vec3(optarg, &one.eye))
 				usage_error("--eye wants X,Y,Z, not '%s'", optarg);
 			have_eye = 1;
 			break;
 		case OPT_TARGET:
-			if (!pm_parse_vec3(optarg, &target))
+			if (!pm_parse_vec3(optarg, &one.target))
 				usage_error("--target wants X,Y,Z, not '%s'", optarg);
 			have_target = 1;
 			break;
 		case OPT_UP:
-			if (!pm_parse_vec3(optarg, &up))
+			if (!pm_parse_vec3(optarg, &one.up))
 				usage_error("--up wants X,Y,Z, not '%s'", optarg);
 			break;
 		case OPT_FOV:
 			if (!pm_parse_float(optarg, 1e-3f, 179.0f, &fov))
 				usage_error("--fov wants degrees in (0, 179], not '%s'",
 				    optarg);
+			break;
+		case OPT_CAMERAS:
+			cameras_path = optarg;
 			break;
 		case OPT_SEED:
 			if (!pm_parse_u64(optarg, &seed))
@@ -209,6 +405,37 @@ main(int argc, char **argv)
 			break;
 		case OPT_HALF:
 			half = 1;
+			break;
+		case OPT_GRADIUS:
+			if (!pm_parse_float(optarg, 0.0f, 1e6f, &gradius) || gradius <= 0)
+				usage_error("--global-radius wants a positive fraction, not '%s'",
+				    optarg);
+			break;
+		case OPT_CRADIUS:
+			if (!pm_parse_float(optarg, 0.0f, 1e6f, &cradius) || cradius <= 0)
+				usage_error("--caustic-radius wants a positive fraction, not '%s'",
+				    optarg);
+			break;
+		case OPT_LOOKUP:
+			if (!pm_parse_long(optarg, 1, PM_MAX_LOOKUP, &lookup))
+				usage_error("--lookup-size wants 1 to 4096 photons, not '%s'",
+				    optarg);
+			break;
+		case OPT_DIRECT:
+			if (!pm_parse_long(optarg, 1, 1 << 16, &direct))
+				usage_error("--direct-samples wants 1 to 65536, not '%s'",
+				    optarg);
+			break;
+		case OPT_FG:
+			fg = 1;
+			break;
+		case OPT_NOFG:
+			fg = 0;
+			break;
+		case OPT_FGSAMPLES:
+			if (!pm_parse_long(optarg, 1, 1 << 16, &fg_samples))
+				usage_error("--final-gather-samples wants 1 to 65536, not '%s'",
+				    optarg);
 			break;
 		case OPT_HELP:
 			fputs(usage_line, stdout);
@@ -221,43 +448,51 @@ main(int argc, char **argv)
 			return 2;
 		}
 	}
-	if (optind + 1 != argc)
-		usage_error("%s", optind == argc ? "no scene file given" :
-		    "more than one scene file given");
+	if (optind == argc)
+		usage_error("%s", "no scene file given");
+	if (argc - optind > 2)
+		usage_error("%s", "too many arguments (SCENE.xml [MAP.pmap])");
 	scene_path = argv[optind];
+	if (argc - optind == 2)
+		map_path = argv[optind + 1];
+	if (method != NULL && strcmp(method, "photon") == 0 && map_path == NULL)
+		usage_error("%s", "--method photon needs a photon map (SCENE.xml MAP.pmap)");
+	if (method != NULL && strcmp(method, "path") == 0 && map_path != NULL)
+		usage_error("%s", "--method path takes no photon map");
 	if (out_path == NULL)
 		usage_error("%s", "no output given (-o OUT.exr)");
+	if (!pattern_ok(out_path))
+		usage_error("-o: only a %%d-style pattern is allowed in '%s'", out_path);
 	if (have_eye != have_target)
 		usage_error("%s", "--eye and --target go together");
-	if (!check_output_dir(out_path))
+	if (have_eye && cameras_path != NULL)
+		usage_error("%s", "--eye and --cameras exclude each other");
+	if (cameras_path != NULL) {
+		ncams = read_cameras(cameras_path, &cams);
+		if (ncams < 0)
+			return 1;
+	}
+	if (!check_output_dir(out_path)) {
+		free(cams);
 		return 1;
+	}
 
 	t0 = now();
 	if (pm_scene_load(scene_path, defs, ndefs, &scene, &err) != PM_OK) {
 		fprintf(stderr, PROG ": %s\n", err.msg);
+		free(cams);
 		return 1;
 	}
-	if (!scene.has_camera && !have_eye) {
-		fprintf(stderr, PROG ": %s: the scene has no sensor; give --eye and --target\n",
-		    scene_path);
+	if (!scene.has_camera && !have_eye && cams == NULL) {
+		fprintf(stderr, PROG ": %s: the scene has no sensor; give --eye and "
+		    "--target, or --cameras\n", scene_path);
 		pm_scene_free(&scene);
 		return 1;
 	}
-	cam = scene.camera;
-	if (have_eye) {
-		cam.to_world = pm_mat4_lookat(eye, target, up);
-		if (!scene.has_camera)
-			cam.fov = 45.0f;
+	if (cams == NULL) {
+		cams = &one;
+		ncams = 1;
 	}
-	if (fov > 0.0f)
-		cam.fov = fov;
-	if (width > 0) {
-		cam.width = width;
-		cam.height = height;
-	}
-	if (spp > 0)
-		cam.spp = (int)spp;
-
 	if (pm_accel_build(&scene, &accel, &err) != PM_OK) {
 		fprintf(stderr, PROG ": %s: %s\n", scene_path, err.msg);
 		pm_scene_free(&scene);
@@ -268,12 +503,40 @@ main(int argc, char **argv)
 		lo = pm_v3(0, 0, 0);
 		hi = lo;
 	}
-	if (pm_lights_init(&lights, &scene, pm_scale(pm_add(lo, hi), 0.5f),
-	    0.5f * pm_length(pm_sub(hi, lo)), &err) != PM_OK) {
+	radius = 0.5f * pm_length(pm_sub(hi, lo));
+	if (pm_lights_init(&lights, &scene, pm_scale(pm_add(lo, hi), 0.5f), radius,
+	    &err) != PM_OK) {
 		fprintf(stderr, PROG ": %s: %s\n", scene_path, err.msg);
 		pm_accel_free(accel);
 		pm_scene_free(&scene);
 		return 1;
+	}
+	if (map_path != NULL) {
+		struct pm_photon_params *pp = &scene.integrator.photon;
+
+		if (gradius > 0)
+			pp->global_lookup_radius = gradius;
+		if (cradius > 0)
+			pp->caustic_lookup_radius = cradius;
+		if (lookup > 0)
+			pp->lookup_size = (int)lookup;
+		if (direct > 0)
+			pp->direct_samples = (int)direct;
+		if (fg >= 0)
+			pp->final_gather = fg;
+		if (fg_samples > 0)
+			pp->final_gather_samples = (int)fg_samples;
+		if (pp->lookup_size < 1 || pp->lookup_size > PM_MAX_LOOKUP) {
+			fprintf(stderr, PROG ": %s: lookupSize %d is outside 1..%d\n",
+			    scene_path, pp->lookup_size, PM_MAX_LOOKUP);
+			status = 1;
+			goto out;
+		}
+		have_pmap = 1;
+		if (!load_maps(map_path, &scene, radius, &pmap, &maps, verbose)) {
+			status = 1;
+			goto out;
+		}
 	}
 	t_load = now() - t0;
 
@@ -283,54 +546,92 @@ main(int argc, char **argv)
 	ctx.max_depth = scene.integrator.max_depth;
 	ctx.rr_depth = scene.integrator.rr_depth;
 	ctx.hide_emitters = scene.integrator.hide_emitters;
-	opts.method = PM_METHOD_PATH;
-	opts.spp = cam.spp;
+	ctx.maps = map_path != NULL ? &maps : NULL;
+	memset(&opts, 0, sizeof(opts));
+	opts.method = map_path != NULL ? PM_METHOD_PHOTON : PM_METHOD_PATH;
 	opts.seed = seed;
 	opts.threads = (int)threads;
-	atomic_init(&prog.done, 0);
-	atomic_init(&prog.stop, 0);
-	prog.total = 0;
-	opts.tiles_done = &prog.done;
-	opts.tiles_total = &prog.total;
-	if (verbose >= 2)
-		fprintf(stderr, PROG ": %s: %zu shapes, %zu lights, %dx%d, %d spp, "
-		    "max_depth %d, %ld threads, loaded in %.3f s\n", scene_path,
-		    scene.nshapes, scene.nlights, cam.width, cam.height, cam.spp,
-		    ctx.max_depth, threads, t_load);
 	if (scene.nlights == 0 && verbose)
 		fprintf(stderr, PROG ": %s: warning: the scene has no lights\n",
 		    scene_path);
 
-	show_progress = verbose && isatty(STDERR_FILENO);
-	if (show_progress &&
-	    pthread_create(&prog_tid, NULL, progress_thread, &prog) != 0)
-		show_progress = 0;
-	t0 = now();
-	if (pm_render(&ctx, &cam, &opts, &img, &stats, &err) != PM_OK) {
-		fprintf(stderr, PROG ": %s\n", err.msg);
-		return 1;
+	for (ci = 0; ci < ncams && status == 0; ci++) {
+		struct pm_camera cam = scene.camera;
+		struct pm_image img = {0, 0, NULL};
+		struct progress prog;
+		pthread_t prog_tid;
+		char name[4096];
+		int show_progress;
+		double t_render;
+
+		if (have_eye || cams != &one) {
+			cam.to_world = pm_mat4_lookat(cams[ci].eye, cams[ci].target,
+			    cams[ci].up);
+			if (!scene.has_camera) {
+				cam.fov = 45.0f;
+				cam.fov_axis = PM_FOV_X;
+			}
+		}
+		if (cams[ci].fov > 0.0f)
+			cam.fov = cams[ci].fov;
+		if (fov > 0.0f)
+			cam.fov = fov;
+		if (width > 0) {
+			cam.width = width;
+			cam.height = height;
+		}
+		if (spp > 0)
+			cam.spp = (int)spp;
+		opts.spp = cam.spp;
+		output_name(out_path, ci, ncams, name, sizeof(name));
+		if (verbose >= 2)
+			fprintf(stderr, PROG ": %s: %zu shapes, %zu lights, %dx%d, %d spp, "
+			    "%s, max_depth %d, %ld threads, loaded in %.3f s\n", name,
+			    scene.nshapes, scene.nlights, cam.width, cam.height, cam.spp,
+			    map_path ? "photon map" : "path tracing", ctx.max_depth,
+			    threads, t_load);
+
+		atomic_init(&prog.done, 0);
+		atomic_init(&prog.stop, 0);
+		prog.total = 0;
+		opts.tiles_done = &prog.done;
+		opts.tiles_total = &prog.total;
+		show_progress = verbose && isatty(STDERR_FILENO);
+		if (show_progress &&
+		    pthread_create(&prog_tid, NULL, progress_thread, &prog) != 0)
+			show_progress = 0;
+		t0 = now();
+		if (pm_render(&ctx, &cam, &opts, &img, &stats, &err) != PM_OK) {
+			fprintf(stderr, PROG ": %s\n", err.msg);
+			status = 1;
+		}
+		t_render = now() - t0;
+		if (show_progress) {
+			atomic_store(&prog.stop, 1);
+			pthread_join(prog_tid, NULL);
+		}
+		if (status == 0 && pm_exr_write(name, &img, half, &err) != PM_OK) {
+			fprintf(stderr, PROG ": %s\n", err.msg);
+			status = 1;
+		}
+		if (status == 0 && verbose >= 2)
+			fprintf(stderr, PROG ": %s: rendered %llu samples in %.3f s "
+			    "(%.2f Msamples/s), %llu non-finite dropped\n", name,
+			    (unsigned long long)stats.samples, t_render,
+			    (double)stats.samples / t_render * 1e-6,
+			    (unsigned long long)stats.dropped);
+		else if (status == 0 && stats.dropped > 0 && verbose)
+			fprintf(stderr, PROG ": %s: warning: %llu non-finite samples "
+			    "dropped\n", name, (unsigned long long)stats.dropped);
+		pm_image_free(&img);
 	}
-	t_render = now() - t0;
-	if (show_progress) {
-		atomic_store(&prog.stop, 1);
-		pthread_join(prog_tid, NULL);
-	}
-	if (pm_exr_write(out_path, &img, half, &err) != PM_OK) {
-		fprintf(stderr, PROG ": %s\n", err.msg);
-		return 1;
-	}
-	if (verbose >= 2)
-		fprintf(stderr, PROG ": rendered %llu samples in %.3f s "
-		    "(%.2f Msamples/s), %llu non-finite dropped\n",
-		    (unsigned long long)stats.samples, t_render,
-		    (double)stats.samples / t_render * 1e-6,
-		    (unsigned long long)stats.dropped);
-	else if (stats.dropped > 0 && verbose)
-		fprintf(stderr, PROG ": warning: %llu non-finite samples dropped\n",
-		    (unsigned long long)stats.dropped);
-	pm_image_free(&img);
+out:
+	if (have_pmap)
+		pm_pmap_free(&pmap);
+	if (cams != &one)
+		free(cams);
 	pm_lights_free(&lights);
 	pm_accel_free(accel);
 	pm_scene_free(&scene);
-	return 0;
+	return status;
 }

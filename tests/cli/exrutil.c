@@ -10,6 +10,11 @@
  *	prints "W H meanR meanG meanB min max" with %.9g.
  *   exrutil pngstat IN.png
  *	prints "W H min max" over every byte of the decoded RGB.
+ *   exrutil relmse TEST.exr REF.exr
+ *	prints the relative mean squared error of TEST against REF, the
+ *	mean over pixels and channels of (t - r)^2 / (r^2 + 0.01), and the
+ *	relative difference of the means per channel, (mean t - mean r) /
+ *	mean r: "relmse dR dG dB".
  *
  * Exit status 0 on success, 1 on any failure (with a message on stderr).
  */
@@ -74,6 +79,35 @@ main(int argc, char **argv)
 		pm_image_free(&im);
 		return 0;
 	}
+	if (argc == 4 && strcmp(argv[1], "relmse") == 0) {
+		struct pm_image t, r;
+		double e = 0, mt[3] = {0, 0, 0}, mr[3] = {0, 0, 0};
+		size_t i, n;
+
+		if (pm_exr_read(argv[2], &t, &err) != PM_OK ||
+		    pm_exr_read(argv[3], &r, &err) != PM_OK) {
+			fprintf(stderr, "exrutil: %s\n", err.msg);
+			return 1;
+		}
+		if (t.width != r.width || t.height != r.height) {
+			fprintf(stderr, "exrutil: sizes differ\n");
+			return 1;
+		}
+		n = (size_t)t.width * (size_t)t.height * 3;
+		for (i = 0; i < n; i++) {
+			double d = (double)t.rgb[i] - r.rgb[i];
+
+			e += d * d / ((double)r.rgb[i] * r.rgb[i] + 0.01);
+			mt[i % 3] += t.rgb[i];
+			mr[i % 3] += r.rgb[i];
+		}
+		printf("%.9g %.9g %.9g %.9g\n", e / (double)n,
+		    (mt[0] - mr[0]) / mr[0], (mt[1] - mr[1]) / mr[1],
+		    (mt[2] - mr[2]) / mr[2]);
+		pm_image_free(&t);
+		pm_image_free(&r);
+		return 0;
+	}
 	if (argc == 3 && strcmp(argv[1], "pngstat") == 0) {
 		png_image img;
 		unsigned char *buf;
@@ -106,6 +140,7 @@ main(int argc, char **argv)
 		return 0;
 	}
 	fprintf(stderr, "usage: exrutil make OUT.exr W H R G B [ramp]\n"
-	    "       exrutil stat IN.exr\n       exrutil pngstat IN.png\n");
+	    "       exrutil stat IN.exr\n       exrutil pngstat IN.png\n"
+	    "       exrutil relmse TEST.exr REF.exr\n");
 	return 1;
 }

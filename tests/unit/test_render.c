@@ -81,6 +81,7 @@ furnace_build(struct furnace *f, float rho, float inner_albedo, int max_depth)
 	f->ctx.max_depth = max_depth;
 	f->ctx.rr_depth = 5;
 	f->ctx.hide_emitters = false;
+	f->ctx.maps = NULL;
 }
 
 static void

@@ -1,0 +1,299 @@
+/*
+ * integrator_pm.c: the gather pass of photon mapping (Jensen 2004, ch. 9).
+ *
+ * Along a camera path:
+ *   - emitters count where they are seen directly or through specular
+ *     surfaces (and, with MIS, after glossy ones);
+ *   - specular (delta) components are followed recursively, choosing
+ *     reflection or refraction by Fresnel weight;
+ *   - glossy surfaces (rough conductors) are path traced: light sampling
+ *     and BSDF sampling with multiple importance sampling;
+ *   - at a diffuse surface the path ends with four estimates:
+ *       direct light, exactly, from `direct_samples` light samples;
+ *       caustics (light, specular+, here) from the caustic map with a cone
+ *       filter (k = 1.1, normalised);
+ *       the rest of the indirect light, either from the global map's
+ *       photons that had a non-specular bounce before arriving (so neither
+ *       direct light nor caustics count twice), or by final gathering:
+ *       BSDF-sampled rays whose hits are looked up in the whole global map.
+ *
+ * Radiance estimate: the k nearest photons within the maximum radius, each
+ * weighted by the BSDF for its incident direction, over the disc area
+ * pi r^2, r the distance to the k-th photon (or the maximum radius when
+ * fewer were found).
+ */
+#include <math.h>
+
+#include "kdtree.h"
+#include "render.h"
+
+#define CONE_K 1.1f
+
+static bool
+has_nonspecular(const struct pm_bsdf *b)
+{
+	return b->type != PM_BSDF_NULL &&
+	    (b->lobes & (PM_LOBE_DIFFUSE | PM_LOBE_GLOSSY | PM_LOBE_GLOSSY_TRANSMISSION));
+}
+
+/* Rough conductors are traced rather than estimated: photon density
+ * estimates blur glossy reflections beyond use. */
+static bool
+is_glossy(const struct pm_bsdf *b)
+{
+	return b->type == PM_BSDF_ROUGHCONDUCTOR;
+}
+
+static inline float
+power_heuristic(float a, float b)
+{
+	float a2 = a * a, b2 = b * b;
+
+	if (isinf(a2))
+		return 1.0f;
+	return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;
+}
+
+/* Radiance towards wi_local from photons near p (see the top of the file). */
+static struct pm_rgb
+estimate(const struct pm_photon *ph, size_t n, float scale, float max_r2, int k,
+    uint8_t mask, uint8_t want, bool cone, const struct pm_bsdf *b,
+    struct pm_vec3 p, struct pm_frame fr, struct pm_vec3 wi_local)
+{
+	struct pm_knn nb[PM_MAX_LOOKUP];
+	float q[3] = {p.x, p.y, p.z}, r2, r, w;
+	struct pm_rgb sum = pm_rgb1(0.0f);
+	size_t found, i;
+
+	if (n == 0 || max_r2 <= 0.0f)
+		return sum;
+	found = pm_kdtree_knn(ph, n, q, (size_t)k, max_r2, mask, want, nb);
+	if (found == 0)
+		return sum;
+	r2 = found == (size_t)k ? nb[0].d2 : max_r2;
+	if (!(r2 > 0.0f))
+		return sum;
+	r = sqrtf(r2);
+	for (i = 0; i < found; i++) {
+		const struct pm_photon *x = &ph[nb[i].idx];
+		struct pm_vec3 wo = pm_to_local(fr, pm_dir_unpack(x->dir));
+		struct pm_rgb f;
+
+		if (fabsf(wo.z) < 1e-4f)
+			continue;
+		f = pm_bsdf_eval(b, wi_local, wo, PM_RADIANCE);
+		if (pm_rgb_is_black(f))
+			continue;
+		w = 1.0f / fabsf(wo.z);
+		if (cone)
+			w *= 1.0f - sqrtf(nb[i].d2) / (CONE_K * r);
+		sum = pm_rgb_madd(sum, pm_rgb_scale(f, w), pm_rgbe_unpack(x->power));
+	}
+	w = scale / (PM_PI * r2);
+	if (cone)
+		w /= 1.0f - 2.0f / (3.0f * CONE_K);
+	return pm_rgb_scale(sum, w);
+}
+
+/* Direct light at a non-specular hit: the mean of n light samples. */
+static struct pm_rgb
+direct_light(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
+    const struct pm_hit *h, struct pm_frame fr, struct pm_vec3 wi_local, int n,
+    bool mis, struct pm_rng *rng)
+{
+	struct pm_rgb L = pm_rgb1(0.0f);
+	int i;
+
+	for (i = 0; i < n; i++) {
+		struct pm_light_sample ls;
+		struct pm_vec3 wo, o;
+		struct pm_rgb f;
+		float u0 = pm_rng_float(rng), u1 = pm_rng_float(rng);
+		float u2 = pm_rng_float(rng), tmax, w;
+
+		if (!pm_lights_sample(ctx->lights, ctx->scene, h->p, u0, u1, u2, &ls))
+			continue;
+		wo = pm_to_local(fr, ls.wi);
+		f = pm_bsdf_eval(b, wi_local, wo, PM_RADIANCE);
+		if (pm_rgb_is_black(f))
+			continue;
+		o = pm_offset_origin(h->p, h->ng, ls.wi);
+		tmax = isinf(ls.dist) ? INFINITY : ls.dist * (1.0f - 1e-4f);
+		if (pm_accel_occluded(ctx->accel, o, ls.wi, 0.0f, tmax))
+			continue;
+		w = ls.delta || !mis ? 1.0f :
+		    power_heuristic(ls.pdf, pm_bsdf_pdf(b, wi_local, wo));
+		L = pm_rgb_madd(L, f, pm_rgb_scale(ls.value, w / ls.pdf));
+	}
+	return pm_rgb_scale(L, 1.0f / (float)n);
+}
+
+/* Radiance leaving the first non-specular surface along a gather ray, from
+ * the whole global map; specular surfaces on the way are followed. */
+static struct pm_rgb
+gather_ray(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
+    struct pm_rng *rng)
+{
+	const struct pm_photon_maps *m = ctx->maps;
+	const struct pm_scene *s = ctx->scene;
+	struct pm_rgb beta = pm_rgb1(1.0f);
+	int bounce;
+
+	for (bounce = 0; bounce < 16; bounce++) {
+		struct pm_hit h;
+		const struct pm_bsdf *b;
+		struct pm_frame fr;
+		struct pm_vec3 wi;
+		struct pm_bsdf_sample bs;
+		float u1, u2, u3;
+
+		if (!pm_accel_intersect(ctx->accel, o, d, 0.0f, INFINITY, &h))
+			break;
+		b = &s->bsdfs[s->shapes[h.shape].bsdf];
+		fr = pm_frame_from_normal(h.ns);
+		wi = pm_to_local(fr, pm_neg(d));
+		if (has_nonspecular(b))
+			return pm_rgb_mul(beta, estimate(m->global, m->nglobal,
+			    m->global_scale, m->global_r2, m->lookup_size, 0, 0, false,
+			    b, h.p, fr, wi));
+		u1 = pm_rng_float(rng);
+		u2 = pm_rng_float(rng);
+		u3 = pm_rng_float(rng);
+		if (!pm_bsdf_sample(b, wi, u1, u2, u3, PM_RADIANCE, &bs))
+			break;
+		beta = pm_rgb_mul(beta, bs.weight);
+		d = pm_normalize(pm_to_world(fr, bs.wo));
+		o = pm_offset_origin(h.p, h.ng, d);
+	}
+	return pm_rgb1(0.0f);
+}
+
+/* Indirect light at a diffuse hit by final gathering: BSDF-sampled rays;
+ * samples of a specular lobe are left to the specular recursion. */
+static struct pm_rgb
+final_gather(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
+    const struct pm_hit *h, struct pm_frame fr, struct pm_vec3 wi_local,
+    struct pm_rng *rng)
+{
+	int i, n = ctx->maps->final_gather_samples;
+	struct pm_rgb L = pm_rgb1(0.0f);
+
+	for (i = 0; i < n; i++) {
+		struct pm_bsdf_sample bs;
+		struct pm_vec3 d;
+		float u1 = pm_rng_float(rng), u2 = pm_rng_float(rng);
+		float u3 = pm_rng_float(rng);
+
+		if (!pm_bsdf_sample(b, wi_local, u1, u2, u3, PM_RADIANCE, &bs) ||
+		    (bs.lobe & PM_LOBE_DELTA))
+			continue;
+		d = pm_normalize(pm_to_world(fr, bs.wo));
+		L = pm_rgb_madd(L, bs.weight, gather_ray(ctx,
+		    pm_offset_origin(h->p, h->ng, d), d, rng));
+	}
+	return pm_rgb_scale(L, 1.0f / (float)n);
+}
+
+struct pm_rgb
+pm_photon_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
+    float tmin, float tmax, struct pm_rng *rng)
+{
+	const struct pm_scene *s = ctx->scene;
+	const struct pm_photon_maps *m = ctx->maps;
+	struct pm_rgb L = pm_rgb1(0.0f), beta = pm_rgb1(1.0f);
+	struct pm_vec3 prev_p = o;
+	float prev_pdf = 1.0f, eta_scale = 1.0f;
+	bool prev_delta = true;
+	int depth;
+
+	for (depth = 1;; depth++) {
+		struct pm_hit h;
+		const struct pm_shape *sh;
+		const struct pm_bsdf *b;
+		struct pm_bsdf_sample bs;
+		struct pm_frame fr;
+		struct pm_vec3 wi;
+		float u1, u2, u3;
+
+		if (!pm_accel_intersect(ctx->accel, o, d, tmin, tmax, &h)) {
+			if (s->env_light >= 0 && !(depth == 1 && ctx->hide_emitters)) {
+				float w = prev_delta ? 1.0f : power_heuristic(prev_pdf,
+				    pm_lights_pdf_env(ctx->lights, s));
+
+				L = pm_rgb_madd(L, beta, pm_rgb_scale(
+				    s->lights[s->env_light].radiance, w));
+			}
+			break;
+		}
+		sh = &s->shapes[h.shape];
+		if (sh->light >= 0 && !(depth == 1 && ctx->hide_emitters)) {
+			struct pm_rgb Le = pm_area_emitted(&s->lights[sh->light],
+			    h.ns, pm_neg(d));
+
+			if (!pm_rgb_is_black(Le)) {
+				float w = prev_delta ? 1.0f : power_heuristic(prev_pdf,
+				    pm_lights_pdf_area(ctx->lights, s, sh->light,
+				    prev_p, h.p, h.ng));
+
+				L = pm_rgb_madd(L, beta, pm_rgb_scale(Le, w));
+			}
+		}
+		if (ctx->max_depth >= 0 && depth >= ctx->max_depth)
+			break;
+		b = &s->bsdfs[sh->bsdf];
+		fr = pm_frame_from_normal(h.ns);
+		wi = pm_to_local(fr, pm_neg(d));
+
+		if (is_glossy(b)) {
+			/* Path traced: light sampling here, BSDF sampling on. */
+			L = pm_rgb_madd(L, beta, direct_light(ctx, b, &h, fr, wi,
+			    1, true, rng));
+		} else if (has_nonspecular(b)) {
+			struct pm_rgb E = direct_light(ctx, b, &h, fr, wi,
+			    m->direct_samples, false, rng);
+
+			E = pm_rgb_add(E, estimate(m->caustic, m->ncaustic,
+			    m->caustic_scale, m->caustic_r2, m->lookup_size, 0, 0, true,
+			    b, h.p, fr, wi));
+			if (m->final_gather)
+				E = pm_rgb_add(E, final_gather(ctx, b, &h, fr, wi, rng));
+			else
+				E = pm_rgb_add(E, estimate(m->global, m->nglobal,
+				    m->global_scale, m->global_r2, m->lookup_size,
+				    PM_PHOTON_VIA_DIFFUSE, PM_PHOTON_VIA_DIFFUSE, false,
+				    b, h.p, fr, wi));
+			L = pm_rgb_madd(L, beta, E);
+			if (!(b->lobes & PM_LOBE_DELTA))
+				break;
+		}
+
+		u1 = pm_rng_float(rng);
+		u2 = pm_rng_float(rng);
+		u3 = pm_rng_float(rng);
+		if (!pm_bsdf_sample(b, wi, u1, u2, u3, PM_RADIANCE, &bs))
+			break;
+		/* At a diffuse surface with a specular coating only the
+		 * coating goes on; its weight already holds 1/P(coating). */
+		if (!is_glossy(b) && !(bs.lobe & PM_LOBE_DELTA))
+			break;
+		beta = pm_rgb_mul(beta, bs.weight);
+		if (pm_rgb_is_black(beta))
+			break;
+		eta_scale *= bs.eta * bs.eta;
+		prev_p = h.p;
+		prev_pdf = bs.pdf;
+		prev_delta = (bs.lobe & PM_LOBE_DELTA) != 0;
+		d = pm_normalize(pm_to_world(fr, bs.wo));
+		o = pm_offset_origin(h.p, h.ng, d);
+		tmin = 0.0f;
+		tmax = INFINITY;
+		if (depth >= ctx->rr_depth) {
+			float q = fminf(pm_rgb_max(beta) * eta_scale, 0.95f);
+
+			if (!(pm_rng_float(rng) < q))
+				break;
+			beta = pm_rgb_scale(beta, 1.0f / q);
+		}
+	}
+	return L;
+}

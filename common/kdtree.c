@@ -1,0 +1,718 @@
+/*
+ * kdtree.c: building and querying the implicit, balanced photon kd-tree
+ * described in kdtree.h.
+ *
+ * The build splits each index range at its median along the axis of
+ * largest extent of the range's bounding box.  The median is found by an
+ * iterative introselect: median-of-3 (ninther for large ranges) pivots and
+ * a three-way partition, so that ranges full of equal keys (every photon on
+ * one point, plane or line) cost one pass instead of degrading to
+ * quadratic time, with a heapsort fallback bounding the worst case at
+ * O(n log n).  Subtrees are independent once their parent is split, so
+ * large ones are handed to idle threads; each range is processed by the
+ * same deterministic code whichever thread runs it, so the result does not
+ * depend on the thread count.
+ *
+ * Queries descend iteratively with a small stack of deferred far children
+ * and scan small ranges (contiguous records) linearly, which is faster than
+ * branching on the last few levels.  k-nearest queries prune a far child
+ * by the squared distance from q to its cell, kept incrementally per axis
+ * (Arya and Mount 1993), radius queries by the distance to the splitting
+ * plane.  Squared distances are computed everywhere as dx*dx + dy*dy +
+ * dz*dz in float, so results compare exactly with brute force, and both
+ * bounds are true lower bounds in float arithmetic too (rounding is
+ * monotonic), so pruning never loses a neighbour at the boundary.
+ */
+#include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdint.h>
+#include <string.h>
+
+#include "kdtree.h"
+
+/*
+ * Ranges this small are scanned rather than descended by queries: a scan
+ * of contiguous records beats the branches, up to a point (measured: 32
+ * to 64 is best for k = 50..200 on a million photons).
+ */
+#ifndef KD_BUCKET
+#define KD_BUCKET	48
+#endif
+/* Tree height is at most 33 for n < 2^32; one deferred child per level. */
+#define KD_STACK	64
+/* Selection sorts ranges this small by insertion. */
+#define SELECT_SMALL	12
+/* Ranges below this size are not worth a thread of their own. */
+#define BUILD_SPAWN_MIN	8192
+#define BUILD_MAX_THREADS 256
+
+static inline float
+kd_dist2(const float a[3], const float q[3])
+{
+	float dx = a[0] - q[0], dy = a[1] - q[1], dz = a[2] - q[2];
+
+	return dx * dx + dy * dy + dz * dz;
+}
+
+static inline void
+ph_swap(struct pm_photon *a, struct pm_photon *b)
+{
+	struct pm_photon t = *a;
+
+	*a = *b;
+	*b = t;
+}
+
+/* Index of a median of three keys (any of the three when some are NaN). */
+static inline ptrdiff_t
+med3(const struct pm_photon *p, ptrdiff_t i, ptrdiff_t j, ptrdiff_t k,
+    int ax)
+{
+	float a = p[i].pos[ax], b = p[j].pos[ax], c = p[k].pos[ax];
+
+	if (a < b) {
+		if (b < c)
+			return j;
+		return a < c ? k : i;
+	}
+	if (a < c)
+		return i;
+	return b < c ? k : j;
+}
+
+static void
+insertion_sort(struct pm_photon *p, ptrdiff_t lo, ptrdiff_t hi, int ax)
+{
+	ptrdiff_t i, j;
+
+	for (i = lo + 1; i < hi; i++) {
+		struct pm_photon t = p[i];
+		float v = t.pos[ax];
+
+		for (j = i; j > lo && p[j - 1].pos[ax] > v; j--)
+			p[j] = p[j - 1];
+		p[j] = t;
+	}
+}
+
+static void
+sift_down_key(struct pm_photon *p, ptrdiff_t root, ptrdiff_t n, int ax)
+{
+	for (;;) {
+		ptrdiff_t c = 2 * root + 1;
+
+		if (c >= n)
+			return;
+		if (c + 1 < n && p[c + 1].pos[ax] > p[c].pos[ax])
+			c++;
+		if (!(p[c].pos[ax] > p[root].pos[ax]))
+			return;
+		ph_swap(&p[root], &p[c]);
+		root = c;
+	}
+}
+
+/* The introselect fallback: O(n log n) whatever the data. */
+static void
+heap_sort_key(struct pm_photon *p, ptrdiff_t n, int ax)
+{
+	ptrdiff_t i;
+
+	for (i = n / 2; i-- > 0;)
+		sift_down_key(p, i, n, ax);
+	for (i = n - 1; i > 0; i--) {
+		ph_swap(&p[0], &p[i]);
+		sift_down_key(p, 0, i, ax);
+	}
+}
+
+static void
+swap_blocks(struct pm_photon *p, ptrdiff_t a, ptrdiff_t b, ptrdiff_t len)
+{
+	while (len-- > 0)
+		ph_swap(&p[a++], &p[b++]);
+}
+
+/*
+ * Bentley-McIlroy three-way partition of [lo, hi) around v: afterwards
+ * [lo, *lt) < v, [*lt, *gt) == v, [*gt, hi) > v.  Equal keys are parked at
+ * both ends during the scan and swapped to the middle at the end.
+ */
+static void
+partition3(struct pm_photon *p, ptrdiff_t lo, ptrdiff_t hi, float v, int ax,
+    ptrdiff_t *lt, ptrdiff_t *gt)
+{
+	ptrdiff_t a = lo, b = lo, c = hi - 1, d = hi - 1, s, less, greater;
+	float x;
+
+	for (;;) {
+		while (b <= c && (x = p[b].pos[ax]) <= v) {
+			if (x == v)
+				ph_swap(&p[a++], &p[b]);
+			b++;
+		}
+		while (c >= b && (x = p[c].pos[ax]) >= v) {
+			if (x == v)
+				ph_swap(&p[c], &p[d--]);
+			c--;
+		}
+		if (b > c)
+			break;
+		ph_swap(&p[b++], &p[c--]);
+	}
+	/* Equal keys from both ends to the middle: [lo, a) swaps with the
+	 * tail of the "less" block [a, b), (d, hi) with the head of the
+	 * "greater" block [b, d]. */
+	less = b - a;
+	greater = d + 1 - b;
+	s = a - lo < less ? a - lo : less;
+	swap_blocks(p, lo, b - s, s);
+	s = hi - 1 - d < greater ? hi - 1 - d : greater;
+	swap_blocks(p, b, hi - s, s);
+	*lt = lo + less;
+	*gt = b + (hi - 1 - d);
+}
+
+static int
+floor_log2(size_t x)
+{
+	int r = 0;
+
+	while (x >>= 1)
+		r++;
+	return r;
+}
+
+/*
+ * Rearranges [lo, hi) so that p[k] holds the key it would hold if sorted,
+ * everything before it <= and everything after it >= (by pos[ax]).
+ */
+static void
+select_kth(struct pm_photon *p, ptrdiff_t lo, ptrdiff_t hi, ptrdiff_t k,
+    int ax)
+{
+	int budget = 2 * floor_log2((size_t)(hi - lo)) + 8;
+
+	while (hi - lo > SELECT_SMALL) {
+		ptrdiff_t n = hi - lo, mid = lo + n / 2, lt, gt, pv;
+
+		if (budget-- == 0) {
+			heap_sort_key(p + lo, n, ax);
+			return;
+		}
+		if (n >= 512) {
+			ptrdiff_t s = n / 8;
+
+			pv = med3(p, med3(p, lo, lo + s, lo + 2 * s, ax),
+			    med3(p, mid - s, mid, mid + s, ax),
+			    med3(p, hi - 1 - 2 * s, hi - 1 - s, hi - 1, ax), ax);
+		} else
+			pv = med3(p, lo, mid, hi - 1, ax);
+		partition3(p, lo, hi, p[pv].pos[ax], ax, &lt, &gt);
+		if (k < lt)
+			hi = lt;
+		else if (k >= gt)
+			lo = gt;
+		else
+			return;
+	}
+	insertion_sort(p, lo, hi, ax);
+}
+
+/* The axis of largest extent of the bounding box of [lo, hi). */
+static int
+widest_axis(const struct pm_photon *p, size_t lo, size_t hi)
+{
+	float mn[3], mx[3], e0, e1, e2;
+	size_t i;
+	int a;
+
+	for (a = 0; a < 3; a++)
+		mn[a] = mx[a] = p[lo].pos[a];
+	for (i = lo + 1; i < hi; i++) {
+		for (a = 0; a < 3; a++) {
+			float v = p[i].pos[a];
+
+			mn[a] = v < mn[a] ? v : mn[a];
+			mx[a] = v > mx[a] ? v : mx[a];
+		}
+	}
+	e0 = mx[0] - mn[0];
+	e1 = mx[1] - mn[1];
+	e2 = mx[2] - mn[2];
+	if (e0 >= e1 && e0 >= e2)
+		return 0;
+	return e1 >= e2 ? 1 : 2;
+}
+
+static inline void
+set_axis(struct pm_photon *ph, int axis)
+{
+	ph->flags = (uint8_t)((ph->flags & ~PM_KD_AXIS_MASK) | axis);
+}
+
+/*
+ * Threads are lent to the build by a counter of idle ones: a split of a
+ * large range takes one if any is free and hands it the left half.  A
+ * thread that waits for its helper gives its place back meanwhile, so that
+ * a core never idles while some range is still unsplit.
+ */
+struct build_ctx {
+	struct pm_photon *p;
+	atomic_int idle;
+};
+
+struct build_job {
+	struct build_ctx *ctx;
+	size_t lo, hi;
+};
+
+static void build_range(struct build_ctx *, size_t, size_t);
+
+static bool
+take_thread(struct build_ctx *c)
+{
+	int v = atomic_load(&c->idle);
+
+	while (v > 0)
+		if (atomic_compare_exchange_weak(&c->idle, &v, v - 1))
+			return true;
+	return false;
+}
+
+static void *
+build_thread(void *arg)
+{
+	struct build_job *j = arg;
+
+	build_range(j->ctx, j->lo, j->hi);
+	atomic_fetch_add(&j->ctx->idle, 1);
+	return NULL;
+}
+
+/*
+ * Builds the subtree over [lo, hi), lending its left half to another
+ * thread when one is idle.  Recursion depth is the tree height, at most
+ * 33.  Every range is split by the same code whichever thread runs it, so
+ * the result does not depend on how the threads were lent.
+ */
+static void
+build_range(struct build_ctx *c, size_t lo, size_t hi)
+{
+	struct pm_photon *p = c->p;
+
+	while (hi - lo > 1) {
+		size_t m = lo + (hi - lo) / 2;
+		int ax = widest_axis(p, lo, hi);
+
+		select_kth(p, (ptrdiff_t)lo, (ptrdiff_t)hi, (ptrdiff_t)m, ax);
+		set_axis(&p[m], ax);
+		if (hi - lo >= BUILD_SPAWN_MIN && take_thread(c)) {
+			struct build_job j = { c, lo, m };
+			pthread_t t;
+
+			if (pthread_create(&t, NULL, build_thread, &j) == 0) {
+				build_range(c, m + 1, hi);
+				/* Idle while joining: lend this place. */
+				atomic_fetch_add(&c->idle, 1);
+				pthread_join(t, NULL);
+				atomic_fetch_sub(&c->idle, 1);
+				return;
+			}
+			/* No thread after all: carry on alone. */
+			atomic_fetch_add(&c->idle, 1);
+		}
+		/* Recurse on the left, loop on the right. */
+		build_range(c, lo, m);
+		lo = m + 1;
+	}
+	if (hi - lo == 1)
+		set_axis(&p[lo], PM_KD_LEAF);
+}
+
+/* Balances p[0..n) in place into the implicit layout of kdtree.h. */
+enum pm_err
+pm_kdtree_build(struct pm_photon *p, size_t n, int threads,
+    struct pm_error *err)
+{
+	struct build_ctx c;
+
+	if ((uint64_t)n >= (uint64_t)1 << 32)
+		return pm_fail(err, PM_ERR_LIMIT,
+		    "kdtree: %zu photons, expected fewer than 2^32", n);
+	if (n == 0)
+		return PM_OK;
+	if (threads < 1)
+		threads = 1;
+	if (threads > BUILD_MAX_THREADS)
+		threads = BUILD_MAX_THREADS;
+	c.p = p;
+	atomic_init(&c.idle, threads - 1);
+	build_range(&c, 0, n);
+	return PM_OK;
+}
+
+/*
+ * The largest float strictly below w (w >= 0), so that "d2 < w" becomes
+ * "d2 <= below(w)" and one inclusive test serves before and after the
+ * heap is full.
+ */
+static inline float
+below(float w)
+{
+	uint32_t u;
+
+	if (!(w > 0.0f))
+		return -1.0f;
+	memcpy(&u, &w, sizeof(u));
+	u--;
+	memcpy(&w, &u, sizeof(w));
+	return w;
+}
+
+/* Adds (d2, idx) to the max-heap h[0..cnt), which has room for it. */
+static inline void
+heap_push(struct pm_knn *h, size_t cnt, float d2, uint32_t idx)
+{
+	size_t i = cnt;
+
+	while (i > 0) {
+		size_t up = (i - 1) / 2;
+
+		if (!(h[up].d2 < d2))
+			break;
+		h[i] = h[up];
+		i = up;
+	}
+	h[i].d2 = d2;
+	h[i].idx = idx;
+}
+
+/* Replaces the top of the max-heap h[0..cnt) with (d2, idx). */
+static inline void
+heap_replace(struct pm_knn *h, size_t cnt, float d2, uint32_t idx)
+{
+	size_t i = 0;
+
+	for (;;) {
+		size_t c = 2 * i + 1;
+
+		if (c >= cnt)
+			break;
+		if (c + 1 < cnt && h[c + 1].d2 > h[c].d2)
+			c++;
+		if (!(h[c].d2 > d2))
+			break;
+		h[i] = h[c];
+		i = c;
+	}
+	h[i].d2 = d2;
+	h[i].idx = idx;
+}
+
+/* A deferred far child of a radius query. */
+struct kd_frame {
+	uint32_t lo, hi;
+};
+
+/*
+ * A deferred far child of a k-nearest query, with the distances from q to
+ * its cell along each axis (each one a lower bound on |q - photon| there,
+ * in float as well, since rounding is monotonic) and the squared distance
+ * they bound, summed in the same order as kd_dist2 so that it never
+ * exceeds the float distance of any photon in the cell.
+ */
+struct kd_iframe {
+	uint32_t lo, hi;
+	float d2, off[3];
+};
+
+/* The k-nearest search state, kept in registers by inlining. */
+struct knn_state {
+	struct pm_knn *out;
+	size_t k, cnt;
+	float lim;
+};
+
+static inline void
+knn_offer(struct knn_state *s, float d2, uint32_t idx)
+{
+	if (s->cnt < s->k) {
+		heap_push(s->out, s->cnt++, d2, idx);
+		if (s->cnt == s->k)
+			s->lim = below(s->out[0].d2);
+	} else {
+		heap_replace(s->out, s->cnt, d2, idx);
+		s->lim = below(s->out[0].d2);
+	}
+}
+
+/* The k nearest photons to q within max_d2 passing the flag filter. */
+size_t
+pm_kdtree_knn(const struct pm_photon *p, size_t n, const float q[3],
+    size_t k, float max_d2, uint8_t mask, uint8_t want, struct pm_knn *out)
+{
+	struct kd_iframe st[KD_STACK];
+	struct knn_state s;
+	size_t sp = 0;
+	uint32_t lo, hi, i;
+	float off[3] = { 0.0f, 0.0f, 0.0f };
+
+	if (n == 0 || k == 0 || (uint64_t)n > UINT32_MAX || !(max_d2 >= 0.0f))
+		return 0;
+	s.out = out;
+	s.k = k;
+	s.cnt = 0;
+	s.lim = max_d2;
+	lo = 0;
+	hi = (uint32_t)n;
+	for (;;) {
+		while (hi - lo > KD_BUCKET) {
+			uint32_t m = lo + (hi - lo) / 2;
+			const struct pm_photon *ph = &p[m];
+			int ax = ph->flags & PM_KD_AXIS_MASK;
+			float d2 = kd_dist2(ph->pos, q), diff, dd, o[3];
+
+			if (d2 <= s.lim && (ph->flags & mask) == want)
+				knn_offer(&s, d2, m);
+			/* A leaf mark here means a corrupt tree: stay in
+			 * bounds, the answer is wrong anyway. */
+			ax = ax > 2 ? 2 : ax;
+			diff = q[ax] - ph->pos[ax];
+			o[0] = off[0];
+			o[1] = off[1];
+			o[2] = off[2];
+			o[ax] = fabsf(diff);
+			dd = o[0] * o[0] + o[1] * o[1] + o[2] * o[2];
+			if (dd <= s.lim) {
+				st[sp].lo = diff < 0.0f ? m + 1 : lo;
+				st[sp].hi = diff < 0.0f ? hi : m;
+				st[sp].d2 = dd;
+				st[sp].off[0] = o[0];
+				st[sp].off[1] = o[1];
+				st[sp].off[2] = o[2];
+				sp++;
+			}
+			if (diff < 0.0f)
+				hi = m;
+			else
+				lo = m + 1;
+		}
+		for (i = lo; i < hi; i++) {
+			float d2 = kd_dist2(p[i].pos, q);
+
+			if (d2 <= s.lim && (p[i].flags & mask) == want)
+				knn_offer(&s, d2, i);
+		}
+		for (;;) {
+			if (sp == 0)
+				return s.cnt;
+			sp--;
+			if (st[sp].d2 <= s.lim)
+				break;
+		}
+		lo = st[sp].lo;
+		hi = st[sp].hi;
+		off[0] = st[sp].off[0];
+		off[1] = st[sp].off[1];
+		off[2] = st[sp].off[2];
+	}
+}
+
+static inline int
+knn_less(const struct pm_knn *a, const struct pm_knn *b)
+{
+	return a->d2 < b->d2 || (a->d2 == b->d2 && a->idx < b->idx);
+}
+
+static void
+knn_sift(struct pm_knn *r, size_t i, size_t n)
+{
+	struct pm_knn t = r[i];
+
+	for (;;) {
+		size_t c = 2 * i + 1;
+
+		if (c >= n)
+			break;
+		if (c + 1 < n && knn_less(&r[c], &r[c + 1]))
+			c++;
+		if (!knn_less(&t, &r[c]))
+			break;
+		r[i] = r[c];
+		i = c;
+	}
+	r[i] = t;
+}
+
+/* Sorts neighbours by increasing distance, then index (heapsort). */
+void
+pm_knn_sort(struct pm_knn *r, size_t count)
+{
+	size_t i;
+
+	for (i = count / 2; i-- > 0;)
+		knn_sift(r, i, count);
+	for (i = count; i-- > 1;) {
+		struct pm_knn t = r[0];
+
+		r[0] = r[i];
+		r[i] = t;
+		knn_sift(r, 0, i);
+	}
+}
+
+/* Every photon within max_d2 of q passing the filter; the total count. */
+size_t
+pm_kdtree_radius(const struct pm_photon *p, size_t n, const float q[3],
+    float max_d2, uint8_t mask, uint8_t want, struct pm_knn *out, size_t cap)
+{
+	struct kd_frame st[KD_STACK];
+	size_t sp = 0, cnt = 0;
+	uint32_t lo, hi, i;
+
+	if (n == 0 || (uint64_t)n > UINT32_MAX || !(max_d2 >= 0.0f))
+		return 0;
+	lo = 0;
+	hi = (uint32_t)n;
+	for (;;) {
+		while (hi - lo > KD_BUCKET) {
+			uint32_t m = lo + (hi - lo) / 2;
+			const struct pm_photon *ph = &p[m];
+			int ax = ph->flags & PM_KD_AXIS_MASK;
+			float d2 = kd_dist2(ph->pos, q), diff, dd;
+
+			if (d2 <= max_d2 && (ph->flags & mask) == want) {
+				if (cnt < cap) {
+					out[cnt].d2 = d2;
+					out[cnt].idx = m;
+				}
+				cnt++;
+			}
+			ax = ax > 2 ? 2 : ax;
+			diff = q[ax] - ph->pos[ax];
+			dd = diff * diff;
+			if (diff < 0.0f) {
+				if (dd <= max_d2) {
+					st[sp].lo = m + 1;
+					st[sp++].hi = hi;
+				}
+				hi = m;
+			} else {
+				if (dd <= max_d2) {
+					st[sp].lo = lo;
+					st[sp++].hi = m;
+				}
+				lo = m + 1;
+			}
+		}
+		for (i = lo; i < hi; i++) {
+			float d2 = kd_dist2(p[i].pos, q);
+
+			if (d2 <= max_d2 && (p[i].flags & mask) == want) {
+				if (cnt < cap) {
+					out[cnt].d2 = d2;
+					out[cnt].idx = i;
+				}
+				cnt++;
+			}
+		}
+		if (sp == 0)
+			return cnt;
+		sp--;
+		lo = st[sp].lo;
+		hi = st[sp].hi;
+	}
+}
+
+/*
+ * The box every photon of a subtree must lie in, from its ancestors'
+ * splits, with the ancestor that set each face (SIZE_MAX: none).
+ */
+struct kd_bounds {
+	float lo[3], hi[3];
+	size_t lo_src[3], hi_src[3];
+};
+
+static void
+note_bad(size_t *worst, size_t idx)
+{
+	if (idx < *worst)
+		*worst = idx;
+}
+
+/*
+ * Checks [lo, hi) against b.  Each photon is compared once with the box
+ * its ancestors impose, which is the same as comparing each node with
+ * every photon of its subtrees, in O(n).  A photon outside the box blames
+ * the ancestor whose face it crosses (the tightest on that axis), a wrong
+ * leaf or inner-node mark blames the node itself; *bad keeps the lowest
+ * index blamed.
+ */
+static void
+verify_range(const struct pm_photon *p, size_t lo, size_t hi,
+    struct kd_bounds b, size_t *bad)
+{
+	while (hi > lo) {
+		size_t m = lo + (hi - lo) / 2;
+		const struct pm_photon *ph = &p[m];
+		int ax = ph->flags & PM_KD_AXIS_MASK, a;
+		struct kd_bounds lb;
+
+		for (a = 0; a < 3; a++) {
+			if (!(ph->pos[a] >= b.lo[a]))
+				note_bad(bad, b.lo_src[a] == SIZE_MAX ? m :
+				    b.lo_src[a]);
+			if (!(ph->pos[a] <= b.hi[a]))
+				note_bad(bad, b.hi_src[a] == SIZE_MAX ? m :
+				    b.hi_src[a]);
+		}
+		if (hi - lo == 1) {
+			if (ax != PM_KD_LEAF)
+				note_bad(bad, m);
+			return;
+		}
+		if (ax == PM_KD_LEAF) {
+			note_bad(bad, m);
+			return;
+		}
+		lb = b;
+		if (!(ph->pos[ax] >= lb.hi[ax])) {
+			lb.hi[ax] = ph->pos[ax];
+			lb.hi_src[ax] = m;
+		}
+		if (!(ph->pos[ax] <= b.lo[ax])) {
+			b.lo[ax] = ph->pos[ax];
+			b.lo_src[ax] = m;
+		}
+		verify_range(p, lo, m, lb, bad);
+		lo = m + 1;
+	}
+}
+
+/* True if every node's ordering invariant holds; else *bad names one. */
+bool
+pm_kdtree_verify(const struct pm_photon *p, size_t n, size_t *bad)
+{
+	struct kd_bounds b;
+	size_t worst = SIZE_MAX;
+	int a;
+
+	if ((uint64_t)n > UINT32_MAX) {
+		if (bad != NULL)
+			*bad = 0;
+		return false;
+	}
+	for (a = 0; a < 3; a++) {
+		b.lo[a] = -INFINITY;
+		b.hi[a] = INFINITY;
+		b.lo_src[a] = b.hi_src[a] = SIZE_MAX;
+	}
+	verify_range(p, 0, n, b, &worst);
+	if (worst == SIZE_MAX)
+		return true;
+	if (bad != NULL)
+		*bad = worst;
+	return false;
+}

@@ -1,0 +1,66 @@
+/*
+ * kdtree.h: balanced kd-trees over photons, stored as an implicit array.
+ *
+ * Layout: the subtree over the index range [lo, hi) has its root at
+ * m = lo + (hi - lo) / 2, its left subtree over [lo, m) and its right
+ * subtree over [m + 1, hi).  Every photon in the left subtree has
+ * pos[axis] <= the root's, every one in the right subtree >= it, where axis
+ * is stored in the root's flags (PM_KD_AXIS_MASK; PM_KD_LEAF for a range of
+ * one).  No pointers, no padding: the photons themselves are the tree.
+ * The split axis is the one of largest extent, the split the median,
+ * found by selection (expected linear time) rather than sorting.
+ *
+ * Queries allocate nothing and keep their state on the caller's stack, so
+ * any number of threads may query one tree.
+ */
+#ifndef PM_KDTREE_H
+#define PM_KDTREE_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "error.h"
+#include "photon.h"
+
+/* One neighbour: the photon's index in the tree and its squared distance. */
+struct pm_knn {
+	float d2;
+	uint32_t idx;
+};
+
+/*
+ * Reorders p[0..n) in place into the balanced layout and sets each
+ * photon's split axis.  Uses up to `threads` threads for the upper levels.
+ * Fails only for n >= 2^32 (indices are 32-bit) or out of memory.
+ */
+enum pm_err pm_kdtree_build(struct pm_photon *p, size_t n, int threads,
+    struct pm_error *err);
+
+/*
+ * The k nearest photons to q within squared distance max_d2 whose flags
+ * satisfy (flags & mask) == want.  Results go into out[0..k) as a max-heap
+ * on d2 (out[0] is the farthest found); returns how many were found.
+ * Ties at equal distance are broken arbitrarily.
+ */
+size_t pm_kdtree_knn(const struct pm_photon *p, size_t n, const float q[3],
+    size_t k, float max_d2, uint8_t mask, uint8_t want, struct pm_knn *out);
+
+/* Sorts the result of pm_kdtree_knn by increasing distance (then index). */
+void pm_knn_sort(struct pm_knn *r, size_t count);
+
+/*
+ * Every photon within squared distance max_d2 of q (with the same flag
+ * filter), up to cap of them written to out; returns how many there are in
+ * all (which may exceed cap).
+ */
+size_t pm_kdtree_radius(const struct pm_photon *p, size_t n, const float q[3],
+    float max_d2, uint8_t mask, uint8_t want, struct pm_knn *out, size_t cap);
+
+/*
+ * Checks the ordering invariant of every node; returns true if it holds,
+ * else false with the index of the first bad node in *bad.
+ */
+bool pm_kdtree_verify(const struct pm_photon *p, size_t n, size_t *bad);
+
+#endif

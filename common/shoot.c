@@ -1,0 +1,636 @@
+/*
+ * shoot.c: photon emission and tracing.
+ *
+ * Global pass: lights chosen by power, area lights emit from a point uniform
+ * by area in a cosine-weighted direction, point lights over the sphere, spot
+ * lights in their cone, the environment from a disk outside the scene; so
+ * every photon leaves with about the same flux.  At each hit a photon is
+ * stored if the surface has a non-specular component, then the BSDF is
+ * sampled (importance transport) and Russian roulette with the sampled
+ * weight as survival probability keeps surviving photons' flux similar
+ * (Jensen 2004, sec. 5.3).
+ *
+ * Caustic pass: photons are aimed at the bounding spheres of the specular
+ * shapes, the direction drawn from the mixture of the cones they subtend,
+ * and the flux divided by that mixture's true density, so that nothing is
+ * gained or lost; only paths light, specular+, non-specular are stored.
+ */
+#include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "rng.h"
+#include "sampling.h"
+#include "shoot.h"
+
+/* A photon stuck between mirrors, or inside glass by total internal
+ * reflection, stops here even when the depth is unlimited. */
+#define HARD_MAX_BOUNCES 1000
+#define CHUNK 2048
+
+static bool
+bsdf_has_nonspecular(const struct pm_bsdf *b)
+{
+	return b->type != PM_BSDF_NULL &&
+	    (b->lobes & (PM_LOBE_DIFFUSE | PM_LOBE_GLOSSY | PM_LOBE_GLOSSY_TRANSMISSION));
+}
+
+static bool
+bsdf_has_specular(const struct pm_bsdf *b)
+{
+	return b->type != PM_BSDF_NULL && (b->lobes & PM_LOBE_DELTA);
+}
+
+void
+pm_shoot_effects(const struct pm_scene *s, struct pm_effects *e)
+{
+	size_t i;
+	int nrefl = 0, nspec = 0, nrefr = 0;
+	char *w = e->why;
+	size_t left = sizeof(e->why);
+	int n;
+
+	for (i = 0; i < s->nshapes; i++) {
+		const struct pm_bsdf *b = &s->bsdfs[s->shapes[i].bsdf];
+
+		if (bsdf_has_nonspecular(b) && pm_rgb_max(pm_rgb_add(b->diffuse,
+		    b->type == PM_BSDF_DIFFUSE ? pm_rgb1(0) : b->specular)) > 0.0f)
+			nrefl++;
+		if (bsdf_has_specular(b))
+			nspec++;
+		if (b->type == PM_BSDF_DIELECTRIC || b->type == PM_BSDF_THINDIELECTRIC)
+			nrefr++;
+	}
+	e->nspecular = nspec;
+	e->global = nrefl > 0 && s->nlights > 0 &&
+	    (s->integrator.max_depth < 0 || s->integrator.max_depth > 2);
+	e->caustic = nspec > 0 && nrefl > 0 && s->nlights > 0;
+	e->refraction = nrefr > 0;
+	n = snprintf(w, left, "global: %s (%d shape%s reflect%s diffusely or "
+	    "glossily%s)\n", e->global ? "yes" : "no", nrefl, nrefl == 1 ? "" : "s",
+	    nrefl == 1 ? "s" : "",
+	    s->integrator.max_depth >= 0 && s->integrator.max_depth <= 2 ?
+	    ", but max_depth allows direct light only" : "");
+	if (n > 0 && (size_t)n < left) {
+		w += n;
+		left -= (size_t)n;
+	}
+	n = snprintf(w, left, "caustics: %s (%d shape%s with a specular "
+	    "component%s)\n", e->caustic ? "yes" : "no", nspec,
+	    nspec == 1 ? "" : "s",
+	    nspec > 0 && nrefl == 0 ? ", but nothing diffuse to receive them" : "");
+	if (n > 0 && (size_t)n < left) {
+		w += n;
+		left -= (size_t)n;
+	}
+	snprintf(w, left, "refraction: %s (%d dielectric shape%s)\n",
+	    e->refraction ? "yes" : "no", nrefr, nrefr == 1 ? "" : "s");
+}
+
+void
+pm_photon_buf_free(struct pm_photon_buf *b)
+{
+	free(b->p);
+	b->p = NULL;
+	b->n = b->cap = 0;
+}
+
+static bool
+buf_push(struct pm_photon_buf *b, const struct pm_photon *p)
+{
+	if (b->n == b->cap) {
+		size_t cap = b->cap ? 2 * b->cap : 256;
+		struct pm_photon *np = realloc(b->p, cap * sizeof(*np));
+
+		if (np == NULL)
+			return false;
+		b->p = np;
+		b->cap = cap;
+	}
+	b->p[b->n++] = *p;
+	return true;
+}
+
+enum pm_err
+pm_shooter_init(struct pm_shooter *sh, const struct pm_scene *s,
+    const struct pm_accel *a, const struct pm_lights *ls, struct pm_error *err)
+{
+	size_t i;
+
+	memset(sh, 0, sizeof(*sh));
+	sh->scene = s;
+	sh->accel = a;
+	sh->lights = ls;
+	sh->aim_center = calloc(s->nshapes + 1, sizeof(*sh->aim_center));
+	sh->aim_radius = calloc(s->nshapes + 1, sizeof(*sh->aim_radius));
+	if (sh->aim_center == NULL || sh->aim_radius == NULL) {
+		pm_shooter_free(sh);
+		return pm_fail(err, PM_ERR_NOMEM, "no memory for caustic targets");
+	}
+	for (i = 0; i < s->nshapes; i++) {
+		const struct pm_shape *shp = &s->shapes[i];
+		struct pm_vec3 lo, hi, c;
+		float r = 0.0f;
+		uint32_t v;
+
+		if (!bsdf_has_specular(&s->bsdfs[shp->bsdf]))
+			continue;
+		if (shp->type == PM_SHAPE_SPHERE) {
+			c = shp->center;
+			r = shp->radius;
+		} else {
+			if (shp->mesh.nverts == 0)
+				continue;
+			lo = hi = pm_mesh_vertex(&shp->mesh, 0);
+			for (v = 1; v < shp->mesh.nverts; v++) {
+				struct pm_vec3 p = pm_mesh_vertex(&shp->mesh, v);
+
+				lo = pm_v3(fminf(lo.x, p.x), fminf(lo.y, p.y), fminf(lo.z, p.z));
+				hi = pm_v3(fmaxf(hi.x, p.x), fmaxf(hi.y, p.y), fmaxf(hi.z, p.z));
+			}
+			c = pm_scale(pm_add(lo, hi), 0.5f);
+			for (v = 0; v < shp->mesh.nverts; v++)
+				r = fmaxf(r, pm_length(pm_sub(pm_mesh_vertex(&shp->mesh, v), c)));
+		}
+		/* A little margin so that rounding never leaves a sliver out. */
+		sh->aim_center[sh->naim] = c;
+		sh->aim_radius[sh->naim] = r * 1.001f + 1e-6f;
+		sh->naim++;
+	}
+	return PM_OK;
+}
+
+void
+pm_shooter_free(struct pm_shooter *sh)
+{
+	free(sh->aim_center);
+	free(sh->aim_radius);
+	sh->aim_center = NULL;
+	sh->aim_radius = NULL;
+	sh->naim = 0;
+}
+
+/* Cosine of the cone that target j subtends from x; -1 if x is inside. */
+static float
+aim_cos(const struct pm_shooter *sh, int j, struct pm_vec3 x, struct pm_vec3 *axis)
+{
+	struct pm_vec3 d = pm_sub(sh->aim_center[j], x);
+	float dist = pm_length(d), r = sh->aim_radius[j], s;
+
+	*axis = dist > 0.0f ? pm_scale(d, 1.0f / dist) : pm_v3(0, 0, 1);
+	if (dist <= r)
+		return -1.0f;
+	s = r / dist;
+	return sqrtf(fmaxf(0.0f, 1.0f - s * s));
+}
+
+/* Density of the aiming mixture for direction w leaving x. */
+static float
+aim_pdf(const struct pm_shooter *sh, struct pm_vec3 x, struct pm_vec3 w)
+{
+	float pdf = 0.0f;
+	int j;
+
+	for (j = 0; j < sh->naim; j++) {
+		struct pm_vec3 axis;
+		float c = aim_cos(sh, j, x, &axis);
+
+		if (c <= -1.0f)
+			pdf += pm_uniform_sphere_pdf();
+		else if (pm_dot(w, axis) >= c)
+			pdf += pm_uniform_cone_pdf(c);
+	}
+	return pdf / (float)sh->naim;
+}
+
+static struct pm_vec3
+aim_sample(const struct pm_shooter *sh, struct pm_vec3 x, float u0, float u1,
+    float u2)
+{
+	int j = (int)(u0 * (float)sh->naim);
+	struct pm_vec3 axis;
+	float c;
+
+	if (j >= sh->naim)
+		j = sh->naim - 1;
+	c = aim_cos(sh, j, x, &axis);
+	if (c <= -1.0f)
+		return pm_square_to_uniform_sphere(u1, u2);
+	return pm_to_world(pm_frame_from_normal(axis),
+	    pm_square_to_uniform_cone(u1, u2, c));
+}
+
+/* Mitsuba's spot falloff (see light.c). */
+static float
+spot_falloff(const struct pm_light *l, struct pm_vec3 w)
+{
+	float cos_t = pm_dot(w, l->frame.n);
+	float cutoff = l->cutoff_angle * (PM_PI / 180.0f);
+	float beam = l->beam_width * (PM_PI / 180.0f);
+
+	if (cos_t <= cosf(cutoff))
+		return 0.0f;
+	if (cos_t >= cosf(beam))
+		return 1.0f;
+	return (cutoff - acosf(fminf(cos_t, 1.0f))) / (cutoff - beam);
+}
+
+/* Point on an area light's shape, its geometric and shading normals. */
+static void
+sample_shape_point(const struct pm_shooter *sh, int li, float u1, float u2,
+    struct pm_vec3 *p, struct pm_vec3 *ng, struct pm_vec3 *ns)
+{
+	const struct pm_scene *s = sh->scene;
+	const struct pm_shape *shp = &s->shapes[s->lights[li].shape];
+
+	if (shp->type == PM_SHAPE_SPHERE) {
+		struct pm_vec3 u = pm_square_to_uniform_sphere(u1, u2);
+
+		*p = pm_madd(shp->center, u, shp->radius);
+		*ng = *ns = shp->flip_normals ? pm_neg(u) : u;
+	} else {
+		const struct pm_mesh *m = &shp->mesh;
+		size_t t = pm_distrib_sample(&sh->lights->tris[li], u1, &u1);
+		const uint32_t *ix = &m->idx[3 * t];
+		struct pm_vec3 p0 = pm_mesh_vertex(m, ix[0]);
+		struct pm_vec3 p1 = pm_mesh_vertex(m, ix[1]);
+		struct pm_vec3 p2 = pm_mesh_vertex(m, ix[2]);
+		float b1, b2;
+
+		pm_square_to_triangle(u1, u2, &b1, &b2);
+		*p = pm_add(pm_add(pm_scale(p0, 1.0f - b1 - b2), pm_scale(p1, b1)),
+		    pm_scale(p2, b2));
+		*ng = pm_normalize(pm_cross(pm_sub(p1, p0), pm_sub(p2, p0)));
+		*ns = *ng;
+		if (m->nrm != NULL) {
+			struct pm_vec3 sum = pm_v3(0, 0, 0);
+			float bw[3] = {1.0f - b1 - b2, b1, b2};
+			int k;
+
+			for (k = 0; k < 3; k++)
+				sum = pm_madd(sum, pm_v3(m->nrm[3 * ix[k]],
+				    m->nrm[3 * ix[k] + 1], m->nrm[3 * ix[k] + 2]), bw[k]);
+			if (pm_length(sum) > 1e-6f)
+				*ns = pm_normalize(sum);
+		}
+	}
+}
+
+/*
+ * Emits photon path `index`: origin, direction and flux.  False if the
+ * sampled photon carries nothing (it still counts as emitted).
+ */
+static bool
+emit(const struct pm_shooter *sh, enum pm_map_pass pass, struct pm_rng *rng,
+    struct pm_vec3 *o, struct pm_vec3 *d, struct pm_rgb *flux)
+{
+	const struct pm_scene *s = sh->scene;
+	const struct pm_lights *ls = sh->lights;
+	float u0 = pm_rng_float(rng), u1 = pm_rng_float(rng), u2 = pm_rng_float(rng);
+	float u3 = pm_rng_float(rng), u4 = pm_rng_float(rng), u5 = pm_rng_float(rng);
+	size_t li = pm_distrib_sample(&ls->pick, u0, NULL);
+	const struct pm_light *l = &s->lights[li];
+	float psel = (float)pm_distrib_prob(&ls->pick, li);
+	bool aim = pass == PM_PASS_CAUSTIC && sh->naim > 0;
+	struct pm_vec3 p, ng, ns, w;
+	float pdf_dir;
+
+	switch (l->type) {
+	case PM_LIGHT_AREA:
+		sample_shape_point(sh, (int)li, u1, u2, &p, &ng, &ns);
+		if (aim) {
+			w = aim_sample(sh, p, u3, u4, u5);
+			pdf_dir = aim_pdf(sh, p, w);
+		} else {
+			w = pm_to_world(pm_frame_from_normal(ng),
+			    pm_square_to_cosine_hemisphere(u3, u4));
+			pdf_dir = fmaxf(pm_dot(w, ng), 0.0f) * PM_INV_PI;
+		}
+		if (pm_dot(w, ng) <= 0.0f || pm_dot(w, ns) <= 0.0f || pdf_dir <= 0.0f)
+			return false;
+		/* Le cos / (p(light) p(point) p(direction)), p(point) = 1/area */
+		*flux = pm_rgb_scale(l->radiance, pm_dot(w, ng) * (float)l->area /
+		    (psel * pdf_dir));
+		*o = pm_offset_origin(p, ng, w);
+		break;
+	case PM_LIGHT_POINT:
+	case PM_LIGHT_SPOT:
+		p = l->position;
+		if (aim) {
+			w = aim_sample(sh, p, u3, u4, u5);
+			pdf_dir = aim_pdf(sh, p, w);
+		} else if (l->type == PM_LIGHT_SPOT) {
+			float c = cosf(l->cutoff_angle * (PM_PI / 180.0f));
+
+			w = pm_to_world(l->frame, pm_square_to_uniform_cone(u3, u4, c));
+			pdf_dir = pm_uniform_cone_pdf(c);
+		} else {
+			w = pm_square_to_uniform_sphere(u3, u4);
+			pdf_dir = pm_uniform_sphere_pdf();
+		}
+		if (pdf_dir <= 0.0f)
+			return false;
+		*flux = pm_rgb_scale(l->intensity, 1.0f / (psel * pdf_dir));
+		if (l->type == PM_LIGHT_SPOT)
+			*flux = pm_rgb_scale(*flux, spot_falloff(l, w));
+		*o = p;
+		break;
+	case PM_LIGHT_CONSTANT: {
+		/* From a disk of the bounding sphere's radius, facing the
+		 * scene, outside it: every line through the scene is covered. */
+		struct pm_vec3 dir_to_sky = pm_square_to_uniform_sphere(u3, u4);
+		struct pm_frame f = pm_frame_from_normal(dir_to_sky);
+		float dx, dy, r = ls->radius;
+
+		pm_square_to_disk(u1, u2, &dx, &dy);
+		p = pm_madd(pm_madd(pm_madd(ls->center, dir_to_sky, r), f.s, dx * r),
+		    f.t, dy * r);
+		w = pm_neg(dir_to_sky);
+		*flux = pm_rgb_scale(l->radiance, 4.0f * PM_PI * PM_PI * r * r / psel);
+		*o = p;
+		break;
+	}
+	default:
+		return false;
+	}
+	*d = w;
+	return pm_rgb_max(*flux) > 0.0f;
+}
+
+struct chunk_out {
+	struct pm_photon_buf buf;
+	uint64_t dropped, paths_specular;
+};
+
+static bool
+trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
+    uint64_t index, struct chunk_out *co)
+{
+	const struct pm_scene *s = sh->scene;
+	struct pm_rng rng = pm_rng_seed(opts->seed, index, (uint64_t)opts->pass);
+	struct pm_vec3 o, d;
+	struct pm_rgb flux;
+	bool specular_only = true, via_diffuse = false;
+	int depth, max_depth = opts->max_depth < 0 ? HARD_MAX_BOUNCES :
+	    (opts->max_depth < HARD_MAX_BOUNCES ? opts->max_depth : HARD_MAX_BOUNCES);
+
+	if (!emit(sh, opts->pass, &rng, &o, &d, &flux))
+		return true;
+	for (depth = 0;; depth++) {
+		struct pm_hit h;
+		const struct pm_bsdf *b;
+		struct pm_frame fr;
+		struct pm_vec3 wi_local;
+		struct pm_bsdf_sample bs;
+		float q, u1, u2, u3;
+
+		if (!pm_accel_intersect(sh->accel, o, d, 0.0f, INFINITY, &h))
+			break;
+		b = &s->bsdfs[s->shapes[h.shape].bsdf];
+		if (depth == 0 && bsdf_has_specular(b))
+			co->paths_specular++;
+		if (bsdf_has_nonspecular(b) &&
+		    (opts->pass == PM_PASS_GLOBAL || (specular_only && depth > 0))) {
+			struct pm_photon ph;
+
+			if (!pm_rgb_is_finite(flux)) {
+				co->dropped++;
+				break;
+			}
+			ph.pos[0] = h.p.x;
+			ph.pos[1] = h.p.y;
+			ph.pos[2] = h.p.z;
+			pm_rgbe_pack(flux, pm_rng_float(&rng), ph.power);
+			pm_dir_pack(pm_neg(d), ph.dir);
+			ph.flags = PM_KD_LEAF;
+			if (via_diffuse)
+				ph.flags |= PM_PHOTON_VIA_DIFFUSE;
+			if (specular_only && depth > 0)
+				ph.flags |= PM_PHOTON_CAUSTIC;
+			ph.depth = (uint8_t)(depth < 255 ? depth : 255);
+			if (!buf_push(&co->buf, &ph))
+				return false;
+		}
+		if (opts->pass == PM_PASS_CAUSTIC && !bsdf_has_specular(b))
+			break;
+		if (depth >= max_depth)
+			break;
+		fr = pm_frame_from_normal(h.ns);
+		wi_local = pm_to_local(fr, pm_neg(d));
+		u1 = pm_rng_float(&rng);
+		u2 = pm_rng_float(&rng);
+		u3 = pm_rng_float(&rng);
+		if (!pm_bsdf_sample(b, wi_local, u1, u2, u3, PM_IMPORTANCE, &bs))
+			break;
+		if (opts->pass == PM_PASS_CAUSTIC && !(bs.lobe & PM_LOBE_DELTA))
+			break;
+		/* Russian roulette: survive with the probability the surface
+		 * scatters this photon, so survivors keep their flux. */
+		q = fminf(pm_rgb_max(bs.weight), 1.0f);
+		if (!(q > 0.0f) || pm_rng_float(&rng) >= q)
+			break;
+		flux = pm_rgb_scale(pm_rgb_mul(flux, bs.weight), 1.0f / q);
+		if (!(bs.lobe & PM_LOBE_DELTA)) {
+			specular_only = false;
+			via_diffuse = true;
+		}
+		d = pm_normalize(pm_to_world(fr, bs.wo));
+		o = pm_offset_origin(h.p, h.ng, d);
+	}
+	return true;
+}
+
+struct job {
+	const struct pm_shooter *sh;
+	const struct pm_shoot_opts *opts;
+	struct chunk_out *chunks;
+	size_t nchunks;
+	_Atomic size_t next;
+	_Atomic int failed;
+};
+
+static void *
+worker(void *arg)
+{
+	struct job *j = arg;
+	size_t c;
+
+	while ((c = atomic_fetch_add(&j->next, 1)) < j->nchunks) {
+		uint64_t first = j->opts->first + (uint64_t)c * CHUNK;
+		uint64_t end = j->opts->first + j->opts->count, i;
+
+		if (first + CHUNK < end)
+			end = first + CHUNK;
+		for (i = first; i < end; i++)
+			if (!trace_path(j->sh, j->opts, i, &j->chunks[c])) {
+				atomic_store(&j->failed, 1);
+				return NULL;
+			}
+		if (atomic_load(&j->failed))
+			return NULL;
+	}
+	return NULL;
+}
+
+enum pm_err
+pm_shoot(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
+    struct pm_photon_buf *out, struct pm_shoot_stats *stats, struct pm_error *err)
+{
+	struct job j;
+	pthread_t *tid;
+	int i, started = 0, nthreads = opts->threads < 1 ? 1 : opts->threads;
+	size_t c, total = 0;
+	enum pm_err rc = PM_OK;
+
+	memset(stats, 0, sizeof(*stats));
+	if (opts->count == 0)
+		return PM_OK;
+	if (sh->scene->nlights == 0)
+		return pm_fail(err, PM_ERR_INVALID, "the scene has no lights to shoot from");
+	j.sh = sh;
+	j.opts = opts;
+	j.nchunks = (size_t)((opts->count + CHUNK - 1) / CHUNK);
+	j.chunks = calloc(j.nchunks, sizeof(*j.chunks));
+	tid = calloc((size_t)nthreads, sizeof(*tid));
+	if (j.chunks == NULL || tid == NULL) {
+		free(j.chunks);
+		free(tid);
+		return pm_fail(err, PM_ERR_NOMEM, "no memory for %zu photon chunks",
+		    j.nchunks);
+	}
+	atomic_init(&j.next, 0);
+	atomic_init(&j.failed, 0);
+	for (i = 1; i < nthreads; i++)
+		if (pthread_create(&tid[started], NULL, worker, &j) == 0)
+			started++;
+	worker(&j);
+	for (i = 0; i < started; i++)
+		pthread_join(tid[i], NULL);
+	free(tid);
+
+	if (atomic_load(&j.failed))
+		rc = pm_fail(err, PM_ERR_NOMEM, "no memory for the photons");
+	for (c = 0; c < j.nchunks && rc == PM_OK; c++)
+		total += j.chunks[c].buf.n;
+	if (rc == PM_OK && out->cap < out->n + total) {
+		struct pm_photon *np = realloc(out->p, (out->n + total + 1) * sizeof(*np));
+
+		if (np == NULL)
+			rc = pm_fail(err, PM_ERR_NOMEM,
+			    "no memory for %zu photons (%zu bytes)", out->n + total,
+			    (out->n + total) * sizeof(*np));
+		else {
+			out->p = np;
+			out->cap = out->n + total + 1;
+		}
+	}
+	for (c = 0; c < j.nchunks; c++) {
+		struct chunk_out *co = &j.chunks[c];
+
+		if (rc == PM_OK && co->buf.n > 0) {
+			memcpy(out->p + out->n, co->buf.p, co->buf.n * sizeof(*co->buf.p));
+			out->n += co->buf.n;
+		}
+		stats->stored += co->buf.n;
+		stats->dropped += co->dropped;
+		stats->paths_specular += co->paths_specular;
+		pm_photon_buf_free(&co->buf);
+	}
+	free(j.chunks);
+	return rc;
+}
+
+/* FNV-1a, 64 bits, over whatever bytes describe the photons' world. */
+static uint64_t
+fnv(uint64_t h, const void *data, size_t len)
+{
+	const unsigned char *p = data;
+	size_t i;
+
+	for (i = 0; i < len; i++) {
+		h ^= p[i];
+		h *= 0x100000001b3ULL;
+	}
+	return h;
+}
+
+static uint64_t
+fnv_f(uint64_t h, float f)
+{
+	return fnv(h, &f, sizeof(f));
+}
+
+static uint64_t
+fnv_rgb(uint64_t h, struct pm_rgb c)
+{
+	return fnv_f(fnv_f(fnv_f(h, c.r), c.g), c.b);
+}
+
+static uint64_t
+fnv_i(uint64_t h, int64_t v)
+{
+	return fnv(h, &v, sizeof(v));
+}
+
+uint64_t
+pm_scene_hash(const struct pm_scene *s)
+{
+	uint64_t h = 0xcbf29ce484222325ULL;
+	size_t i;
+
+	/* Field by field: struct padding must not leak into the identity. */
+	h = fnv_i(h, (int64_t)s->nshapes);
+	for (i = 0; i < s->nshapes; i++) {
+		const struct pm_shape *sh = &s->shapes[i];
+
+		h = fnv_i(h, sh->type);
+		h = fnv_i(h, sh->bsdf);
+		h = fnv_i(h, sh->light);
+		h = fnv_i(h, sh->flip_normals);
+		if (sh->type == PM_SHAPE_SPHERE) {
+			h = fnv_f(fnv_f(fnv_f(fnv_f(h, sh->center.x), sh->center.y),
+			    sh->center.z), sh->radius);
+			continue;
+		}
+		h = fnv_i(h, sh->mesh.nverts);
+		h = fnv_i(h, sh->mesh.ntris);
+		h = fnv(h, sh->mesh.pos, sizeof(float) * 3 * sh->mesh.nverts);
+		h = fnv(h, sh->mesh.idx, sizeof(uint32_t) * 3 * sh->mesh.ntris);
+		h = fnv_i(h, sh->mesh.nrm != NULL);
+		if (sh->mesh.nrm != NULL)
+			h = fnv(h, sh->mesh.nrm, sizeof(float) * 3 * sh->mesh.nverts);
+	}
+	h = fnv_i(h, (int64_t)s->nbsdfs);
+	for (i = 0; i < s->nbsdfs; i++) {
+		const struct pm_bsdf *b = &s->bsdfs[i];
+
+		h = fnv_i(h, b->type);
+		h = fnv_i(h, b->twosided);
+		h = fnv_rgb(h, b->diffuse);
+		h = fnv_rgb(h, b->specular);
+		h = fnv_rgb(h, b->transmittance);
+		h = fnv_rgb(h, b->eta);
+		h = fnv_rgb(h, b->k);
+		h = fnv_f(h, b->ior);
+		h = fnv_f(h, b->alpha);
+		h = fnv_i(h, b->sample_visible);
+		h = fnv_i(h, b->nonlinear);
+	}
+	h = fnv_i(h, (int64_t)s->nlights);
+	for (i = 0; i < s->nlights; i++) {
+		const struct pm_light *l = &s->lights[i];
+
+		h = fnv_i(h, l->type);
+		h = fnv_rgb(h, l->radiance);
+		h = fnv_rgb(h, l->intensity);
+		h = fnv_i(h, l->shape);
+		h = fnv_f(fnv_f(fnv_f(h, l->position.x), l->position.y), l->position.z);
+		h = fnv_f(fnv_f(fnv_f(h, l->frame.n.x), l->frame.n.y), l->frame.n.z);
+		h = fnv_f(h, l->cutoff_angle);
+		h = fnv_f(h, l->beam_width);
+	}
+	return h;
+}

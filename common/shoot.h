@@ -1,0 +1,87 @@
+/*
+ * shoot.h: tracing photons from the lights (the first pass of photon
+ * mapping, Jensen 1996/2004) into flat arrays of records.
+ *
+ * Photon path i of a map depends only on (seed, map kind, i), so shards
+ * shot over different index ranges concatenate into exactly the map one
+ * run over the whole range would give, whatever the thread count.
+ */
+#ifndef PM_SHOOT_H
+#define PM_SHOOT_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "accel.h"
+#include "error.h"
+#include "light.h"
+#include "photon.h"
+#include "scene.h"
+
+/* What the scene calls for, and why, decided before any photon is shot. */
+struct pm_effects {
+	bool global;		/* some surface reflects diffusely or glossily */
+	bool caustic;		/* specular surfaces and a diffuse receiver */
+	bool refraction;	/* dielectrics present */
+	int nspecular;		/* shapes with a specular (delta) component */
+	char why[512];		/* one line per effect, for -v and the header */
+};
+
+/* Decides which maps a scene needs (see pm_effects). */
+void pm_shoot_effects(const struct pm_scene *s, struct pm_effects *e);
+
+/* A growable array of photons. */
+struct pm_photon_buf {
+	struct pm_photon *p;
+	size_t n, cap;
+};
+void pm_photon_buf_free(struct pm_photon_buf *b);
+
+enum pm_map_pass {
+	PM_PASS_GLOBAL = 1,	/* photons stored at every non-specular hit */
+	PM_PASS_CAUSTIC = 2,	/* aimed at specular shapes; L S+ D stored */
+};
+
+struct pm_shoot_opts {
+	enum pm_map_pass pass;
+	uint64_t seed;
+	uint64_t first;		/* index of the first photon path */
+	uint64_t count;		/* photon paths to shoot */
+	int max_depth;		/* bounces a photon may make; -1: unlimited */
+	int threads;
+};
+
+struct pm_shoot_stats {
+	uint64_t stored;	/* photons stored */
+	uint64_t dropped;	/* non-finite photons dropped */
+	uint64_t paths_specular;	/* paths that hit a specular surface first */
+};
+
+/* Everything tracing needs; built once per scene. */
+struct pm_shooter {
+	const struct pm_scene *scene;
+	const struct pm_accel *accel;
+	const struct pm_lights *lights;
+	/* Bounding spheres of the specular shapes, to aim caustic photons. */
+	struct pm_vec3 *aim_center;
+	float *aim_radius;
+	int naim;
+};
+
+enum pm_err pm_shooter_init(struct pm_shooter *sh, const struct pm_scene *s,
+    const struct pm_accel *a, const struct pm_lights *ls, struct pm_error *err);
+void pm_shooter_free(struct pm_shooter *sh);
+
+/*
+ * Shoots opts->count photon paths and appends the photons they store to
+ * out, in path order.  Each photon's power is the flux it would carry were
+ * it the only path shot: divide by the number of paths to normalise.
+ */
+enum pm_err pm_shoot(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
+    struct pm_photon_buf *out, struct pm_shoot_stats *stats, struct pm_error *err);
+
+/* A 64-bit identity of what photons depend on: geometry, materials and
+ * lights (not the camera or the sampler). */
+uint64_t pm_scene_hash(const struct pm_scene *s);
+
+#endif

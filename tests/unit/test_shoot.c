@@ -1,0 +1,306 @@
+/*
+ * test_shoot.c: photon tracing conserves energy and is reproducible.
+ *
+ * In a closed diffuse sphere of albedo rho lit by a small emitting sphere of
+ * power P at its centre, every photon's first hit is the enclosure, so the
+ * flux stored at depth 0 sums to P, and every bounce reflects rho of it, so
+ * the flux stored at depth 1 sums to rho P (within noise).  Caustic photons
+ * aimed at a glass sphere carry the same total flux onto the floor as the
+ * caustic paths found by the unaimed global pass.  Shards concatenate into
+ * one run bit for bit, whatever the thread count.
+ */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "../../common/shoot.h"
+
+struct world {
+	struct pm_scene scene;
+	struct pm_accel *accel;
+	struct pm_lights lights;
+	struct pm_shooter shooter;
+};
+
+static int
+add_diffuse(struct pm_scene *s, float albedo)
+{
+	int b = pm_scene_add_bsdf(s);
+
+	s->bsdfs[b].type = PM_BSDF_DIFFUSE;
+	s->bsdfs[b].diffuse = pm_rgb1(albedo);
+	return b;
+}
+
+static int
+add_sphere(struct pm_scene *s, struct pm_vec3 c, float r, int bsdf, bool flip)
+{
+	int sh = pm_scene_add_shape(s);
+
+	s->shapes[sh].type = PM_SHAPE_SPHERE;
+	s->shapes[sh].center = c;
+	s->shapes[sh].radius = r;
+	s->shapes[sh].bsdf = bsdf;
+	s->shapes[sh].flip_normals = flip;
+	return sh;
+}
+
+static void
+world_finish(struct world *w, struct pm_vec3 center, float radius)
+{
+	struct pm_error err;
+
+	assert_int_equal(pm_scene_prepare(&w->scene, &err), PM_OK);
+	assert_int_equal(pm_accel_build(&w->scene, &w->accel, &err), PM_OK);
+	assert_int_equal(pm_lights_init(&w->lights, &w->scene, center, radius, &err),
+	    PM_OK);
+	assert_int_equal(pm_shooter_init(&w->shooter, &w->scene, w->accel,
+	    &w->lights, &err), PM_OK);
+}
+
+static void
+world_free(struct world *w)
+{
+	pm_shooter_free(&w->shooter);
+	pm_lights_free(&w->lights);
+	pm_accel_free(w->accel);
+	pm_scene_free(&w->scene);
+}
+
+/* Closed enclosure of albedo rho around an emitting sphere. */
+static void
+furnace(struct world *w, float rho)
+{
+	struct pm_scene *s = &w->scene;
+	int sh, l;
+
+	pm_scene_init(s);
+	add_sphere(s, pm_v3(0, 0, 0), 10.0f, add_diffuse(s, rho), true);
+	sh = add_sphere(s, pm_v3(0, 0, 0), 1.0f, add_diffuse(s, 0.0f), false);
+	l = pm_scene_add_light(s);
+	s->lights[l].type = PM_LIGHT_AREA;
+	s->lights[l].radiance = pm_rgb(1.0f, 0.5f, 2.0f);
+	s->lights[l].shape = sh;
+	s->shapes[sh].light = l;
+	world_finish(w, pm_v3(0, 0, 0), 10.0f);
+}
+
+static void
+shoot(struct world *w, enum pm_map_pass pass, uint64_t first, uint64_t count,
+    int threads, struct pm_photon_buf *out)
+{
+	struct pm_shoot_opts o = {pass, 42, first, count, -1, threads};
+	struct pm_shoot_stats st;
+	struct pm_error err;
+
+	assert_int_equal(pm_shoot(&w->shooter, &o, out, &st, &err), PM_OK);
+	assert_int_equal(st.dropped, 0);
+}
+
+static void
+test_flux_by_depth(void **state)
+{
+	struct world w;
+	struct pm_photon_buf b = {NULL, 0, 0};
+	const uint64_t n = 200000;
+	double sum[2][3] = {{0}}, sq1 = 0, power[3];
+	float rho = 0.6f;
+	size_t i;
+	int c;
+
+	(void)state;
+	furnace(&w, rho);
+	shoot(&w, PM_PASS_GLOBAL, 0, n, 2, &b);
+	for (i = 0; i < b.n; i++) {
+		struct pm_rgb f = pm_rgbe_unpack(b.p[i].power);
+
+		if (b.p[i].depth > 1)
+			continue;
+		sum[b.p[i].depth][0] += f.r;
+		sum[b.p[i].depth][1] += f.g;
+		sum[b.p[i].depth][2] += f.b;
+		if (b.p[i].depth == 1)
+			sq1 += (double)f.g * f.g;
+	}
+	/* P = pi * area * Le for a Lambertian emitter. */
+	power[0] = M_PI * 4 * M_PI * 1.0;
+	power[1] = M_PI * 4 * M_PI * 0.5;
+	power[2] = M_PI * 4 * M_PI * 2.0;
+	for (c = 0; c < 3; c++) {
+		double d0 = sum[0][c] / n, d1 = sum[1][c] / n;
+
+		print_message("channel %d: depth 0 %.5f (want %.5f), depth 1 %.5f "
+		    "(want %.5f)\n", c, d0, power[c], d1, rho * power[c]);
+		/* Every photon leaves with the same flux and hits the
+		 * enclosure: depth 0 is exact up to RGBE rounding. */
+		assert_true(fabs(d0 - power[c]) < 0.001 * power[c]);
+		/* Depth 1 is a binomial survival: allow 5 standard errors. */
+		{
+			double se = sqrt(sq1 / n) / sqrt((double)n) * power[c] / power[1];
+
+			assert_true(fabs(d1 - rho * power[c]) < 5 * se + 0.004 * power[c]);
+		}
+	}
+	pm_photon_buf_free(&b);
+	world_free(&w);
+}
+
+static void
+test_shards_equal_one_run(void **state)
+{
+	struct world w;
+	struct pm_photon_buf one = {NULL, 0, 0}, shards = {NULL, 0, 0};
+	struct pm_photon_buf t1 = {NULL, 0, 0};
+
+	(void)state;
+	furnace(&w, 0.5f);
+	shoot(&w, PM_PASS_GLOBAL, 0, 30000, 2, &one);
+	shoot(&w, PM_PASS_GLOBAL, 0, 12345, 2, &shards);
+	shoot(&w, PM_PASS_GLOBAL, 12345, 30000 - 12345, 1, &shards);
+	shoot(&w, PM_PASS_GLOBAL, 0, 30000, 1, &t1);
+	assert_int_equal(one.n, shards.n);
+	assert_memory_equal(one.p, shards.p, one.n * sizeof(*one.p));
+	assert_int_equal(one.n, t1.n);
+	assert_memory_equal(one.p, t1.p, one.n * sizeof(*one.p));
+	pm_photon_buf_free(&one);
+	pm_photon_buf_free(&shards);
+	pm_photon_buf_free(&t1);
+	world_free(&w);
+}
+
+/*
+ * Aiming is unbiased: a small light above a glass sphere over a diffuse
+ * floor; the flux of caustic photons from the aimed pass equals the flux of
+ * the caustic-flagged photons of the plain global pass.
+ */
+static void
+test_caustic_aiming_is_unbiased(void **state)
+{
+	struct world w;
+	struct pm_scene *s = &w.scene;
+	struct pm_photon_buf g = {NULL, 0, 0}, c = {NULL, 0, 0};
+	struct pm_error err;
+	double fg = 0, fc = 0, sqg = 0, sqc = 0, se;
+	const uint64_t ng = 400000, nc = 100000;
+	int b, sh, l;
+	size_t i;
+
+	(void)state;
+	pm_scene_init(s);
+	/* The floor: a large flat-shaded disk, facing up. */
+	sh = pm_scene_add_shape(s);
+	s->shapes[sh].type = PM_SHAPE_MESH;
+	assert_int_equal(pm_mesh_disk(&s->shapes[sh].mesh, 64, &err), PM_OK);
+	{
+		struct pm_mat4 m = pm_mat4_mul(pm_mat4_rotate(pm_v3(1, 0, 0), -90.0f),
+		    pm_mat4_scale(pm_v3(20, 20, 20)));
+
+		pm_mesh_transform(&s->shapes[sh].mesh, &m);
+	}
+	s->shapes[sh].bsdf = add_diffuse(s, 0.8f);
+	b = pm_scene_add_bsdf(s);
+	s->bsdfs[b].type = PM_BSDF_DIELECTRIC;
+	s->bsdfs[b].ior = 1.5f;
+	s->bsdfs[b].specular = pm_rgb1(1.0f);
+	s->bsdfs[b].transmittance = pm_rgb1(1.0f);
+	add_sphere(s, pm_v3(0, 1.5f, 0), 1.0f, b, false);
+	sh = add_sphere(s, pm_v3(0.3f, 4.0f, 0.2f), 0.1f, add_diffuse(s, 0.0f), false);
+	l = pm_scene_add_light(s);
+	s->lights[l].type = PM_LIGHT_AREA;
+	s->lights[l].radiance = pm_rgb1(100.0f);
+	s->lights[l].shape = sh;
+	s->shapes[sh].light = l;
+	world_finish(&w, pm_v3(0, 2, 0), 20.0f);
+	assert_int_equal(w.shooter.naim, 1);
+
+	shoot(&w, PM_PASS_GLOBAL, 0, ng, 2, &g);
+	shoot(&w, PM_PASS_CAUSTIC, 0, nc, 2, &c);
+	for (i = 0; i < g.n; i++) {
+		float f;
+
+		/* Caustics on the floor: light, glass+, floor (first arrival). */
+		if (!(g.p[i].flags & PM_PHOTON_CAUSTIC) || g.p[i].pos[1] > 0.01f)
+			continue;
+		f = pm_rgbe_unpack(g.p[i].power).g;
+		fg += f;
+		sqg += (double)f * f;
+	}
+	for (i = 0; i < c.n; i++) {
+		float f = pm_rgbe_unpack(c.p[i].power).g;
+
+		assert_true(c.p[i].flags & PM_PHOTON_CAUSTIC);
+		if (c.p[i].pos[1] > 0.01f)
+			continue;
+		fc += f;
+		sqc += (double)f * f;
+	}
+	se = sqrt(sqg / ng / ng + sqc / nc / nc);
+	print_message("caustic flux on the floor: global pass %.4f, aimed pass "
+	    "%.4f, standard error %.4f; aimed photons %zu of %llu paths, "
+	    "global caustic photons %zu\n", fg / ng, fc / nc, se, c.n,
+	    (unsigned long long)nc, g.n);
+	assert_true(fc > 0 && fg > 0);
+	assert_true(fabs(fg / ng - fc / nc) < 4 * se);
+	pm_photon_buf_free(&g);
+	pm_photon_buf_free(&c);
+	world_free(&w);
+}
+
+static void
+test_effects(void **state)
+{
+	struct world w;
+	struct pm_effects e;
+
+	(void)state;
+	furnace(&w, 0.5f);
+	pm_shoot_effects(&w.scene, &e);
+	assert_true(e.global);
+	assert_false(e.caustic);
+	assert_false(e.refraction);
+	w.scene.integrator.max_depth = 2;
+	pm_shoot_effects(&w.scene, &e);
+	assert_false(e.global);
+	world_free(&w);
+}
+
+static void
+test_scene_hash(void **state)
+{
+	struct world a, b;
+	uint64_t ha, hb;
+
+	(void)state;
+	furnace(&a, 0.5f);
+	furnace(&b, 0.5f);
+	ha = pm_scene_hash(&a.scene);
+	hb = pm_scene_hash(&b.scene);
+	assert_true(ha == hb);
+	b.scene.bsdfs[0].diffuse.g = 0.51f;
+	assert_true(ha != pm_scene_hash(&b.scene));
+	b.scene.bsdfs[0].diffuse.g = 0.5f;
+	b.scene.camera.fov = 10.0f;	/* the camera is not part of it */
+	assert_true(ha == pm_scene_hash(&b.scene));
+	world_free(&a);
+	world_free(&b);
+}
+
+int
+main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_flux_by_depth),
+		cmocka_unit_test(test_shards_equal_one_run),
+		cmocka_unit_test(test_caustic_aiming_is_unbiased),
+		cmocka_unit_test(test_effects),
+		cmocka_unit_test(test_scene_hash),
+	};
+
+	return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,378 @@
+/*
+ * pm-shoot: traces photons from a scene's lights into a photon-map file:
+ * a global map and, only where the scene has specular surfaces, a caustic
+ * map.  The file is not yet balanced; pm-balance merges shards and builds
+ * the kd-trees.
+ */
+#include <errno.h>
+#include <getopt.h>
+#include <libgen.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "../common/accel.h"
+#include "../common/parse.h"
+#include "../common/shoot.h"
+#include "../formats/pmap.h"
+#include "../formats/scene_xml.h"
+
+#define PROG "pm-shoot"
+#define VERSION "0.2.0"
+#define MAX_DEFINES 64
+
+static const char usage_line[] =
+    "usage: pm-shoot [-fqv] [--photons N] [--caustic-photons N] [--seed S]\n"
+    "                [--first-index I] [--max-depth D] [-t THREADS]\n"
+    "                [-D NAME=VALUE] [--compress] -o OUT.pmap SCENE.xml\n";
+
+static void
+usage_error(const char *fmt, const char *arg)
+{
+	fprintf(stderr, PROG ": ");
+	fprintf(stderr, fmt, arg);
+	fprintf(stderr, "\n%s", usage_line);
+	exit(2);
+}
+
+static double
+now(void)
+{
+	struct timespec ts;
+
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static int
+check_output(const char *path, int force)
+{
+	char *copy, *dir;
+	int ok;
+
+	if (strcmp(path, "-") == 0) {
+		if (isatty(STDOUT_FILENO)) {
+			fprintf(stderr, PROG ": refusing to write a binary map to a "
+			    "terminal\n");
+			return 0;
+		}
+		return 1;
+	}
+	if (!force && access(path, F_OK) == 0) {
+		fprintf(stderr, PROG ": %s: already exists (use -f to overwrite)\n",
+		    path);
+		return 0;
+	}
+	copy = strdup(path);
+	if (copy == NULL)
+		return 0;
+	dir = dirname(copy);
+	ok = access(dir, W_OK) == 0;
+	if (!ok)
+		fprintf(stderr, PROG ": %s: cannot write to directory %s: %s\n",
+		    path, dir, strerror(errno));
+	free(copy);
+	return ok;
+}
+
+/* The command line as one string, for the file's provenance. */
+static char *
+join_args(int argc, char **argv)
+{
+	size_t len = 1;
+	char *s;
+	int i;
+
+	for (i = 0; i < argc; i++)
+		len += strlen(argv[i]) + 1;
+	s = malloc(len);
+	if (s == NULL)
+		return NULL;
+	s[0] = '\0';
+	for (i = 0; i < argc; i++) {
+		if (i > 0)
+			strcat(s, " ");
+		strcat(s, argv[i]);
+	}
+	return s;
+}
+
+static void
+bounds_of(const struct pm_photon_buf *b, float lo[3], float hi[3])
+{
+	size_t i;
+	int a;
+
+	for (a = 0; a < 3; a++) {
+		lo[a] = b->n ? b->p[0].pos[a] : 0.0f;
+		hi[a] = lo[a];
+	}
+	for (i = 1; i < b->n; i++)
+		for (a = 0; a < 3; a++) {
+			if (b->p[i].pos[a] < lo[a])
+				lo[a] = b->p[i].pos[a];
+			if (b->p[i].pos[a] > hi[a])
+				hi[a] = b->p[i].pos[a];
+		}
+}
+
+int
+main(int argc, char **argv)
+{
+	enum {
+		OPT_PHOTONS = 256, OPT_CAUSTIC, OPT_SEED, OPT_FIRST, OPT_MAXDEPTH,
+		OPT_COMPRESS, OPT_HELP, OPT_VERSION,
+	};
+	static const struct option longopts[] = {
+		{"photons", required_argument, NULL, OPT_PHOTONS},
+		{"caustic-photons", required_argument, NULL, OPT_CAUSTIC},
+		{"seed", required_argument, NULL, OPT_SEED},
+		{"first-index", required_argument, NULL, OPT_FIRST},
+		{"max-depth", required_argument, NULL, OPT_MAXDEPTH},
+		{"threads", required_argument, NULL, 't'},
+		{"define", required_argument, NULL, 'D'},
+		{"compress", no_argument, NULL, OPT_COMPRESS},
+		{"output", required_argument, NULL, 'o'},
+		{"force", no_argument, NULL, 'f'},
+		{"quiet", no_argument, NULL, 'q'},
+		{"verbose", no_argument, NULL, 'v'},
+		{"help", no_argument, NULL, OPT_HELP},
+		{"version", no_argument, NULL, OPT_VERSION},
+		{NULL, 0, NULL, 0},
+	};
+	struct pm_define defs[MAX_DEFINES];
+	size_t ndefs = 0;
+	const char *out_path = NULL, *scene_path;
+	long threads = sysconf(_SC_NPROCESSORS_ONLN), max_depth = -2;
+	long long nglobal = -1, ncaustic = -1;
+	unsigned long long seed = 0, first = 0, v;
+	int verbose = 1, force = 0, compress = 0, c, status = 0;
+	struct pm_scene scene;
+	struct pm_accel *accel = NULL;
+	struct pm_lights lights;
+	struct pm_shooter shooter;
+	struct pm_effects fx;
+	struct pm_error err = {PM_OK, ""};
+	struct pm_pmap out;
+	struct pm_photon_buf bufs[2] = {{NULL, 0, 0}, {NULL, 0, 0}};
+	struct pm_vec3 lo, hi;
+	char tmp[128], *cmdline;
+	double t0;
+	int pass;
+
+	if (threads < 1)
+		threads = 1;
+	while ((c = getopt_long(argc, argv, "D:fo:qt:v", longopts, NULL)) != -1) {
+		switch (c) {
+		case 'D': {
+			char *eq = strchr(optarg, '=');
+
+			if (eq == NULL || eq == optarg)
+				usage_error("-D wants NAME=VALUE, not '%s'", optarg);
+			if (ndefs == MAX_DEFINES)
+				usage_error("too many -D definitions (at most %s)", "64");
+			*eq = '\0';
+			defs[ndefs].name = optarg;
+			defs[ndefs].value = eq + 1;
+			ndefs++;
+			break;
+		}
+		case 'f':
+			force = 1;
+			break;
+		case 'o':
+			out_path = optarg;
+			break;
+		case 'q':
+			verbose = 0;
+			break;
+		case 't':
+			if (!pm_parse_long(optarg, 1, 4096, &threads))
+				usage_error("-t wants a thread count from 1 to 4096, not '%s'",
+				    optarg);
+			break;
+		case 'v':
+			verbose = 2;
+			break;
+		case OPT_PHOTONS:
+			if (!pm_parse_u64(optarg, &v) || v > (1ULL << 40))
+				usage_error("--photons wants a count from 0 to 2^40, not '%s'",
+				    optarg);
+			nglobal = (long long)v;
+			break;
+		case OPT_CAUSTIC:
+			if (!pm_parse_u64(optarg, &v) || v > (1ULL << 40))
+				usage_error("--caustic-photons wants a count from 0 to 2^40, "
+				    "not '%s'", optarg);
+			ncaustic = (long long)v;
+			break;
+		case OPT_SEED:
+			if (!pm_parse_u64(optarg, &seed))
+				usage_error("--seed wants a non-negative integer, not '%s'",
+				    optarg);
+			break;
+		case OPT_FIRST:
+			if (!pm_parse_u64(optarg, &first) || first > (1ULL << 62))
+				usage_error("--first-index wants a non-negative integer, "
+				    "not '%s'", optarg);
+			break;
+		case OPT_MAXDEPTH:
+			if (!pm_parse_long(optarg, -1, 1000, &max_depth))
+				usage_error("--max-depth wants -1 (unlimited) to 1000, not '%s'",
+				    optarg);
+			break;
+		case OPT_COMPRESS:
+			compress = 1;
+			break;
+		case OPT_HELP:
+			fputs(usage_line, stdout);
+			return fclose(stdout) == 0 ? 0 : 1;
+		case OPT_VERSION:
+			puts(PROG " " VERSION);
+			return fclose(stdout) == 0 ? 0 : 1;
+		default:
+			fputs(usage_line, stderr);
+			return 2;
+		}
+	}
+	if (optind + 1 != argc)
+		usage_error("%s", optind == argc ? "no scene file given" :
+		    "more than one scene file given");
+	scene_path = argv[optind];
+	if (out_path == NULL)
+		usage_error("%s", "no output given (-o OUT.pmap, or -o - for stdout)");
+	if (!check_output(out_path, force))
+		return 1;
+
+	t0 = now();
+	if (pm_scene_load(scene_path, defs, ndefs, &scene, &err) != PM_OK) {
+		fprintf(stderr, PROG ": %s\n", err.msg);
+		return 1;
+	}
+	if (scene.nlights == 0) {
+		fprintf(stderr, PROG ": %s: the scene has no lights to shoot photons "
+		    "from\n", scene_path);
+		pm_scene_free(&scene);
+		return 1;
+	}
+	if (nglobal < 0)
+		nglobal = scene.integrator.photon.global_photons;
+	if (ncaustic < 0)
+		ncaustic = scene.integrator.photon.caustic_photons;
+	if (max_depth == -2)
+		max_depth = -1;
+	pm_shoot_effects(&scene, &fx);
+	if (pm_accel_build(&scene, &accel, &err) != PM_OK) {
+		fprintf(stderr, PROG ": %s: %s\n", scene_path, err.msg);
+		pm_scene_free(&scene);
+		return 1;
+	}
+	pm_accel_bounds(accel, &lo, &hi);
+	if (pm_lights_init(&lights, &scene, pm_scale(pm_add(lo, hi), 0.5f),
+	    0.5f * pm_length(pm_sub(hi, lo)), &err) != PM_OK ||
+	    pm_shooter_init(&shooter, &scene, accel, &lights, &err) != PM_OK) {
+		fprintf(stderr, PROG ": %s: %s\n", scene_path, err.msg);
+		pm_accel_free(accel);
+		pm_scene_free(&scene);
+		return 1;
+	}
+	if (verbose >= 2)
+		fprintf(stderr, PROG ": %s: loaded in %.3f s; simulating:\n%s",
+		    scene_path, now() - t0, fx.why);
+
+	memset(&out, 0, sizeof(out));
+	out.scene_hash = pm_scene_hash(&scene);
+	out.seed = seed;
+	out.max_depth = max_depth < 0 ? 0 : (uint32_t)max_depth;
+	out.effects = (fx.global ? PM_EFFECT_GLOBAL : 0) |
+	    (fx.caustic ? PM_EFFECT_CAUSTICS : 0) |
+	    (fx.refraction ? PM_EFFECT_REFRACTION : 0);
+	cmdline = join_args(argc, argv);
+	pm_pmap_info_add(&out, "tool", PROG " " VERSION, NULL);
+	pm_pmap_info_add(&out, "command", cmdline ? cmdline : "?", NULL);
+	free(cmdline);
+	pm_pmap_info_add(&out, "scene", scene_path, NULL);
+	snprintf(tmp, sizeof(tmp), "%016llx", (unsigned long long)out.scene_hash);
+	pm_pmap_info_add(&out, "scene_hash", tmp, NULL);
+	snprintf(tmp, sizeof(tmp), "%llu", seed);
+	pm_pmap_info_add(&out, "seed", tmp, NULL);
+	{
+		char *line = fx.why, *nl;
+
+		while ((nl = strchr(line, '\n')) != NULL) {
+			char key[32];
+			char *colon = strchr(line, ':');
+
+			*nl = '\0';
+			if (colon != NULL && colon < nl && (size_t)(colon - line) < sizeof(key)) {
+				snprintf(key, sizeof(key), "effect.%.*s",
+				    (int)(colon - line), line);
+				pm_pmap_info_add(&out, key, colon + 2, NULL);
+			}
+			*nl = '\n';
+			line = nl + 1;
+		}
+	}
+
+	for (pass = 0; pass < 2; pass++) {
+		struct pm_shoot_opts so;
+		struct pm_shoot_stats st;
+		struct pm_map *m;
+		bool want = pass == 0 ? fx.global : fx.caustic;
+		long long n = pass == 0 ? nglobal : ncaustic;
+
+		if (!want || n == 0)
+			continue;
+		so.pass = pass == 0 ? PM_PASS_GLOBAL : PM_PASS_CAUSTIC;
+		so.seed = seed;
+		so.first = first;
+		so.count = (uint64_t)n;
+		so.max_depth = (int)max_depth;
+		so.threads = (int)threads;
+		t0 = now();
+		if (pm_shoot(&shooter, &so, &bufs[pass], &st, &err) != PM_OK) {
+			fprintf(stderr, PROG ": %s: %s\n", scene_path, err.msg);
+			status = 1;
+			break;
+		}
+		if (verbose >= 2)
+			fprintf(stderr, PROG ": %s map: %lld paths [%llu, %llu) shot in "
+			    "%.3f s (%.0f paths/s), %llu photons stored, %llu dropped\n",
+			    pass == 0 ? "global" : "caustic", n, first,
+			    first + (unsigned long long)n, now() - t0,
+			    (double)n / (now() - t0), (unsigned long long)st.stored,
+			    (unsigned long long)st.dropped);
+		else if (st.dropped > 0 && verbose)
+			fprintf(stderr, PROG ": warning: %llu non-finite photons dropped\n",
+			    (unsigned long long)st.dropped);
+		m = &out.maps[out.nmaps++];
+		m->kind = pass == 0 ? PM_MAP_GLOBAL : PM_MAP_CAUSTIC;
+		m->count = bufs[pass].n;
+		m->emitted = (uint64_t)n;
+		m->first_index = first;
+		m->balanced = false;
+		bounds_of(&bufs[pass], m->lo, m->hi);
+		m->photons = bufs[pass].p;
+	}
+	if (status == 0 && pm_pmap_write(out_path, &out, compress, &err) != PM_OK) {
+		fprintf(stderr, PROG ": %s\n", err.msg);
+		status = 1;
+	}
+	/* The records belong to the buffers, not to the file structure. */
+	out.maps[0].photons = out.maps[1].photons = NULL;
+	out.nmaps = 0;
+	pm_pmap_free(&out);
+	pm_photon_buf_free(&bufs[0]);
+	pm_photon_buf_free(&bufs[1]);
+	pm_shooter_free(&shooter);
+	pm_lights_free(&lights);
+	pm_accel_free(accel);
+	pm_scene_free(&scene);
+	if (status == 0 && strcmp(out_path, "-") == 0 && fclose(stdout) != 0) {
+		fprintf(stderr, PROG ": standard output: %s\n", strerror(errno));
+		status = 1;
+	}
+	return status;
+}
