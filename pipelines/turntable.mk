@@ -22,6 +22,10 @@ TT_PNGS   := $(TT_IDS:%=out/turntable/frame-%.png)
 .PHONY: turntable FORCE
 turntable: $(TT_PNGS)
 
+# Keep the per-frame cameras and renders: they are what makes an edit to
+# one camera re-render one frame.
+.PRECIOUS: out/turntable/cam-%.txt out/turntable/frame-%.exr
+
 # Camera NN's line, rewritten only when it differs from what is there.
 out/turntable/cam-%.txt: FORCE
 	@mkdir -p out/turntable
