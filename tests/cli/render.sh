@@ -44,5 +44,28 @@ check "-D overrides a default" status 0 $R -q -D spp=1 -D res=8 -o "$tmp/b.exr" 
 check "1 and 4 threads give identical files" sh -c "$R -q -t 1 --spp 2 --size 20x20 -o $tmp/t1.exr data/cornell-box.xml && $R -q -t 4 --spp 2 --size 20x20 -o $tmp/t4.exr data/cornell-box.xml && cmp -s $tmp/t1.exr $tmp/t4.exr"
 check "different seeds give different images" sh -c "$R -q --seed 1 --spp 1 --size 16x16 -o $tmp/s1.exr data/cornell-box.xml && ! cmp -s $tmp/s1.exr $tmp/t1.exr"
 
+# Photon maps: the map must come from the scene; several cameras, one load.
+B=${BIN:-bin}
+if $B/pm-shoot -q -f --photons 2000 --caustic-photons 0 -o "$tmp/cb-shot.pmap" data/cornell-box.xml &&
+    $B/pm-balance -q -f -o "$tmp/cb.pmap" "$tmp/cb-shot.pmap"; then
+	check "a photon render succeeds" status 0 $R -q --spp 1 --size 16x16 -o "$tmp/pm.exr" data/cornell-box.xml "$tmp/cb.pmap"
+	check "a map from another scene is refused" status 1 $R -q --spp 1 --size 8x8 -o "$tmp/x.exr" data/caustics.xml "$tmp/cb.pmap"
+	check "...saying why" grep -q "another scene" "$tmp/err"
+	check "an unbalanced map is refused" status 1 $R -q --spp 1 --size 8x8 -o "$tmp/x.exr" data/cornell-box.xml "$tmp/cb-shot.pmap"
+	check "...naming pm-balance" grep -q "pm-balance" "$tmp/err"
+	check "--method path with a map is a usage error" status 2 $R --method path -o "$tmp/x.exr" data/cornell-box.xml "$tmp/cb.pmap"
+	printf '# two cameras\n0,1,3.8 0,1,0 0,1,0\n\n0.5,1,3.8 0,1,0 0,1,0 50\n' >"$tmp/cams.txt"
+	check "--cameras renders every camera" status 0 $R -q --spp 1 --size 8x8 --cameras "$tmp/cams.txt" -o "$tmp/cam.exr" data/cornell-box.xml "$tmp/cb.pmap"
+	check "...numbering the outputs" test -s "$tmp/cam-0001.exr" -a -s "$tmp/cam-0002.exr" -a ! -e "$tmp/cam-0003.exr"
+	check "...or filling a %d pattern" status 0 $R -q --spp 1 --size 8x8 --cameras "$tmp/cams.txt" -o "$tmp/f%02d.exr" data/cornell-box.xml
+	check "...as asked" test -s "$tmp/f01.exr" -a -s "$tmp/f02.exr"
+	check "the same camera renders the same image from --cameras and from --eye" sh -c "$R -q --spp 1 --size 8x8 --eye 0,1,3.8 --target 0,1,0 -o $tmp/eye.exr data/cornell-box.xml $tmp/cb.pmap && cmp -s $tmp/eye.exr $tmp/cam-0001.exr"
+	printf '0,1,3.8 0,1,0\n' >"$tmp/bad-cams.txt"
+	check "a malformed camera line exits 1" status 1 $R -q --cameras "$tmp/bad-cams.txt" -o "$tmp/x.exr" data/cornell-box.xml
+	check "...naming the file and line" grep -q "bad-cams.txt:1:" "$tmp/err"
+else
+	check "pm-shoot and pm-balance make a map" false
+fi
+
 echo "render cli: $((n - fail)) passed, $fail failed"
 [ "$fail" -eq 0 ]
