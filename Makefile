@@ -24,11 +24,11 @@ TEST_LIBS = $(shell pkg-config --libs cmocka 2>/dev/null || echo -lcmocka)
 # Debian packages the build, the demo and the tests need.
 DEBS = build-essential pkg-config libembree-dev libopenexr-dev libexpat1-dev \
 	libpng-dev zlib1g-dev libflann-dev libcmocka-dev mandoc glmark2-data \
-	python3 python3-venv libllvm19
+	python3 python3-venv libllvm19 clang libclang-rt-14-dev
 
 BUILD = build
 BIN   = bin
-TOOLS = pm-shoot pm-balance pm-render pm-downsample pm-inspect
+TOOLS = pm-shoot pm-balance pm-render pm-downsample pm-inspect pm-merl
 BINS  = $(TOOLS:%=$(BIN)/%)
 LIB   = $(BUILD)/libpm.a
 
@@ -40,6 +40,7 @@ MANS     = $(sort $(wildcard man/*.[1-9]))
 
 .PHONY: all demo test deps install clean check-unit check-cli check-man check-mitsuba \
 	check-sanitize turntable
+.PHONY: fuzz fuzz-build check-fuzz
 
 all: $(BINS)
 
@@ -79,6 +80,10 @@ deps:
 
 include pipelines/bunny.mk
 include pipelines/turntable.mk
+include pipelines/merl.mk
+include pipelines/progressive.mk
+include pipelines/accuracy.mk
+include pipelines/bench.mk
 
 demo: deps
 	$(MAKE) all
@@ -88,6 +93,7 @@ test: deps
 	$(MAKE) all $(TEST_BIN)
 	$(MAKE) check-unit check-cli check-man
 	$(MAKE) check-sanitize
+	$(MAKE) check-fuzz
 	$(MAKE) check-mitsuba
 
 check-unit: $(TEST_BIN)
@@ -109,6 +115,31 @@ check-sanitize:
 	$(MAKE) BUILD=build/san BIN=build/san/bin CFLAGS="$(SAN_FLAGS)" \
 		check-unit check-cli
 
+# libFuzzer targets (tests/fuzz/fuzz_*.c), built with clang, ASan and UBSan
+# over their own copy of the library.  `make fuzz` fuzzes each for
+# FUZZ_SECONDS; check-fuzz (run by `make test`) replays each committed
+# corpus, then fuzzes each for CHECK_FUZZ_SECONDS; any crash fails.
+FUZZ_TARGETS = $(sort $(patsubst tests/fuzz/fuzz_%.c,%,$(wildcard tests/fuzz/fuzz_*.c)))
+FUZZ_BUILD   = build/fuzz
+FUZZ_FLAGS   = -O1 -g -fsanitize=fuzzer-no-link,address,undefined \
+	-fno-omit-frame-pointer -fno-sanitize-recover=undefined
+FUZZ_SECONDS ?= 60
+CHECK_FUZZ_SECONDS ?= 15
+
+$(BUILD)/bin/fuzz_%: tests/fuzz/fuzz_%.c $(LIB)
+	@mkdir -p $(dir $@)
+	$(CC) $(PM_CFLAGS) $(CFLAGS) -fsanitize=fuzzer -o $@ $< $(LIB) $(PM_LIBS)
+
+fuzz-build:
+	$(MAKE) BUILD=$(FUZZ_BUILD) CC=clang CFLAGS="$(FUZZ_FLAGS)" \
+		$(FUZZ_TARGETS:%=$(FUZZ_BUILD)/bin/fuzz_%)
+
+fuzz: fuzz-build
+	@sh tests/fuzz/run.sh $(FUZZ_BUILD)/bin $(FUZZ_BUILD)/work $(FUZZ_SECONDS) $(FUZZ_TARGETS)
+
+check-fuzz: fuzz-build
+	@sh tests/fuzz/run.sh $(FUZZ_BUILD)/bin $(FUZZ_BUILD)/check $(CHECK_FUZZ_SECONDS) $(FUZZ_TARGETS)
+
 check-man:
 	@for m in $(MANS); do mandoc -T lint -W warning $$m || exit 1; done; \
 	echo "man pages: $(words $(MANS)) linted clean"
@@ -125,4 +156,4 @@ install: all
 
 clean:
 	rm -rf $(BUILD)/*.a $(BUILD)/common $(BUILD)/formats $(BUILD)/tools $(BUILD)/san \
-		$(BUILD)/tests bin out
+		$(BUILD)/tests $(BUILD)/fuzz bin out

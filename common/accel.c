@@ -143,6 +143,12 @@ pm_accel_free(struct pm_accel *a)
 	free(a);
 }
 
+static inline float
+pm_max_abs(struct pm_vec3 a)
+{
+	return fmaxf(fabsf(a.x), fmaxf(fabsf(a.y), fabsf(a.z)));
+}
+
 static void
 fill_triangle_hit(const struct pm_shape *sh, uint32_t prim, float u, float v,
     struct pm_hit *h)
@@ -155,6 +161,7 @@ fill_triangle_hit(const struct pm_shape *sh, uint32_t prim, float u, float v,
 	float w = 1.0f - u - v;
 
 	h->p = pm_add(pm_add(pm_scale(p0, w), pm_scale(p1, u)), pm_scale(p2, v));
+	h->scale = fmaxf(fmaxf(pm_max_abs(p0), pm_max_abs(p1)), pm_max_abs(p2));
 	h->ng = pm_normalize(pm_cross(pm_sub(p1, p0), pm_sub(p2, p0)));
 	if (m->nrm != NULL) {
 		const float *n = m->nrm;
@@ -183,6 +190,7 @@ fill_sphere_hit(const struct pm_shape *sh, struct pm_vec3 p, struct pm_hit *h)
 	h->p = pm_madd(sh->center, pm_normalize(pm_sub(p, sh->center)), sh->radius);
 	h->ng = n;
 	h->ns = n;
+	h->scale = pm_max_abs(sh->center) + sh->radius;
 }
 
 bool

@@ -26,6 +26,8 @@ struct pm_hit {
 	int shape;			/* index into scene.shapes */
 	uint32_t prim;			/* triangle index within the mesh */
 	float u, v;			/* barycentrics of vertices 1 and 2 */
+	float scale;			/* largest coordinate magnitude of the
+					 * primitive: bounds the rounding in p */
 };
 
 /* Builds the structure over s, which must outlive it; *out is owned by the
@@ -47,17 +49,31 @@ void pm_accel_bounds(const struct pm_accel *a, struct pm_vec3 *lo,
 
 /*
  * A ray origin moved off the surface at p along the geometric normal ng, to
- * the side that dir leaves on, by an amount that scales with the magnitude
- * of p's coordinates (float spacing), so that the same scene at any scale is
- * free of self-intersection.
+ * the side that dir leaves on, by an amount proportional to the magnitude
+ * of the coordinates involved (about 170 float spacings), so that the same
+ * scene renders the same at any scale, from millimetres to kilometres.
+ * pm_hit_origin also counts the primitive's own vertices, whose rounding
+ * the interpolated hit point carries: a point near the origin on a large
+ * triangle needs the triangle's scale, not its own.
  */
+static inline struct pm_vec3 pm_offset_origin_scaled(struct pm_vec3 p,
+    struct pm_vec3 ng, struct pm_vec3 dir, float scale)
+{
+	float m = fmaxf(fabsf(p.x), fmaxf(fabsf(p.y), fabsf(p.z)));
+	float eps = fmaxf(fmaxf(m, scale) * 2e-5f, 1e-30f);
+
+	return pm_madd(p, ng, pm_dot(ng, dir) >= 0.0f ? eps : -eps);
+}
+
 static inline struct pm_vec3 pm_offset_origin(struct pm_vec3 p, struct pm_vec3 ng,
     struct pm_vec3 dir)
 {
-	float m = fmaxf(fabsf(p.x), fmaxf(fabsf(p.y), fabsf(p.z)));
-	float eps = (m + 1e-3f) * 2e-5f;
+	return pm_offset_origin_scaled(p, ng, dir, 0.0f);
+}
 
-	return pm_madd(p, ng, pm_dot(ng, dir) >= 0.0f ? eps : -eps);
+static inline struct pm_vec3 pm_hit_origin(const struct pm_hit *h, struct pm_vec3 dir)
+{
+	return pm_offset_origin_scaled(h->p, h->ng, dir, h->scale);
 }
 
 #endif

@@ -2,7 +2,8 @@
  * bsdf.c: evaluation, sampling and densities of pm's closed set of
  * materials, each meaning what the Mitsuba 3 plugin of the same name means
  * (diffuse, conductor, roughconductor, dielectric, thindielectric, plastic,
- * null, and the twosided adapter for the non-transmissive ones), in RGB.
+ * null, and the twosided adapter for the non-transmissive ones), in RGB,
+ * and measured MERL BRDFs, whose lookup and sampling live in merl.c.
  *
  * One switch per operation; no allocation; nothing here prints.  The
  * formulas are the textbook ones (Walter et al. 2007 for GGX, Heitz 2014
@@ -24,6 +25,7 @@
 #include <strings.h>
 
 #include "bsdf.h"
+#include "merl.h"
 #include "sampling.h"
 
 /* Below this the GGX lobe is narrower than float precision can follow. */
@@ -263,6 +265,10 @@ pm_bsdf_prepare(struct pm_bsdf *b)
 	case PM_BSDF_NULL:
 		b->lobes = PM_LOBE_DELTA_TRANSMISSION;
 		break;
+	case PM_BSDF_MERL:
+		/* measured: anything from matte to shiny, never a delta */
+		b->lobes = PM_LOBE_GLOSSY | PM_LOBE_DIFFUSE;
+		break;
 	}
 }
 
@@ -306,6 +312,11 @@ pm_bsdf_eval(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo,
 		fo = pm_fresnel_dielectric(wo.z, b->ior, NULL);
 		return pm_rgb_scale(plastic_diffuse(b, fi, fo),
 		    wo.z * PM_INV_PI);
+	case PM_BSDF_MERL:
+		if (wi.z <= 0.0f || wo.z <= 0.0f || b->merl == NULL)
+			break;
+		return pm_rgb_scale(pm_merl_eval(b->merl, wi, wo,
+		    b->merl_flags), wo.z);
 	case PM_BSDF_CONDUCTOR:
 	case PM_BSDF_DIELECTRIC:
 	case PM_BSDF_THINDIELECTRIC:
@@ -348,6 +359,10 @@ pm_bsdf_pdf(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo)
 			break;
 		fi = pm_fresnel_dielectric(wi.z, b->ior, NULL);
 		return wo.z * PM_INV_PI * (1.0f - plastic_prob_specular(b, fi));
+	case PM_BSDF_MERL:
+		if (b->merl == NULL)
+			break;
+		return pm_merl_pdf(b->merl, wi, wo, b->merl_flags);
 	case PM_BSDF_CONDUCTOR:
 	case PM_BSDF_DIELECTRIC:
 	case PM_BSDF_THINDIELECTRIC:
@@ -476,6 +491,21 @@ sample_plastic(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
 	return true;
 }
 
+static bool
+sample_merl(const struct pm_bsdf *b, struct pm_vec3 wi, float u1, float u2,
+    float u3, struct pm_bsdf_sample *s)
+{
+	if (b->merl == NULL || !pm_merl_sample(b->merl, wi, u1, u2, u3,
+	    b->merl_flags, &s->wo, &s->pdf))
+		return false;
+	s->weight = pm_rgb_scale(pm_merl_eval(b->merl, wi, s->wo,
+	    b->merl_flags), s->wo.z / s->pdf);
+	s->eta = 1.0f;
+	/* the data sampler follows both the peak and the base */
+	s->lobe = PM_LOBE_GLOSSY;
+	return true;
+}
+
 /* u1 chooses the lobe, (u2, u3) the direction; false if nothing was sampled. */
 bool
 pm_bsdf_sample(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
@@ -528,6 +558,9 @@ pm_bsdf_sample(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
 		s->eta = 1.0f;
 		s->lobe = PM_LOBE_DELTA_TRANSMISSION;
 		ok = true;
+		break;
+	case PM_BSDF_MERL:
+		ok = sample_merl(b, wi, u1, u2, u3, s);
 		break;
 	}
 	if (ok && flip)

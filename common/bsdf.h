@@ -30,7 +30,10 @@ enum pm_bsdf_type {
 	PM_BSDF_THINDIELECTRIC,
 	PM_BSDF_PLASTIC,
 	PM_BSDF_NULL,		/* invisible to rays: Mitsuba's "null" */
+	PM_BSDF_MERL,		/* a measured BRDF in MERL's layout (merl.h) */
 };
+
+struct pm_merl;
 
 enum pm_transport {
 	PM_RADIANCE,
@@ -70,6 +73,10 @@ struct pm_bsdf {
 	float fdr_int;
 	float specular_sampling_weight;
 	unsigned lobes;		/* PM_LOBE_* this BSDF can produce */
+	/* merl: the table, owned by the scene and shared by every BSDF that
+	 * names the same file, and PM_MERL_INTERPOLATE, PM_MERL_COSINE */
+	const struct pm_merl *merl;
+	unsigned merl_flags;
 };
 
 struct pm_bsdf_sample {

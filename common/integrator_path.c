@@ -29,10 +29,10 @@ direct_light(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
     struct pm_rng *rng)
 {
 	struct pm_light_sample ls;
-	struct pm_vec3 wo_local, o;
+	struct pm_vec3 wo_local;
 	struct pm_rgb f;
 	float u0 = pm_rng_float(rng), u1 = pm_rng_float(rng);
-	float u2 = pm_rng_float(rng), tmax, w;
+	float u2 = pm_rng_float(rng), w;
 
 	if (!pm_lights_sample(ctx->lights, ctx->scene, h->p, u0, u1, u2, &ls))
 		return pm_rgb1(0.0f);
@@ -40,10 +40,7 @@ direct_light(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 	f = pm_bsdf_eval(b, wi_local, wo_local, PM_RADIANCE);
 	if (pm_rgb_is_black(f))
 		return pm_rgb1(0.0f);
-	o = pm_offset_origin(h->p, h->ng, ls.wi);
-	/* Stop short of the light so that its own surface does not shadow it. */
-	tmax = isinf(ls.dist) ? INFINITY : ls.dist * (1.0f - 1e-4f);
-	if (pm_accel_occluded(ctx->accel, o, ls.wi, 0.0f, tmax))
+	if (pm_light_occluded(ctx->accel, h, &ls))
 		return pm_rgb1(0.0f);
 	w = ls.delta ? 1.0f :
 	    power_heuristic(ls.pdf, pm_bsdf_pdf(b, wi_local, wo_local));
@@ -117,7 +114,7 @@ pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 		prev_pdf = bs.pdf;
 		prev_delta = (bs.lobe & PM_LOBE_DELTA) != 0;
 		d = pm_normalize(pm_to_world(fr, bs.wo));
-		o = pm_offset_origin(h.p, h.ng, d);
+		o = pm_hit_origin(&h, d);
 		tmin = 0.0f;
 		tmax = INFINITY;
 

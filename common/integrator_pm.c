@@ -6,8 +6,9 @@
  *     surfaces (and, with MIS, after glossy ones);
  *   - specular (delta) components are followed recursively, choosing
  *     reflection or refraction by Fresnel weight;
- *   - glossy surfaces (rough conductors) are path traced: light sampling
- *     and BSDF sampling with multiple importance sampling;
+ *   - glossy surfaces (rough conductors, shiny measured BRDFs) are path
+ *     traced: light sampling and BSDF sampling with multiple importance
+ *     sampling;
  *   - at a diffuse surface the path ends with four estimates:
  *       direct light, exactly, from `direct_samples` light samples;
  *       caustics (light, specular+, here) from the caustic map with a cone
@@ -21,10 +22,18 @@
  * weighted by the BSDF for its incident direction, over the disc area
  * pi r^2, r the distance to the k-th photon (or the maximum radius when
  * fewer were found).
+ *
+ * For progressive photon mapping the estimate is over a fixed radius
+ * instead: every photon within it, however many, over pi r^2.  A k-nearest
+ * radius depends on the photons themselves, and its bias does not average
+ * away over independent passes; a fixed radius that shrinks from pass to
+ * pass (Knaus and Zwicker's schedule) does, so the mean of the passes
+ * converges to the right image.
  */
 #include <math.h>
 
 #include "kdtree.h"
+#include "merl.h"
 #include "render.h"
 
 #define CONE_K 1.1f
@@ -36,12 +45,14 @@ has_nonspecular(const struct pm_bsdf *b)
 	    (b->lobes & (PM_LOBE_DIFFUSE | PM_LOBE_GLOSSY | PM_LOBE_GLOSSY_TRANSMISSION));
 }
 
-/* Rough conductors are traced rather than estimated: photon density
- * estimates blur glossy reflections beyond use. */
+/* Rough conductors, and measured materials with a peak (merl.c decides),
+ * are traced rather than estimated: photon density estimates blur glossy
+ * reflections beyond use.  Matte measured materials use the maps. */
 static bool
 is_glossy(const struct pm_bsdf *b)
 {
-	return b->type == PM_BSDF_ROUGHCONDUCTOR;
+	return b->type == PM_BSDF_ROUGHCONDUCTOR ||
+	    (b->type == PM_BSDF_MERL && b->merl != NULL && b->merl->glossy);
 }
 
 static inline float
@@ -54,10 +65,62 @@ power_heuristic(float a, float b)
 	return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;
 }
 
+/* The photon's contribution before the density division: BSDF for its
+ * incident direction over the cosine, times its power; false for none. */
+static inline bool
+photon_term(const struct pm_photon *x, const struct pm_bsdf *b,
+    struct pm_frame fr, struct pm_vec3 wi_local, struct pm_rgb *out)
+{
+	struct pm_vec3 wo = pm_to_local(fr, pm_dir_unpack(x->dir));
+	struct pm_rgb f;
+
+	if (fabsf(wo.z) < 1e-4f)
+		return false;
+	f = pm_bsdf_eval(b, wi_local, wo, PM_RADIANCE);
+	if (pm_rgb_is_black(f))
+		return false;
+	*out = pm_rgb_mul(pm_rgb_scale(f, 1.0f / fabsf(wo.z)),
+	    pm_rgbe_unpack(x->power));
+	return true;
+}
+
+/* The fixed-radius estimate of progressive photon mapping: every photon
+ * within sqrt(r2), walked without a buffer. */
+static struct pm_rgb
+estimate_fixed(const struct pm_photon *ph, size_t n, float scale, float r2,
+    uint8_t mask, uint8_t want, bool cone, const struct pm_bsdf *b,
+    struct pm_vec3 p, struct pm_frame fr, struct pm_vec3 wi_local)
+{
+	struct pm_kd_range it;
+	float q[3] = {p.x, p.y, p.z}, r, d2, w;
+	struct pm_rgb t;
+	/* A fixed radius may hold millions of photons: sum in double, since
+	 * float loses whole percents past 2^22 terms. */
+	double sum[3] = {0, 0, 0};
+	uint32_t idx;
+
+	if (n == 0 || !(r2 > 0.0f))
+		return pm_rgb1(0.0f);
+	r = sqrtf(r2);
+	pm_kdtree_range_init(&it, ph, n, q, r2, mask, want);
+	while (pm_kdtree_range_next(&it, &idx, &d2)) {
+		if (!photon_term(&ph[idx], b, fr, wi_local, &t))
+			continue;
+		w = cone ? 1.0f - sqrtf(d2) / (CONE_K * r) : 1.0f;
+		sum[0] += (double)t.r * w;
+		sum[1] += (double)t.g * w;
+		sum[2] += (double)t.b * w;
+	}
+	w = scale / (PM_PI * r2);
+	if (cone)
+		w /= 1.0f - 2.0f / (3.0f * CONE_K);
+	return pm_rgb((float)(sum[0] * w), (float)(sum[1] * w), (float)(sum[2] * w));
+}
+
 /* Radiance towards wi_local from photons near p (see the top of the file). */
 static struct pm_rgb
 estimate(const struct pm_photon *ph, size_t n, float scale, float max_r2, int k,
-    uint8_t mask, uint8_t want, bool cone, const struct pm_bsdf *b,
+    bool fixed, uint8_t mask, uint8_t want, bool cone, const struct pm_bsdf *b,
     struct pm_vec3 p, struct pm_frame fr, struct pm_vec3 wi_local)
 {
 	struct pm_knn nb[PM_MAX_LOOKUP];
@@ -67,6 +130,9 @@ estimate(const struct pm_photon *ph, size_t n, float scale, float max_r2, int k,
 
 	if (n == 0 || max_r2 <= 0.0f)
 		return sum;
+	if (fixed)
+		return estimate_fixed(ph, n, scale, max_r2, mask, want, cone, b, p,
+		    fr, wi_local);
 	found = pm_kdtree_knn(ph, n, q, (size_t)k, max_r2, mask, want, nb);
 	if (found == 0)
 		return sum;
@@ -95,6 +161,20 @@ estimate(const struct pm_photon *ph, size_t n, float scale, float max_r2, int k,
 	return pm_rgb_scale(sum, w);
 }
 
+/* Knaus and Zwicker's radius schedule, as a multiple of the first radius. */
+double
+pm_pppm_radius_scale(long pass, double alpha)
+{
+	double s2 = 1.0;
+	long i;
+
+	if (pass < 1)
+		return 0.0;
+	for (i = 1; i < pass; i++)
+		s2 *= ((double)i + alpha) / ((double)i + 1.0);
+	return sqrt(s2);
+}
+
 /* Direct light at a non-specular hit: the mean of n light samples. */
 static struct pm_rgb
 direct_light(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
@@ -106,10 +186,10 @@ direct_light(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 
 	for (i = 0; i < n; i++) {
 		struct pm_light_sample ls;
-		struct pm_vec3 wo, o;
+		struct pm_vec3 wo;
 		struct pm_rgb f;
 		float u0 = pm_rng_float(rng), u1 = pm_rng_float(rng);
-		float u2 = pm_rng_float(rng), tmax, w;
+		float u2 = pm_rng_float(rng), w;
 
 		if (!pm_lights_sample(ctx->lights, ctx->scene, h->p, u0, u1, u2, &ls))
 			continue;
@@ -117,9 +197,7 @@ direct_light(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 		f = pm_bsdf_eval(b, wi_local, wo, PM_RADIANCE);
 		if (pm_rgb_is_black(f))
 			continue;
-		o = pm_offset_origin(h->p, h->ng, ls.wi);
-		tmax = isinf(ls.dist) ? INFINITY : ls.dist * (1.0f - 1e-4f);
-		if (pm_accel_occluded(ctx->accel, o, ls.wi, 0.0f, tmax))
+		if (pm_light_occluded(ctx->accel, h, &ls))
 			continue;
 		w = ls.delta || !mis ? 1.0f :
 		    power_heuristic(ls.pdf, pm_bsdf_pdf(b, wi_local, wo));
@@ -154,7 +232,8 @@ gather_ray(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 		wi = pm_to_local(fr, pm_neg(d));
 		if (has_nonspecular(b))
 			return pm_rgb_mul(beta, estimate(m->global, m->nglobal,
-			    m->global_scale, m->global_r2, m->lookup_size, 0, 0, false,
+			    m->global_scale, m->global_r2, m->lookup_size, m->fixed_radius,
+			    0, 0, false,
 			    b, h.p, fr, wi));
 		u1 = pm_rng_float(rng);
 		u2 = pm_rng_float(rng);
@@ -163,7 +242,7 @@ gather_ray(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 			break;
 		beta = pm_rgb_mul(beta, bs.weight);
 		d = pm_normalize(pm_to_world(fr, bs.wo));
-		o = pm_offset_origin(h.p, h.ng, d);
+		o = pm_hit_origin(&h, d);
 	}
 	return pm_rgb1(0.0f);
 }
@@ -189,7 +268,7 @@ final_gather(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 			continue;
 		d = pm_normalize(pm_to_world(fr, bs.wo));
 		L = pm_rgb_madd(L, bs.weight, gather_ray(ctx,
-		    pm_offset_origin(h->p, h->ng, d), d, rng));
+		    pm_hit_origin(h, d), d, rng));
 	}
 	return pm_rgb_scale(L, 1.0f / (float)n);
 }
@@ -253,14 +332,15 @@ pm_photon_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d
 			    m->direct_samples, false, rng);
 
 			E = pm_rgb_add(E, estimate(m->caustic, m->ncaustic,
-			    m->caustic_scale, m->caustic_r2, m->lookup_size, 0, 0, true,
+			    m->caustic_scale, m->caustic_r2, m->lookup_size,
+			    m->fixed_radius, 0, 0, true,
 			    b, h.p, fr, wi));
 			if (m->final_gather)
 				E = pm_rgb_add(E, final_gather(ctx, b, &h, fr, wi, rng));
 			else
 				E = pm_rgb_add(E, estimate(m->global, m->nglobal,
 				    m->global_scale, m->global_r2, m->lookup_size,
-				    PM_PHOTON_VIA_DIFFUSE, PM_PHOTON_VIA_DIFFUSE, false,
+				    m->fixed_radius, PM_PHOTON_VIA_DIFFUSE, PM_PHOTON_VIA_DIFFUSE, false,
 				    b, h.p, fr, wi));
 			L = pm_rgb_madd(L, beta, E);
 			if (!(b->lobes & PM_LOBE_DELTA))
@@ -284,7 +364,7 @@ pm_photon_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d
 		prev_pdf = bs.pdf;
 		prev_delta = (bs.lobe & PM_LOBE_DELTA) != 0;
 		d = pm_normalize(pm_to_world(fr, bs.wo));
-		o = pm_offset_origin(h.p, h.ng, d);
+		o = pm_hit_origin(&h, d);
 		tmin = 0.0f;
 		tmax = INFINITY;
 		if (depth >= ctx->rr_depth) {

@@ -626,6 +626,96 @@ pm_kdtree_radius(const struct pm_photon *p, size_t n, const float q[3],
 	}
 }
 
+_Static_assert(sizeof(((struct pm_kd_range *)0)->st) /
+    sizeof(((struct pm_kd_range *)0)->st[0]) == KD_STACK,
+    "struct pm_kd_range's stack must hold KD_STACK subtrees");
+
+/* Starts a radius query that yields photons one at a time. */
+void
+pm_kdtree_range_init(struct pm_kd_range *r, const struct pm_photon *p,
+    size_t n, const float q[3], float max_d2, uint8_t mask, uint8_t want)
+{
+	r->p = p;
+	r->q[0] = q[0];
+	r->q[1] = q[1];
+	r->q[2] = q[2];
+	r->max_d2 = max_d2;
+	r->mask = mask;
+	r->want = want;
+	r->lo = 0;
+	/* An empty range for trees a query cannot index, as pm_kdtree_radius. */
+	r->hi = n == 0 || (uint64_t)n > UINT32_MAX || !(max_d2 >= 0.0f) ?
+	    0 : (uint32_t)n;
+	r->leaf = r->leaf_end = 0;
+	r->sp = 0;
+}
+
+/*
+ * The traversal of pm_kdtree_radius, turned inside out: the same descent
+ * and the same pruning, but each match is returned as soon as it is found
+ * and the walk resumes from the saved state on the next call.
+ */
+bool
+pm_kdtree_range_next(struct pm_kd_range *r, uint32_t *idx, float *d2)
+{
+	const struct pm_photon *p = r->p;
+
+	for (;;) {
+		/* Scan what is left of the current bucket. */
+		while (r->leaf < r->leaf_end) {
+			uint32_t i = r->leaf++;
+			float d = kd_dist2(p[i].pos, r->q);
+
+			if (d <= r->max_d2 && (p[i].flags & r->mask) == r->want) {
+				*idx = i;
+				*d2 = d;
+				return true;
+			}
+		}
+		if (r->hi - r->lo > KD_BUCKET) {
+			uint32_t m = r->lo + (r->hi - r->lo) / 2;
+			const struct pm_photon *ph = &p[m];
+			int ax = ph->flags & PM_KD_AXIS_MASK;
+			float d = kd_dist2(ph->pos, r->q), diff, dd;
+			bool hit = d <= r->max_d2 && (ph->flags & r->mask) == r->want;
+
+			ax = ax > 2 ? 2 : ax;
+			diff = r->q[ax] - ph->pos[ax];
+			dd = diff * diff;
+			if (diff < 0.0f) {
+				if (dd <= r->max_d2 && r->sp < KD_STACK) {
+					r->st[r->sp][0] = m + 1;
+					r->st[r->sp++][1] = r->hi;
+				}
+				r->hi = m;
+			} else {
+				if (dd <= r->max_d2 && r->sp < KD_STACK) {
+					r->st[r->sp][0] = r->lo;
+					r->st[r->sp++][1] = m;
+				}
+				r->lo = m + 1;
+			}
+			if (hit) {
+				*idx = m;
+				*d2 = d;
+				return true;
+			}
+			continue;
+		}
+		if (r->lo < r->hi) {
+			r->leaf = r->lo;
+			r->leaf_end = r->hi;
+			r->lo = r->hi;
+			continue;
+		}
+		if (r->sp == 0)
+			return false;
+		r->sp--;
+		r->lo = r->st[r->sp][0];
+		r->hi = r->st[r->sp][1];
+	}
+}
+
 /*
  * The box every photon of a subtree must lie in, from its ancestors'
  * splits, with the ancestor that set each face (SIZE_MAX: none).

@@ -58,6 +58,33 @@ size_t pm_kdtree_radius(const struct pm_photon *p, size_t n, const float q[3],
     float max_d2, uint8_t mask, uint8_t want, struct pm_knn *out, size_t cap);
 
 /*
+ * A radius query that yields its photons one at a time, for estimates
+ * that must see every photon within the radius however many there are
+ * (progressive photon mapping's fixed-radius estimate): no buffer, no
+ * cap, no callback; the traversal state lives in the caller's struct.
+ * Start it with pm_kdtree_range_init, then call pm_kdtree_range_next until
+ * it returns false.  The tree must not change meanwhile.
+ */
+struct pm_kd_range {
+	const struct pm_photon *p;
+	float q[3], max_d2;
+	uint8_t mask, want;
+	uint32_t lo, hi;		/* the subtree being descended */
+	uint32_t leaf, leaf_end;	/* the bucket being scanned */
+	uint32_t sp;			/* deferred subtrees on the stack */
+	uint32_t st[64][2];
+};
+
+/* Starts a query for the photons of p[0..n) within squared distance
+ * max_d2 of q whose flags satisfy (flags & mask) == want. */
+void pm_kdtree_range_init(struct pm_kd_range *r, const struct pm_photon *p,
+    size_t n, const float q[3], float max_d2, uint8_t mask, uint8_t want);
+
+/* The next photon of the query: its index in *idx and squared distance in
+ * *d2; false when there are no more.  Photons come in no useful order. */
+bool pm_kdtree_range_next(struct pm_kd_range *r, uint32_t *idx, float *d2);
+
+/*
  * Checks the ordering invariant of every node; returns true if it holds,
  * else false with the index of the first bad node in *bad.
  */

@@ -223,3 +223,20 @@ pm_lights_pdf_env(const struct pm_lights *ls, const struct pm_scene *s)
 	return (float)pm_distrib_prob(&ls->pick, (size_t)s->env_light) *
 	    pm_uniform_sphere_pdf();
 }
+
+bool
+pm_light_occluded(const struct pm_accel *a, const struct pm_hit *h,
+    const struct pm_light_sample *ls)
+{
+	struct pm_vec3 o = pm_hit_origin(h, ls->wi), d;
+	float dist;
+
+	if (isinf(ls->dist))
+		return pm_accel_occluded(a, o, ls->wi, 0.0f, INFINITY);
+	d = pm_sub(ls->p, o);
+	dist = pm_length(d);
+	if (!(dist > 0.0f))
+		return false;
+	return pm_accel_occluded(a, o, pm_scale(d, 1.0f / dist), 0.0f,
+	    dist * (1.0f - 1e-4f));
+}

@@ -10,6 +10,7 @@
 
 #include <stdbool.h>
 
+#include "accel.h"
 #include "error.h"
 #include "sampling.h"
 #include "scene.h"
@@ -43,6 +44,15 @@ void pm_lights_free(struct pm_lights *ls);
  * (no lights, or the chosen point cannot light ref). */
 bool pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
     struct pm_vec3 ref, float u0, float u1, float u2, struct pm_light_sample *ls_out);
+
+/*
+ * True if something lies between the hit and the light sample.  The shadow
+ * ray runs from the hit's offset origin to the light point itself (not
+ * along wi, which starts at the unoffset point) and stops just short of it,
+ * so that neither the offset nor the light's own surface casts a shadow.
+ */
+bool pm_light_occluded(const struct pm_accel *a, const struct pm_hit *h,
+    const struct pm_light_sample *ls);
 
 /* Solid-angle density with which pm_lights_sample picks the point p (normal
  * n) of area light `light` from ref. */

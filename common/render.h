@@ -30,7 +30,19 @@ struct pm_photon_maps {
 	int direct_samples;		/* light samples per non-specular hit */
 	bool final_gather;
 	int final_gather_samples;
+	/* Progressive photon mapping: every photon within the radii counts
+	 * (no k-nearest), so that passes with shrinking radii average to the
+	 * right answer; lookup_size is then unused. */
+	bool fixed_radius;
 };
+
+/*
+ * The radius of pass `pass` (1, 2, ...) of probabilistic progressive photon
+ * mapping (Knaus and Zwicker 2011) as a multiple of the first pass's:
+ * r_{i+1}^2 = r_i^2 (i + alpha) / (i + 1), alpha in (0, 1).  Returns 0 for
+ * pass < 1.
+ */
+double pm_pppm_radius_scale(long pass, double alpha);
 
 /* Largest lookupSize: estimates keep their neighbours on the stack. */
 #define PM_MAX_LOOKUP 4096

@@ -10,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "merl.h"
 #include "scene.h"
 
 /* Mitsuba's perspective camera defaults to a 50 mm lens on 36 x 24 mm film,
@@ -62,6 +63,9 @@ pm_scene_free(struct pm_scene *s)
 	free(s->shapes);
 	free(s->bsdfs);
 	free(s->lights);
+	for (i = 0; i < s->nmerls; i++)
+		pm_merl_free(s->merls[i]);
+	free(s->merls);
 	free(s->path);
 	memset(s, 0, sizeof(*s));
 	s->env_light = -1;
@@ -126,6 +130,16 @@ pm_scene_add_light(struct pm_scene *s)
 	memset(l, 0, sizeof(*l));
 	l->shape = -1;
 	return (int)s->nlights++;
+}
+
+/* Takes ownership of a MERL table; its index, or -1. */
+int
+pm_scene_add_merl(struct pm_scene *s, struct pm_merl *m)
+{
+	if (grow((void **)&s->merls, s->nmerls, sizeof(*s->merls)) < 0)
+		return -1;
+	s->merls[s->nmerls] = m;
+	return (int)s->nmerls++;
 }
 
 /* Bounding sphere of the scene's geometry, Mitsuba's way: the sphere

@@ -123,6 +123,10 @@ struct pm_scene {
 	int env_light;			/* index of the constant light, or -1 */
 	char *path;			/* the file it was loaded from */
 	size_t dropped_triangles;	/* degenerate triangles left out of meshes */
+	/* Measured BRDF tables, one per file however many BSDFs use it;
+	 * freed with the scene. */
+	struct pm_merl **merls;
+	size_t nmerls;
 };
 
 /* Sets the defaults of an empty scene (Mitsuba's where they exist). */
@@ -134,6 +138,9 @@ void pm_scene_free(struct pm_scene *s);
 int pm_scene_add_shape(struct pm_scene *s);
 int pm_scene_add_bsdf(struct pm_scene *s);
 int pm_scene_add_light(struct pm_scene *s);
+/* Hands the scene a MERL table to own; its index, or -1 when out of
+ * memory (m is then still the caller's). */
+int pm_scene_add_merl(struct pm_scene *s, struct pm_merl *m);
 
 /*
  * After loading: prepares BSDFs, computes light areas and powers, checks

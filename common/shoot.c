@@ -22,6 +22,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "merl.h"
 #include "rng.h"
 #include "sampling.h"
 #include "shoot.h"
@@ -36,6 +37,17 @@ bsdf_has_nonspecular(const struct pm_bsdf *b)
 {
 	return b->type != PM_BSDF_NULL &&
 	    (b->lobes & (PM_LOBE_DIFFUSE | PM_LOBE_GLOSSY | PM_LOBE_GLOSSY_TRANSMISSION));
+}
+
+/* Whether a surface reflects anything at all, for the effects summary. */
+static bool
+bsdf_reflects(const struct pm_bsdf *b)
+{
+	if (b->type == PM_BSDF_MERL)
+		return b->merl != NULL &&
+		    pm_rgb_max(pm_merl_albedo(b->merl, 0.0f)) > 0.0f;
+	return pm_rgb_max(pm_rgb_add(b->diffuse, b->type == PM_BSDF_DIFFUSE ?
+	    pm_rgb1(0) : b->specular)) > 0.0f;
 }
 
 static bool
@@ -56,8 +68,7 @@ pm_shoot_effects(const struct pm_scene *s, struct pm_effects *e)
 	for (i = 0; i < s->nshapes; i++) {
 		const struct pm_bsdf *b = &s->bsdfs[s->shapes[i].bsdf];
 
-		if (bsdf_has_nonspecular(b) && pm_rgb_max(pm_rgb_add(b->diffuse,
-		    b->type == PM_BSDF_DIFFUSE ? pm_rgb1(0) : b->specular)) > 0.0f)
+		if (bsdf_has_nonspecular(b) && bsdf_reflects(b))
 			nrefl++;
 		if (bsdf_has_specular(b))
 			nspec++;
@@ -438,7 +449,7 @@ trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 			via_diffuse = true;
 		}
 		d = pm_normalize(pm_to_world(fr, bs.wo));
-		o = pm_offset_origin(h.p, h.ng, d);
+		o = pm_hit_origin(&h, d);
 	}
 	return true;
 }
@@ -618,6 +629,13 @@ pm_scene_hash(const struct pm_scene *s)
 		h = fnv_f(h, b->alpha);
 		h = fnv_i(h, b->sample_visible);
 		h = fnv_i(h, b->nonlinear);
+		/* a measured table by its file's size and crc32: the same
+		 * bytes under another name are the same material */
+		if (b->type == PM_BSDF_MERL && b->merl != NULL) {
+			h = fnv_i(h, (int64_t)b->merl->size);
+			h = fnv_i(h, b->merl->crc);
+			h = fnv_i(h, b->merl_flags);
+		}
 	}
 	h = fnv_i(h, (int64_t)s->nlights);
 	for (i = 0; i < s->nlights; i++) {

@@ -27,7 +27,9 @@
 #include <strings.h>
 #include <unistd.h>
 
+#include "../common/merl.h"
 #include "../common/parse.h"
+#include "merl.h"
 #include "obj.h"
 #include "ply.h"
 #include "scene_xml.h"
@@ -1613,6 +1615,58 @@ conductor_params(struct ld *ld, struct plist *pl, struct pm_bsdf *b)
 	return get_color(ld, pl, "specular_reflectance", 1.0f, &b->specular);
 }
 
+static enum pm_err wrap(struct ld *ld, const struct xnode *n,
+    const char *what, enum pm_err e);
+
+/*
+ * A measured BRDF: the file resolves like any other, and its table is
+ * read once per real path and shared by every BSDF that names it.
+ */
+static enum pm_err
+build_merl(struct ld *ld, struct xnode *n, struct plist *pl,
+    struct pm_bsdf *b)
+{
+	const char *fname, *path, *sampling, *key;
+	struct pm_merl *m;
+	char *real;
+	bool interp;
+	size_t i;
+	enum pm_err e;
+
+	if (!has(pl, "filename"))
+		return missing(ld, pl, "filename", "a <string>");
+	if ((e = get_string(ld, pl, "filename", NULL, &fname)) != PM_OK ||
+	    (e = get_bool(ld, pl, "interpolate", false, &interp)) != PM_OK ||
+	    (e = get_string(ld, pl, "sampling", "data", &sampling)) != PM_OK)
+		return e;
+	if (strcmp(sampling, "data") != 0 && strcmp(sampling, "cosine") != 0)
+		return fail(ld, prop_find(pl, "sampling")->n, PM_ERR_INVALID,
+		    "%s: sampling \"%s\" is neither \"data\" nor \"cosine\"",
+		    pl->what, sampling);
+	b->merl_flags = (interp ? PM_MERL_INTERPOLATE : 0) |
+	    (sampling[0] == 'c' ? PM_MERL_COSINE : 0);
+	if ((e = resolve(ld, n, n->dir, fname, &path)) != PM_OK)
+		return e;
+	real = realpath(path, NULL);
+	key = real != NULL ? real : path;
+	for (i = 0; i < ld->s->nmerls; i++)
+		if (strcmp(ld->s->merls[i]->path, key) == 0) {
+			b->merl = ld->s->merls[i];
+			free(real);
+			return PM_OK;
+		}
+	e = pm_merl_read(key, &m, ld->err);
+	free(real);
+	if (e != PM_OK)
+		return wrap(ld, n, pl->what, e);
+	if (pm_scene_add_merl(ld->s, m) < 0) {
+		pm_merl_free(m);
+		return nomem(ld);
+	}
+	b->merl = m;
+	return PM_OK;
+}
+
 static enum pm_err build_bsdf(struct ld *ld, struct xnode *n,
     struct pm_bsdf *b);
 
@@ -1744,10 +1798,13 @@ build_bsdf(struct ld *ld, struct xnode *n, struct pm_bsdf *b)
 		return PM_OK;
 	} else if (strcmp(type, "null") == 0) {
 		b->type = PM_BSDF_NULL;
+	} else if (strcmp(type, "merl") == 0) {
+		b->type = PM_BSDF_MERL;
+		e = build_merl(ld, n, &pl, b);
 	} else {
 		e = unknown_plugin(ld, n, type, "diffuse, conductor, "
 		    "roughconductor, dielectric, thindielectric, plastic, "
-		    "twosided and null");
+		    "merl, twosided and null");
 		goto out;
 	}
 	if (e == PM_OK && (e = finish(ld, &pl)) == PM_OK)

@@ -36,6 +36,7 @@ static const char usage_line[] =
     "                 [--half] [--global-radius R] [--caustic-radius R]\n"
     "                 [--lookup-size K] [--direct-samples N] [--final-gather]\n"
     "                 [--no-final-gather] [--final-gather-samples N]\n"
+    "                 [--pass I] [--radius R] [--alpha A]\n"
     "                 -o OUT.exr SCENE.xml [MAP.pmap]\n";
 
 struct cam_override {
@@ -208,9 +209,17 @@ progress_thread(void *arg)
 
 /* Loads a balanced map for this scene into maps; prints and returns 0 on
  * failure. */
+/* Progressive photon mapping's settings from the command line. */
+struct pppm {
+	long pass;		/* 0: not progressive */
+	float radius;		/* first pass's global radius; 0: the scene's */
+	double alpha;
+};
+
 static int
 load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
-    struct pm_pmap *pm, struct pm_photon_maps *maps, int verbose)
+    const struct pppm *pg, struct pm_pmap *pm, struct pm_photon_maps *maps,
+    int verbose)
 {
 	struct pm_error err = {PM_OK, ""};
 	const struct pm_photon_params *pp = &scene->integrator.photon;
@@ -254,15 +263,37 @@ load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
 	maps->global_r2 *= maps->global_r2;
 	maps->caustic_r2 = pp->caustic_lookup_radius * scene_radius;
 	maps->caustic_r2 *= maps->caustic_r2;
+	if (pg->pass > 0) {
+		/* Both radii start where the scene (or --radius, keeping their
+		 * ratio) puts them and shrink together along the schedule. */
+		double f = pm_pppm_radius_scale(pg->pass, pg->alpha);
+
+		if (pg->radius > 0.0f) {
+			double g = pg->radius / pp->global_lookup_radius;
+
+			f *= g;
+		}
+		maps->global_r2 = (float)(maps->global_r2 * f * f);
+		maps->caustic_r2 = (float)(maps->caustic_r2 * f * f);
+		maps->fixed_radius = true;
+		if (verbose >= 2)
+			fprintf(stderr, PROG ": %s: progressive pass %ld, alpha %g: "
+			    "radius scale %.9g, fixed radii %.9g (global) and %.9g "
+			    "(caustic)\n", path, pg->pass, pg->alpha,
+			    pm_pppm_radius_scale(pg->pass, pg->alpha),
+			    sqrt(maps->global_r2), sqrt(maps->caustic_r2));
+	}
 	maps->lookup_size = pp->lookup_size;
 	maps->direct_samples = pp->direct_samples;
 	maps->final_gather = pp->final_gather;
 	maps->final_gather_samples = pp->final_gather_samples;
 	if (verbose >= 2)
 		fprintf(stderr, PROG ": %s: %zu global photons, %zu caustic photons, "
-		    "radii %g and %g, k = %d, %d direct samples, final gathering %s\n",
+		    "radii %g and %g, %s%d, %d direct samples, final gathering %s\n",
 		    path, maps->nglobal, maps->ncaustic, sqrt(maps->global_r2),
-		    sqrt(maps->caustic_r2), maps->lookup_size, maps->direct_samples,
+		    sqrt(maps->caustic_r2), maps->fixed_radius ?
+		    "every photon within them (k unused: " : "k = ",
+		    maps->lookup_size, maps->direct_samples,
 		    maps->final_gather ? "on" : "off");
 	return 1;
 }
@@ -274,7 +305,7 @@ main(int argc, char **argv)
 		OPT_METHOD = 256, OPT_SPP, OPT_SIZE, OPT_EYE, OPT_TARGET, OPT_UP,
 		OPT_FOV, OPT_SEED, OPT_HALF, OPT_HELP, OPT_VERSION, OPT_CAMERAS,
 		OPT_GRADIUS, OPT_CRADIUS, OPT_LOOKUP, OPT_DIRECT, OPT_FG, OPT_NOFG,
-		OPT_FGSAMPLES,
+		OPT_FGSAMPLES, OPT_PASS, OPT_RADIUS, OPT_ALPHA,
 	};
 	static const struct option longopts[] = {
 		{"method", required_argument, NULL, OPT_METHOD},
@@ -297,6 +328,9 @@ main(int argc, char **argv)
 		{"final-gather", no_argument, NULL, OPT_FG},
 		{"no-final-gather", no_argument, NULL, OPT_NOFG},
 		{"final-gather-samples", required_argument, NULL, OPT_FGSAMPLES},
+		{"pass", required_argument, NULL, OPT_PASS},
+		{"radius", required_argument, NULL, OPT_RADIUS},
+		{"alpha", required_argument, NULL, OPT_ALPHA},
 		{"quiet", no_argument, NULL, 'q'},
 		{"verbose", no_argument, NULL, 'v'},
 		{"help", no_argument, NULL, OPT_HELP},
@@ -314,7 +348,8 @@ main(int argc, char **argv)
 	int verbose = 1, c, fg = -1;
 	long spp = 0, threads = sysconf(_SC_NPROCESSORS_ONLN);
 	long lookup = 0, direct = 0, fg_samples = 0;
-	float fov = 0.0f, gradius = 0.0f, cradius = 0.0f;
+	float fov = 0.0f, gradius = 0.0f, cradius = 0.0f, alpha = 2.0f / 3.0f;
+	struct pppm pg = {0, 0.0f, 2.0 / 3.0};
 	unsigned long long seed = 0;
 	struct pm_scene scene;
 	struct pm_accel *accel = NULL;
@@ -437,6 +472,24 @@ main(int argc, char **argv)
 				usage_error("--final-gather-samples wants 1 to 65536, not '%s'",
 				    optarg);
 			break;
+		case OPT_PASS:
+			if (!pm_parse_long(optarg, 1, 1L << 30, &pg.pass))
+				usage_error("--pass wants a pass number from 1 to 2^30, "
+				    "not '%s'", optarg);
+			break;
+		case OPT_RADIUS:
+			if (!pm_parse_float(optarg, 0.0f, 1e6f, &pg.radius) ||
+			    pg.radius <= 0)
+				usage_error("--radius wants a positive fraction, not '%s'",
+				    optarg);
+			break;
+		case OPT_ALPHA:
+			if (!pm_parse_float(optarg, 0.0f, 1.0f, &alpha) ||
+			    alpha <= 0.0f || alpha >= 1.0f)
+				usage_error("--alpha wants a number strictly between 0 "
+				    "and 1, not '%s'", optarg);
+			pg.alpha = alpha;
+			break;
 		case OPT_HELP:
 			fputs(usage_line, stdout);
 			return fclose(stdout) == 0 ? 0 : 1;
@@ -461,6 +514,10 @@ main(int argc, char **argv)
 		usage_error("%s", "--method path takes no photon map");
 	if (out_path == NULL)
 		usage_error("%s", "no output given (-o OUT.exr)");
+	if ((pg.pass > 0 || pg.radius > 0.0f) && map_path == NULL)
+		usage_error("%s", "--pass and --radius need a photon map");
+	if (pg.radius > 0.0f && pg.pass == 0)
+		pg.pass = 1;
 	if (!pattern_ok(out_path))
 		usage_error("-o: only a %%d-style pattern is allowed in '%s'", out_path);
 	if (have_eye != have_target)
@@ -533,7 +590,8 @@ main(int argc, char **argv)
 			goto out;
 		}
 		have_pmap = 1;
-		if (!load_maps(map_path, &scene, radius, &pmap, &maps, verbose)) {
+		if (!load_maps(map_path, &scene, radius, &pg, &pmap, &maps,
+		    verbose)) {
 			status = 1;
 			goto out;
 		}
@@ -554,6 +612,10 @@ main(int argc, char **argv)
 	if (scene.nlights == 0 && verbose)
 		fprintf(stderr, PROG ": %s: warning: the scene has no lights\n",
 		    scene_path);
+	if (scene.dropped_triangles > 0 && verbose)
+		fprintf(stderr, PROG ": %s: warning: %zu degenerate triangles "
+		    "(zero area or non-finite vertices) dropped\n", scene_path,
+		    scene.dropped_triangles);
 
 	for (ci = 0; ci < ncams && status == 0; ci++) {
 		struct pm_camera cam = scene.camera;

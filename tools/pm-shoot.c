@@ -99,6 +99,38 @@ join_args(int argc, char **argv)
 	return s;
 }
 
+/* Physical memory in bytes; 0 when the system will not say. */
+static double
+machine_memory(void)
+{
+	long pages = sysconf(_SC_PHYS_PAGES), size = sysconf(_SC_PAGESIZE);
+
+	return pages > 0 && size > 0 ? (double)pages * (double)size : 0.0;
+}
+
+/*
+ * How many photons n paths of a pass will store, from a pilot run of the
+ * first PILOT_PATHS of them: paths store a scene-dependent number of
+ * photons, so only shooting some tells.  The pilot's photons are the
+ * same ones the real run will shoot, so nothing about the map changes.
+ */
+#define PILOT_PATHS 4096
+static enum pm_err
+estimate_stored(const struct pm_shooter *sh, const struct pm_shoot_opts *so,
+    double *stored, struct pm_error *err)
+{
+	struct pm_shoot_opts pilot = *so;
+	struct pm_shoot_stats st;
+	struct pm_photon_buf b = {NULL, 0, 0};
+	enum pm_err e;
+
+	pilot.count = PILOT_PATHS;
+	e = pm_shoot(sh, &pilot, &b, &st, err);
+	pm_photon_buf_free(&b);
+	*stored = (double)st.stored / PILOT_PATHS * (double)so->count;
+	return e;
+}
+
 static void
 bounds_of(const struct pm_photon_buf *b, float lo[3], float hi[3])
 {
@@ -281,6 +313,56 @@ main(int argc, char **argv)
 	if (verbose >= 2)
 		fprintf(stderr, PROG ": %s: loaded in %.3f s; simulating:\n%s",
 		    scene_path, now() - t0, fx.why);
+	if (verbose && scene.dropped_triangles > 0)
+		fprintf(stderr, PROG ": %s: warning: %zu degenerate triangles "
+		    "(zero area or non-finite vertices) dropped\n", scene_path,
+		    scene.dropped_triangles);
+
+	/*
+	 * Refuse, before allocating, a request whose photons would not fit
+	 * in memory: each pass's photons are held twice at its end (the
+	 * threads' chunks and the map they are gathered into).  Small
+	 * requests cannot exceed any machine and skip the pilot.
+	 */
+	{
+		double need = 0.0, have = machine_memory(), stored[2] = {0, 0};
+
+		for (pass = 0; pass < 2; pass++) {
+			struct pm_shoot_opts so;
+			long long n = pass == 0 ? nglobal : ncaustic;
+
+			if (!(pass == 0 ? fx.global : fx.caustic) || n <= (1LL << 20))
+				continue;
+			memset(&so, 0, sizeof(so));
+			so.pass = pass == 0 ? PM_PASS_GLOBAL : PM_PASS_CAUSTIC;
+			so.seed = seed;
+			so.first = first;
+			so.count = (uint64_t)n;
+			so.max_depth = (int)max_depth;
+			so.threads = (int)threads;
+			if (estimate_stored(&shooter, &so, &stored[pass], &err) != PM_OK) {
+				fprintf(stderr, PROG ": %s: %s\n", scene_path, err.msg);
+				status = 1;
+				break;
+			}
+			need += 2.0 * stored[pass] * (double)sizeof(struct pm_photon);
+		}
+		if (status == 0 && have > 0.0 && need > 0.9 * have) {
+			fprintf(stderr, PROG ": %s: %.3g photons would need about %.1f "
+			    "GiB of memory, and this machine has %.1f GiB: shoot "
+			    "fewer paths, or shards with --first-index\n", scene_path,
+			    stored[0] + stored[1], need / (1024.0 * 1024.0 * 1024.0),
+			    have / (1024.0 * 1024.0 * 1024.0));
+			status = 1;
+		}
+		if (status != 0) {
+			pm_shooter_free(&shooter);
+			pm_lights_free(&lights);
+			pm_accel_free(accel);
+			pm_scene_free(&scene);
+			return 1;
+		}
+	}
 
 	memset(&out, 0, sizeof(out));
 	out.scene_hash = pm_scene_hash(&scene);

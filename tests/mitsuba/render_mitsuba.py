@@ -4,6 +4,7 @@ that pm-render is checked against.
 
     render_mitsuba.py SCENE.xml OUT.exr [--spp N] [-D name=value ...]
                       [--variant V] [--seed N] [--light-scale F] [--no-cache]
+                      [--integrator path|ptracer] [--key-scope dir|scene]
 
 The scene is rendered with its own integrator (the Cornell boxes use `path`),
 so both renderers read exactly the same file. OUT.exr holds linear RGB float32.
@@ -14,6 +15,14 @@ under the scene's directory (includes, meshes, textures), of any file the
 scene names outside that directory, and of the options that change the
 picture. --light-scale multiplies the first emitter's radiance, which the
 self-test uses to prove that the comparison notices a 5% brighter light.
+
+--key-scope scene narrows the key to the scene file and the files it names
+(includes and meshes, with $name resolved from <default> and -D), so that
+long references (tests/accuracy/references.sh) survive edits to other files
+beside the scene. --integrator replaces the scene's integrator by Mitsuba's
+`path` or `ptracer` with unlimited depth. The cache's .json records the
+seconds spent loading the scene and rendering it, which the accuracy study
+reads as Mitsuba's wall time.
 """
 
 import argparse
@@ -49,6 +58,14 @@ def parse_args(argv):
     p.add_argument("--light-scale", type=float, default=1.0,
                    help="multiply the first emitter's radiance by this")
     p.add_argument("--no-cache", action="store_true")
+    p.add_argument("--meta", default=None, metavar="FILE",
+                   help="also write the render's record (seconds, variant, "
+                   "cache key) as JSON to FILE")
+    p.add_argument("--integrator", choices=("path", "ptracer"), default=None,
+                   help="replace the scene's integrator (max_depth -1)")
+    p.add_argument("--key-scope", choices=("dir", "scene"), default="dir",
+                   help="hash every file beside the scene (dir) or only "
+                   "the scene and the files it names (scene)")
     p.add_argument("-q", "--quiet", action="store_true")
     return p.parse_args(argv)
 
@@ -78,10 +95,20 @@ def parse_defines(items):
     return out
 
 
-def referenced_files(scene_path, seen=None):
+def resolve(name, defines):
+    """Replaces each $key of name by its value in defines; None when some
+    reference stays unresolved."""
+    for k in sorted(defines, key=len, reverse=True):
+        name = name.replace("$" + k, defines[k])
+    return None if "$" in name else name
+
+
+def referenced_files(scene_path, seen=None, defines=None, resolve_all=False):
     """Files a scene names (includes and `filename` strings), followed
-    through includes; unresolved `$name` references are skipped."""
+    through includes; `$name` is resolved from -D, then from the scene's
+    <default> elements, and skipped when neither has it."""
     seen = set() if seen is None else seen
+    defines = {} if defines is None else defines
     scene_path = os.path.abspath(scene_path)
     if scene_path in seen:
         return seen
@@ -91,19 +118,24 @@ def referenced_files(scene_path, seen=None):
         tree = ET.parse(scene_path)
     except (OSError, ET.ParseError):
         return seen
+    values = {el.get("name"): el.get("value", "")
+              for el in tree.iter("default") if el.get("name")}
+    values.update(defines)
     for el in tree.iter():
         name = None
         if el.tag == "include":
             name = el.get("filename")
         elif el.tag == "string" and el.get("name") == "filename":
             name = el.get("value")
-        if not name or "$" in name:
+        if name and "$" in name:
+            name = resolve(name, values) if resolve_all else None
+        if not name:
             continue
         path = name if os.path.isabs(name) else os.path.join(base, name)
         if not os.path.isfile(path):
             continue
         if el.tag == "include":
-            referenced_files(path, seen)
+            referenced_files(path, seen, defines, resolve_all)
         else:
             seen.add(os.path.abspath(path))
     return seen
@@ -115,12 +147,18 @@ def cache_key(args, defines, variant, mitsuba_version):
     scene = os.path.abspath(args.scene)
     sdir = os.path.dirname(scene)
     files = set()
-    for dirpath, dirnames, filenames in os.walk(sdir):
-        dirnames[:] = sorted(d for d in dirnames if not d.startswith("."))
-        for fn in filenames:
-            if not fn.startswith("."):
-                files.add(os.path.join(dirpath, fn))
-    files |= referenced_files(scene)
+    if args.key_scope == "dir":
+        for dirpath, dirnames, filenames in os.walk(sdir):
+            dirnames[:] = sorted(d for d in dirnames
+                                 if not d.startswith("."))
+            for fn in filenames:
+                if not fn.startswith("."):
+                    files.add(os.path.join(dirpath, fn))
+        files |= referenced_files(scene)
+    else:
+        # Resolving $name here only: older dir-scoped keys skipped such
+        # names, and changing that would orphan their cached renders.
+        files |= referenced_files(scene, defines=defines, resolve_all=True)
     for path in sorted(files):
         h.update(path.encode() if not path.startswith(sdir + os.sep)
                  else os.path.relpath(path, sdir).encode())
@@ -139,6 +177,12 @@ def cache_key(args, defines, variant, mitsuba_version):
         "light_scale": args.light_scale,
         "mitsuba": mitsuba_version,
     }
+    # New options enter the key only when used, so that the keys of
+    # renders cached before they existed stay valid.
+    if args.integrator is not None:
+        opts["integrator"] = args.integrator
+    if args.key_scope != "dir":
+        opts["key_scope"] = args.key_scope
     h.update(json.dumps(opts, sort_keys=True).encode())
     return h.hexdigest()[:32]
 
@@ -162,13 +206,18 @@ def render(args, defines, variant, out):
     import mitsuba as mi
     import numpy as np
     mi.set_variant(variant)
+    t_load = time.time()
     scene = mi.load_file(args.scene, **defines)
     if args.light_scale != 1.0:
         scale_first_emitter(mi, scene, args.light_scale)
     t0 = time.time()
+    load_seconds = t0 - t_load
     kw = {"seed": args.seed}
     if args.spp is not None:
         kw["spp"] = args.spp
+    if args.integrator is not None:
+        kw["integrator"] = mi.load_dict({"type": args.integrator,
+                                         "max_depth": -1})
     img = mi.render(scene, **kw)
     arr = np.array(img, dtype=np.float32)
     seconds = time.time() - t0
@@ -178,7 +227,14 @@ def render(args, defines, variant, out):
     arr = np.ascontiguousarray(arr[:, :, :3])
     bmp = mi.Bitmap(arr, pixel_format=mi.Bitmap.PixelFormat.RGB)
     bmp.write(out)
-    return seconds, arr.shape
+    return seconds, load_seconds, arr.shape
+
+
+def write_meta(path, meta, key):
+    """The render's record, with its cache key, for --meta."""
+    if path:
+        with open(path, "w") as f:
+            json.dump(dict(meta, key=key), f, indent=1)
 
 
 def main(argv):
@@ -198,13 +254,14 @@ def main(argv):
         shutil.copyfile(cached, args.out)
         with open(meta_path) as f:
             meta = json.load(f)
+        write_meta(args.meta, meta, key)
         if not args.quiet:
             print("render_mitsuba: %s (cached %s; rendered in %.1f s with "
                   "mitsuba %s %s)" % (args.out, key, meta["seconds"],
                                       meta["mitsuba"], meta["variant"]))
         return 0
 
-    seconds, shape = render(args, defines, variant, args.out)
+    seconds, load_seconds, shape = render(args, defines, variant, args.out)
     if not args.quiet:
         print("render_mitsuba: %s %dx%d spp=%s seed=%d in %.1f s "
               "(mitsuba %s %s)" % (args.out, shape[1], shape[0],
@@ -219,10 +276,17 @@ def main(argv):
                 "defines": defines, "seed": args.seed,
                 "light_scale": args.light_scale, "variant": variant,
                 "mitsuba": version, "seconds": round(seconds, 3),
+                "load_seconds": round(load_seconds, 3),
+                "integrator": args.integrator or "scene",
                 "width": shape[1], "height": shape[0]}
         with open(meta_path + ".tmp", "w") as f:
             json.dump(meta, f, indent=1)
         os.replace(meta_path + ".tmp", meta_path)
+        write_meta(args.meta, meta, key)
+    elif args.meta:
+        write_meta(args.meta, {"seconds": round(seconds, 3),
+                               "load_seconds": round(load_seconds, 3),
+                               "variant": variant, "mitsuba": version}, key)
     return 0
 
 

@@ -225,7 +225,7 @@ test_offset_origin_no_acne(void **state)
 			d2 = pm_normalize(rand_point(&r, 1.0f));
 			if (pm_dot(d2, h.ng) * pm_dot(d, h.ng) > 0)
 				d2 = pm_neg(d2);
-			if (pm_accel_intersect(a, pm_offset_origin(h.p, h.ng, d2), d2,
+			if (pm_accel_intersect(a, pm_hit_origin(&h, d2), d2,
 			    0.0f, INFINITY, &h2) && h2.shape == h.shape &&
 			    h2.prim == h.prim && h.shape == 0)
 				self++;

@@ -1,0 +1,14 @@
+# pipelines/bench.mk: `make bench`, pm's speed (tests/bench/bench.sh): the
+# kd-tree against FLANN, photon tracing against plain Embree ray casts,
+# the speed-up over threads, bytes per photon.  One table on stdout, JSON
+# in out/bench/bench.json; about 5 minutes on 2 cores; no pass or fail.
+
+.PHONY: bench
+
+$(BUILD)/tests/bench: tests/bench/bench.c $(LIB)
+	@mkdir -p $(dir $@)
+	$(CC) $(PM_CFLAGS) $(CFLAGS) -o $@ tests/bench/bench.c $(LIB) $(PM_LIBS)
+
+bench: deps
+	$(MAKE) all $(BUILD)/tests/bench
+	BIN=$(BIN) BENCH=$(BUILD)/tests/bench sh tests/bench/bench.sh

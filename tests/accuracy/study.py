@@ -1,0 +1,367 @@
+#!/usr/bin/env python3
+"""study.py: what accuracy costs in time, for pm and for Mitsuba 3.
+
+    study.py [--scenes a,b,c] [--quick] [--out out/accuracy]
+
+Run from the repository root by `make accuracy` (pipelines/accuracy.mk),
+after tests/accuracy/references.sh has made the references.  For each scene
+it sweeps the knobs that trade time for accuracy, one at a time from a base
+setting (photons in the global and caustic maps, lookupSize, the radii,
+final gathering samples, samples per pixel, progressive passes), runs pm's
+pipeline (pm-shoot, pm-balance, pm-render, pm-downsample) timing each stage
+by the wall clock, and renders the scene with Mitsuba 3's path tracer at a
+range of sample counts, the peer at the same budgets on the same cores.
+
+Error is measured against the reference, the mean of two Mitsuba halves A
+and B: relMSE = mean over pixels and channels of (x - ref)^2 / (ref^2 +
+0.01).  The reference's own noise adds mean(((A - B) / 2)^2 / (ref^2 +
+0.01)) to that in expectation; it is printed as the floor and subtracted
+(`relmse` is the corrected value, `relmse_raw` the measured one).  FLIP
+(the flip-evaluator package, HDR mode) is added when it imports.
+
+Each run's result is kept in OUT/runs/KEY.json, KEY naming the run's
+settings and the binaries' and scene's hashes, so an interrupted study
+resumes and a finished one re-plots for free; OUT/results.tsv holds them
+all.  Times are those of the run that made the file.
+"""
+
+import argparse
+import hashlib
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(
+    os.path.abspath(__file__))))
+BIN = os.path.join(ROOT, "bin")
+RES = 128
+
+# The base setting of each scene and the sweeps around it.  The caustic
+# map is shot only where a scene has specular surfaces (pm-shoot decides),
+# so for the Cornell box its count changes nothing.
+BASE = {"global": 200000, "caustic": 200000, "k": 120, "gr": None,
+        "cr": None, "fg": 0, "spp": 4, "direct": 4}
+SWEEPS = [
+    # (name, knob, values, overrides): photon counts at 16 spp, where the
+    # render's own noise is small, show the bias falling with photons.
+    ("photons", "photons", [25000, 50000, 100000, 200000, 400000, 800000,
+                            1600000], {"spp": 16}),
+    ("photons-4spp", "photons", [50000, 200000, 800000], {}),
+    ("lookup", "k", [30, 60, 240, 480], {"global": 400000,
+                                           "caustic": 400000}),
+    ("radius", "radius", [0.5, 2.0], {"global": 400000, "caustic": 400000}),
+    ("final-gather", "fg", [4, 16, 48], {}),
+    ("spp", "spp", [1, 16, 64], {"global": 400000, "caustic": 400000}),
+]
+PROG_PASSES = 32
+PROG = {"global": 100000, "caustic": 100000, "spp": 2, "direct": 2}
+MI_SPP = [4, 16, 64, 256, 1024, 2048]
+QUICK_MI_SPP = [4, 16]
+
+
+def sh(cmd):
+    """Runs cmd (a list), returns its wall time; raises on failure."""
+    t0 = time.perf_counter()
+    r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    dt = time.perf_counter() - t0
+    if r.returncode != 0:
+        raise RuntimeError("%s: exit %d: %s" % (" ".join(cmd), r.returncode,
+                                                r.stderr.decode()[-2000:]))
+    return dt
+
+
+def file_hash(paths):
+    h = hashlib.sha256()
+    for p in paths:
+        with open(p, "rb") as f:
+            h.update(f.read())
+    return h.hexdigest()[:12]
+
+
+class Images:
+    """Reads EXR with Mitsuba's Bitmap; measures error against one
+    reference."""
+
+    def __init__(self, variant):
+        import mitsuba as mi
+        mi.set_variant(variant)
+        self.mi = mi
+        try:
+            import flip_evaluator
+            self.flip = flip_evaluator
+        except ImportError:
+            self.flip = None
+
+    def read(self, path):
+        a = np.array(self.mi.Bitmap(path), dtype=np.float64)
+        return a[:, :, :3]
+
+    def set_reference(self, a_path, b_path):
+        a, b = self.read(a_path), self.read(b_path)
+        self.ref = 0.5 * (a + b)
+        self.den = self.ref ** 2 + 0.01
+        self.floor = float(np.mean(0.25 * (a - b) ** 2 / self.den))
+        self.ref_mean = self.ref.mean(axis=(0, 1))
+
+    def error(self, path):
+        x = self.read(path)
+        raw = float(np.mean((x - self.ref) ** 2 / self.den))
+        out = {"relmse_raw": raw, "relmse": max(raw - self.floor, 1e-12),
+               "mean_err": float(np.max(np.abs(
+                   x.mean(axis=(0, 1)) / self.ref_mean - 1.0)))}
+        if self.flip is not None:
+            try:
+                _, m, _ = self.flip.evaluate(
+                    self.ref.astype(np.float32), x.astype(np.float32), "HDR")
+                out["flip"] = float(m)
+            except Exception as e:  # a FLIP failure must not stop the study
+                out["flip_error"] = str(e)[:200]
+        return out
+
+
+class Study:
+    def __init__(self, args):
+        self.out = args.out
+        self.tmp = os.path.join(self.out, "tmp")
+        self.runs = os.path.join(self.out, "runs")
+        os.makedirs(self.tmp, exist_ok=True)
+        os.makedirs(self.runs, exist_ok=True)
+        venv = os.environ.get("PM_VENV", os.path.join(ROOT, "build", "venv"))
+        with open(os.path.join(venv, "pm-variant")) as f:
+            self.variant = f.read().strip()
+        self.img = Images(self.variant)
+        self.bins = file_hash([os.path.join(BIN, t) for t in (
+            "pm-shoot", "pm-balance", "pm-render", "pm-downsample")])
+        self.results = []
+        self.quick = args.quick
+        self.mi_seed = args.mitsuba_seed
+
+    def cached(self, key):
+        p = os.path.join(self.runs, key + ".json")
+        if os.path.isfile(p):
+            with open(p) as f:
+                return json.load(f)
+        return None
+
+    def keep(self, key, rec):
+        p = os.path.join(self.runs, key + ".json")
+        with open(p + ".tmp", "w") as f:
+            json.dump(rec, f, indent=1)
+        os.replace(p + ".tmp", p)
+        self.results.append(rec)
+        print("%-12s %-14s %-22s %7.2f s  relMSE %.3g%s" % (
+            rec["scene"], rec["sweep"], rec["label"], rec["total_s"],
+            rec["relmse"], "  FLIP %.4f" % rec["flip"] if "flip" in rec
+            else ""), flush=True)
+
+    def pm_map(self, scene, seed, nglobal, ncaustic, tag):
+        """Shoots and balances one map; returns (path, shoot s, balance s)."""
+        shot = os.path.join(self.tmp, tag + "-shot.pmap")
+        bal = os.path.join(self.tmp, tag + ".pmap")
+        t_shoot = sh([os.path.join(BIN, "pm-shoot"), "-q", "-f", "--seed",
+                      str(seed), "--photons", str(nglobal),
+                      "--caustic-photons", str(ncaustic), "-D",
+                      "res=%d" % RES, "-o", shot, scene])
+        t_bal = sh([os.path.join(BIN, "pm-balance"), "-q", "-f", "-o", bal,
+                    shot])
+        os.remove(shot)
+        return bal, t_shoot, t_bal
+
+    def pm_render(self, scene, pmap, c, out, seed=0, extra=()):
+        cmd = [os.path.join(BIN, "pm-render"), "-q", "--seed", str(seed),
+               "--spp", str(c["spp"]), "--size", "%dx%d" % (RES, RES),
+               "-D", "res=%d" % RES, "--direct-samples", str(c["direct"]),
+               "--lookup-size", str(c["k"])]
+        if c.get("gr"):
+            cmd += ["--global-radius", str(c["gr"])]
+        if c.get("cr"):
+            cmd += ["--caustic-radius", str(c["cr"])]
+        if c.get("fg"):
+            cmd += ["--final-gather", "--final-gather-samples", str(c["fg"])]
+        cmd += list(extra) + ["-o", out, scene, pmap]
+        return sh(cmd)
+
+    def run_pm(self, name, scene, shash, sweep, label, c, method):
+        key = "%s-%s" % (name, hashlib.sha256(json.dumps(
+            [shash, self.bins, RES, c, method], sort_keys=True).encode())
+            .hexdigest()[:16])
+        rec = self.cached(key)
+        if rec is not None:
+            # A sweep may meet the base setting again: one row for both.
+            if rec not in self.results:
+                self.results.append(rec)
+            return
+        tag = name
+        pmap, t_shoot, t_bal = self.pm_map(scene, 1, c["global"],
+                                           c["caustic"], tag)
+        raw = os.path.join(self.tmp, tag + "-raw.exr")
+        final = os.path.join(self.tmp, tag + ".exr")
+        t_render = self.pm_render(scene, pmap, c, raw)
+        t_down = sh([os.path.join(BIN, "pm-downsample"), "-q", "-o", final,
+                     raw])
+        os.remove(pmap)
+        rec = {"scene": name, "method": method, "sweep": sweep,
+               "label": label, "config": c, "shoot_s": t_shoot,
+               "balance_s": t_bal, "render_s": t_render,
+               "downsample_s": t_down,
+               "total_s": t_shoot + t_bal + t_render + t_down,
+               "floor": self.img.floor}
+        rec.update(self.img.error(final))
+        self.keep(key, rec)
+
+    def run_progressive(self, name, scene, shash):
+        c = dict(BASE)
+        c.update(PROG)
+        passes = 4 if self.quick else PROG_PASSES
+        key = "%s-prog-%s" % (name, hashlib.sha256(json.dumps(
+            [shash, self.bins, RES, c, passes], sort_keys=True).encode())
+            .hexdigest()[:16])
+        prev = self.cached(key)
+        if prev is not None:
+            self.results.extend(prev["passes"])
+            return
+        done = []
+        t_total = 0.0
+        stages = {"shoot_s": 0.0, "balance_s": 0.0, "render_s": 0.0,
+                  "downsample_s": 0.0}
+        for i in range(1, passes + 1):
+            tag = "%s-pass%03d" % (name, i)
+            pmap, t_shoot, t_bal = self.pm_map(scene, i, c["global"],
+                                               c["caustic"], tag)
+            raw = os.path.join(self.tmp, tag + ".exr")
+            t_render = self.pm_render(scene, pmap, c, raw, seed=i,
+                                      extra=("--pass", str(i)))
+            os.remove(pmap)
+            done.append(raw)
+            mean = os.path.join(self.tmp, name + "-mean.exr")
+            t_down = sh([os.path.join(BIN, "pm-downsample"), "-q", "-o",
+                         mean] + done)
+            stages["shoot_s"] += t_shoot
+            stages["balance_s"] += t_bal
+            stages["render_s"] += t_render
+            stages["downsample_s"] += t_down
+            t_total += t_shoot + t_bal + t_render + t_down
+            rec = {"scene": name, "method": "pm-progressive",
+                   "sweep": "passes", "label": "passes=%d" % i,
+                   "config": dict(c, passes=i), "total_s": t_total,
+                   "floor": self.img.floor}
+            rec.update(stages)
+            rec.update(self.img.error(mean))
+            print("%-12s %-14s %-22s %7.2f s  relMSE %.3g" % (
+                name, "passes", rec["label"], t_total, rec["relmse"]),
+                flush=True)
+            self.results.append(rec)
+        for p in done:
+            os.remove(p)
+        rec_all = {"passes": [r for r in self.results
+                              if r["scene"] == name
+                              and r["method"] == "pm-progressive"]}
+        with open(os.path.join(self.runs, key + ".json"), "w") as f:
+            json.dump(rec_all, f, indent=1)
+
+    def run_mitsuba(self, name, scene):
+        for spp in (QUICK_MI_SPP if self.quick else MI_SPP):
+            out = os.path.join(self.tmp, "%s-mi-%d.exr" % (name, spp))
+            meta_path = out + ".json"
+            py = os.path.join(os.path.dirname(sys.executable), "python")
+            r = subprocess.run([py, os.path.join(
+                ROOT, "tests", "mitsuba", "render_mitsuba.py"), scene, out,
+                "--spp", str(spp), "-D", "res=%d" % RES,
+                "--seed", str(self.mi_seed),
+                "--variant", self.variant, "--key-scope", "scene",
+                "--meta", meta_path],
+                stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+            if r.returncode != 0:
+                print("study: %s: Mitsuba failed: %s" % (
+                    name, r.stderr.decode()[-500:]), file=sys.stderr)
+                return
+            with open(meta_path) as f:
+                meta = json.load(f)
+            rec = {"scene": name, "method": "mitsuba-path", "sweep": "spp",
+                   "label": "spp=%d" % spp, "config": {"spp": spp},
+                   "render_s": meta["seconds"],
+                   "load_s": meta.get("load_seconds", 0.0),
+                   "total_s": meta["seconds"] + meta.get("load_seconds", 0.0),
+                   "floor": self.img.floor, "variant": meta["variant"]}
+            rec.update(self.img.error(out))
+            self.keep("%s-mi-%d-%s" % (name, spp, meta["key"]), rec)
+
+    def scene(self, name):
+        scene = os.path.join(ROOT, "data", name + ".xml")
+        ref = os.path.join(self.out, "ref", name)
+        if not os.path.isfile(ref + "-a.exr"):
+            print("study: %s: no reference (run tests/accuracy/"
+                  "references.sh); skipped" % name, file=sys.stderr)
+            return
+        self.img.set_reference(ref + "-a.exr", ref + "-b.exr")
+        print("study: %s: reference noise floor relMSE %.2g" % (
+            name, self.img.floor), flush=True)
+        shash = file_hash([scene])
+        base = dict(BASE)
+        self.run_pm(name, scene, shash, "base", "base", base, "pm")
+        for sweep, knob, values, over in SWEEPS:
+            if self.quick and sweep not in ("photons-4spp",):
+                continue
+            for v in values:
+                c = dict(base)
+                c.update(over)
+                if knob == "photons":
+                    c["global"] = c["caustic"] = v
+                    label = "photons=%dk" % (v // 1000)
+                elif knob == "radius":
+                    c["gr"] = 0.05 * v
+                    c["cr"] = 0.0125 * v
+                    label = "radius x%g" % v
+                else:
+                    c[knob] = v
+                    label = "%s=%d" % (knob, v)
+                method = "pm-final-gather" if c.get("fg") else "pm"
+                self.run_pm(name, scene, shash, sweep, label, c, method)
+        self.run_progressive(name, scene, shash)
+        self.run_mitsuba(name, scene)
+
+    def write_tsv(self):
+        cols = ["scene", "method", "sweep", "label", "total_s", "shoot_s",
+                "balance_s", "render_s", "downsample_s", "relmse",
+                "relmse_raw", "floor", "mean_err", "flip"]
+        path = os.path.join(self.out, "results.tsv")
+        with open(path + ".tmp", "w") as f:
+            f.write("\t".join(cols) + "\n")
+            for r in self.results:
+                f.write("\t".join(
+                    ("%.6g" % r[c]) if isinstance(r.get(c), float)
+                    else str(r.get(c, "")) for c in cols) + "\n")
+        os.replace(path + ".tmp", path)
+        with open(os.path.join(self.out, "results.json"), "w") as f:
+            json.dump(self.results, f, indent=1)
+
+
+def main(argv):
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--scenes", default="cornell-box,caustics,bunny-glass")
+    p.add_argument("--out", default=os.path.join(ROOT, "out", "accuracy"))
+    p.add_argument("--mitsuba-seed", type=int, default=7,
+                   help="seed of Mitsuba's runs; another one renders them "
+                   "afresh instead of taking them from the cache")
+    p.add_argument("--quick", action="store_true",
+                   help="a few runs per scene, to check the machinery")
+    args = p.parse_args(argv)
+    st = Study(args)
+    t0 = time.time()
+    for name in args.scenes.split(","):
+        st.scene(name)
+        st.write_tsv()
+    shutil.rmtree(st.tmp, ignore_errors=True)
+    print("study: %d runs, %.0f s, results in %s" % (
+        len(st.results), time.time() - t0,
+        os.path.join(args.out, "results.tsv")))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -1,0 +1,194 @@
+/*
+ * bench.c: the measurements behind `make bench` that pm's tools cannot
+ * take themselves; tests/bench/bench.sh runs it and prints the table.
+ *
+ *   bench knn SHOT.pmap N K[,K...] QUERIES
+ *	the first N photons of the global map of SHOT.pmap (as pm-shoot
+ *	wrote them, unbalanced): pm_kdtree_build on one thread and on all,
+ *	then for each K, pm_knn_check against FLANN on the same photons
+ *	with K neighbours; prints one JSON object per K.
+ *   bench rays SCENE.xml SECONDS
+ *	the ceiling for photon tracing: closest-hit Embree ray casts in a
+ *	plain loop on one thread, from points on the scene's lights (or
+ *	inside its bounds, without area lights) in cosine-distributed
+ *	directions, so the rays are much like first photon bounces; prints
+ *	one JSON object with rays per second.
+ *   bench sizes
+ *	bytes of one photon record in memory.
+ *
+ * A bench, never a test: nothing here passes or fails on speed.
+ */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "../../common/accel.h"
+#include "../../common/kdtree.h"
+#include "../../common/knn_check.h"
+#include "../../common/rng.h"
+#include "../../common/sampling.h"
+#include "../../formats/pmap.h"
+#include "../../formats/scene_xml.h"
+
+static double
+now(void)
+{
+	struct timespec ts;
+
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static int
+bench_knn(const char *path, size_t n, const char *ks, size_t queries)
+{
+	struct pm_error err = {PM_OK, ""};
+	struct pm_pmap pm;
+	struct pm_map *m;
+	struct pm_photon *p;
+	struct pm_knn_check_result r;
+	long threads = sysconf(_SC_NPROCESSORS_ONLN);
+	double t1, tn;
+	const char *kp;
+	size_t len = 0;
+
+	if (pm_pmap_read(path, &pm, false, &err) != PM_OK) {
+		fprintf(stderr, "bench: %s\n", err.msg);
+		return 1;
+	}
+	m = pm_pmap_find(&pm, PM_MAP_GLOBAL);
+	if (m == NULL || m->count < n) {
+		fprintf(stderr, "bench: %s: fewer than %zu global photons\n", path, n);
+		return 1;
+	}
+	p = malloc(n * sizeof(*p));
+	if (p == NULL) {
+		fprintf(stderr, "bench: out of memory\n");
+		return 1;
+	}
+	memcpy(p, m->photons, n * sizeof(*p));
+	t1 = now();
+	if (pm_kdtree_build(p, n, 1, &err) != PM_OK)
+		goto fail;
+	t1 = now() - t1;
+	memcpy(p, m->photons, n * sizeof(*p));
+	tn = now();
+	if (pm_kdtree_build(p, n, threads < 1 ? 1 : (int)threads, &err) != PM_OK)
+		goto fail;
+	tn = now() - tn;
+	for (kp = ks; *kp != '\0'; kp += kp[len] == ',' ? len + 1 : len) {
+		size_t k = strtoull(kp, NULL, 10);
+
+		len = strcspn(kp, ",");
+		if (pm_knn_check(p, n, queries, k, 1, &r, &err) != PM_OK)
+			goto fail;
+		printf("{\"photons\": %zu, \"k\": %zu, \"queries\": %zu, "
+		    "\"pm_build_s\": %.4f, \"pm_build_all_cores_s\": %.4f, "
+		    "\"threads\": %ld, \"flann_build_s\": %.4f, "
+		    "\"pm_qps\": %.1f, \"flann_qps\": %.1f, "
+		    "\"mismatches\": %zu, \"ties\": %zu}\n",
+		    n, k, r.queries, t1, tn, threads, r.flann_build_s, r.pm_qps,
+		    r.flann_qps, r.mismatches, r.ties);
+		fflush(stdout);
+	}
+	free(p);
+	pm_pmap_free(&pm);
+	return 0;
+fail:
+	fprintf(stderr, "bench: %s\n", err.msg);
+	free(p);
+	pm_pmap_free(&pm);
+	return 1;
+}
+
+/* A point on one of the scene's emitting shapes: a ray cast from the
+ * scene's centre towards a random direction finds the surfaces, and we
+ * keep hits on emitters; fallback, points inside the bounds. */
+static int
+bench_rays(const char *path, double seconds)
+{
+	struct pm_error err = {PM_OK, ""};
+	struct pm_scene scene;
+	struct pm_accel *accel;
+	struct pm_vec3 lo, hi, c, o[256], ng[256];
+	size_t norig = 0, i;
+	uint64_t rays = 0, hits = 0;
+	double t0, t;
+
+	if (pm_scene_load(path, NULL, 0, &scene, &err) != PM_OK ||
+	    pm_accel_build(&scene, &accel, &err) != PM_OK) {
+		fprintf(stderr, "bench: %s\n", err.msg);
+		return 1;
+	}
+	pm_accel_bounds(accel, &lo, &hi);
+	c = pm_scale(pm_add(lo, hi), 0.5f);
+	for (i = 0; i < 100000 && norig < 256; i++) {
+		struct pm_rng rng = pm_rng_seed(5, i, 0);
+		struct pm_vec3 d = pm_square_to_uniform_sphere(pm_rng_float(&rng),
+		    pm_rng_float(&rng));
+		struct pm_hit h;
+
+		if (pm_accel_intersect(accel, c, d, 0.0f, INFINITY, &h) &&
+		    scene.shapes[h.shape].light >= 0) {
+			o[norig] = h.p;
+			ng[norig++] = pm_dot(h.ng, d) > 0 ? pm_neg(h.ng) : h.ng;
+		}
+	}
+	t0 = now();
+	do {
+		for (i = 0; i < 4096; i++) {
+			struct pm_rng rng = pm_rng_seed(9, rays, 0);
+			struct pm_vec3 org, dir, l;
+			struct pm_frame fr;
+			struct pm_hit h;
+
+			if (norig > 0) {
+				size_t j = rays % norig;
+
+				fr = pm_frame_from_normal(ng[j]);
+				l = pm_square_to_cosine_hemisphere(pm_rng_float(&rng),
+				    pm_rng_float(&rng));
+				dir = pm_to_world(fr, l);
+				org = pm_offset_origin(o[j], ng[j], dir);
+			} else {
+				org = pm_v3(lo.x + (hi.x - lo.x) * pm_rng_float(&rng),
+				    lo.y + (hi.y - lo.y) * pm_rng_float(&rng),
+				    lo.z + (hi.z - lo.z) * pm_rng_float(&rng));
+				dir = pm_square_to_uniform_sphere(pm_rng_float(&rng),
+				    pm_rng_float(&rng));
+			}
+			hits += pm_accel_intersect(accel, org, dir, 0.0f, INFINITY,
+			    &h);
+			rays++;
+		}
+		t = now() - t0;
+	} while (t < seconds);
+	printf("{\"scene\": \"%s\", \"rays\": %llu, \"hits\": %llu, "
+	    "\"seconds\": %.3f, \"rays_per_s\": %.1f, \"from_lights\": %s}\n",
+	    path, (unsigned long long)rays, (unsigned long long)hits, t,
+	    (double)rays / t, norig > 0 ? "true" : "false");
+	pm_accel_free(accel);
+	pm_scene_free(&scene);
+	return 0;
+}
+
+int
+main(int argc, char **argv)
+{
+	if (argc == 6 && strcmp(argv[1], "knn") == 0)
+		return bench_knn(argv[2], strtoull(argv[3], NULL, 10), argv[4],
+		    strtoull(argv[5], NULL, 10));
+	if (argc == 4 && strcmp(argv[1], "rays") == 0)
+		return bench_rays(argv[2], strtod(argv[3], NULL));
+	if (argc == 2 && strcmp(argv[1], "sizes") == 0) {
+		printf("{\"photon_bytes_in_memory\": %zu}\n",
+		    sizeof(struct pm_photon));
+		return 0;
+	}
+	fprintf(stderr, "usage: bench knn SHOT.pmap N K[,K...] QUERIES | "
+	    "bench rays SCENE.xml SECONDS | bench sizes\n");
+	return 2;
+}

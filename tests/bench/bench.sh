@@ -1,0 +1,131 @@
+#!/bin/sh
+# bench.sh: pm's speed, measured; `make bench` runs it from the repository
+# root after building bin/ and build/tests/bench (tests/bench/bench.c).
+#
+#   - kd-tree build time and k-nearest queries per second, k = 50 and 200,
+#     on 1M and 10M photons shot in data/cornell-box.xml, against FLANN on
+#     the same photons (pm_knn_check, one thread each), as ratios;
+#   - photon paths and stored photons per second per core (pm-shoot -t 1)
+#     against a plain loop of Embree closest-hit ray casts from the lights
+#     of the same scene on one core (the ceiling for photon tracing);
+#   - the parallel speed-up from 1 thread to every core of pm-shoot,
+#     pm-balance and pm-render;
+#   - bytes per photon in memory and on disk, plain and zlib-compressed.
+#
+# One table on stdout, every figure as JSON in out/bench/bench.json.  No
+# figure passes or fails: the machine decides them.  Knobs (environment):
+# BENCH_BIG (10000000 photons), BENCH_QUERIES (20000 per k).
+
+set -eu
+
+B=${BIN:-bin}
+X=${BENCH:-build/tests/bench}
+OUT=out/bench
+BIG=${BENCH_BIG:-10000000}
+Q=${BENCH_QUERIES:-20000}
+NCPU=$(getconf _NPROCESSORS_ONLN)
+mkdir -p "$OUT"
+J=$OUT/bench.jsonl
+: >"$J"
+
+now() { date +%s.%N; }
+since() { awk -v a="$1" -v b="$(now)" 'BEGIN { printf "%.3f", b - a }'; }
+key() { $B/pm-inspect "$1" | awk -F'\t' -v k="$2" '$1 == k { print $2 }'; }
+emit() { printf '%s\n' "$1" >>"$J"; }
+
+scene=data/cornell-box.xml
+# Paths enough for BIG stored photons: the box stores about 1.85 per path.
+paths=$(awk -v n="$BIG" 'BEGIN { printf "%d", n / 1.8 + 1 }')
+t=$(now)
+$B/pm-shoot -q -f --photons "$paths" -o "$OUT/big.pmap" $scene
+emit "{\"what\": \"shoot-big\", \"paths\": $paths, \"photons\": $(key $OUT/big.pmap global.photons), \"seconds\": $(since "$t")}"
+for n in 1000000 "$BIG"; do
+	$X knn "$OUT/big.pmap" "$n" 50,200 "$Q" | while read -r line; do
+		emit "{\"what\": \"knn\", ${line#\{}"
+	done
+done
+rm -f "$OUT/big.pmap"
+
+# Photon tracing against the ray-cast ceiling, one core each.
+for s in cornell-box bunny; do
+	$B/pm-shoot -v -f -t 1 --photons 1000000 -o "$OUT/s1.pmap" data/$s.xml \
+	    2>"$OUT/shoot.log"
+	pps=$(sed -n 's/.*global map: .* (\([0-9.]*\) paths\/s), \([0-9]*\) photons stored.*/\1/p' "$OUT/shoot.log")
+	stored=$(key "$OUT/s1.pmap" global.photons)
+	rays=$($X rays data/$s.xml 2)
+	emit "{\"what\": \"shoot-vs-rays\", \"scene\": \"$s\", \"paths_per_s\": $pps, \"photons_per_path\": $(awk -v a="$stored" 'BEGIN { print a / 1000000 }'), \"rays\": $rays}"
+done
+
+# Speed-up from one thread to all, on the same work.
+t=$(now); $B/pm-shoot -q -f -t 1 --photons 1000000 -o "$OUT/s1.pmap" $scene; a=$(since "$t")
+t=$(now); $B/pm-shoot -q -f -t "$NCPU" --photons 1000000 -o "$OUT/sN.pmap" $scene; b=$(since "$t")
+emit "{\"what\": \"speedup\", \"tool\": \"pm-shoot\", \"threads\": $NCPU, \"one_s\": $a, \"all_s\": $b}"
+t=$(now); $B/pm-balance -q -f -t 1 -o "$OUT/b1.pmap" "$OUT/s1.pmap"; a=$(since "$t")
+t=$(now); $B/pm-balance -q -f -t "$NCPU" -o "$OUT/bN.pmap" "$OUT/s1.pmap"; b=$(since "$t")
+emit "{\"what\": \"speedup\", \"tool\": \"pm-balance\", \"threads\": $NCPU, \"one_s\": $a, \"all_s\": $b}"
+t=$(now); $B/pm-render -q -t 1 --spp 4 --size 128x128 -o "$OUT/r1.exr" $scene "$OUT/bN.pmap"; a=$(since "$t")
+t=$(now); $B/pm-render -q -t "$NCPU" --spp 4 --size 128x128 -o "$OUT/rN.exr" $scene "$OUT/bN.pmap"; b=$(since "$t")
+emit "{\"what\": \"speedup\", \"tool\": \"pm-render\", \"threads\": $NCPU, \"one_s\": $a, \"all_s\": $b}"
+
+# Bytes per photon.
+$B/pm-balance -q -f --compress -o "$OUT/bz.pmap" "$OUT/s1.pmap"
+emit "{\"what\": \"bytes\", \"photons\": $(key $OUT/bN.pmap photons), \"disk_bytes\": $(key $OUT/bN.pmap file_bytes), \"compressed_bytes\": $(key $OUT/bz.pmap file_bytes), $($X sizes | sed 's/^{//')"
+rm -f "$OUT"/*.pmap "$OUT"/*.exr "$OUT/shoot.log"
+
+# The table, and the JSON as one document.
+python3 - "$J" "$OUT/bench.json" <<'PY'
+import json, os, platform, sys
+rows = [json.loads(l) for l in open(sys.argv[1]) if l.strip()]
+cpu = ""
+try:
+    for l in open("/proc/cpuinfo"):
+        if l.startswith("model name"):
+            cpu = l.split(":", 1)[1].strip()
+            break
+except OSError:
+    pass
+doc = {"machine": {"cpu": cpu, "cores": os.cpu_count(),
+                   "system": platform.platform()}, "results": rows}
+with open(sys.argv[2], "w") as f:
+    json.dump(doc, f, indent=1)
+print("pm bench on %s (%d cores)" % (cpu, os.cpu_count()))
+print("%-44s %14s %14s %8s" % ("measure", "pm", "reference", "ratio"))
+def row(name, a, b, unit=""):
+    r = a / b if b else float("nan")
+    print("%-44s %14s %14s %8.2f" % (name, ("%.4g" % a) + unit,
+                                     ("%.4g" % b) + unit, r))
+for r in rows:
+    w = r["what"]
+    if w == "knn":
+        n = "%.3gM" % (r["photons"] / 1e6)
+        if r["k"] == 50:
+            row("kd-tree build, %s photons, 1 thread (FLANN)" % n,
+                r["pm_build_s"], r["flann_build_s"], " s")
+            print("%-44s %14s %14s %8s" % (
+                "kd-tree build, %s photons, %d threads" % (n, r["threads"]),
+                "%.4g s" % r["pm_build_all_cores_s"], "-", "-"))
+        row("k=%d queries/s, %s photons (FLANN)" % (r["k"], n),
+            r["pm_qps"], r["flann_qps"])
+        if r["mismatches"]:
+            print("  warning: %d queries disagree with FLANN" % r["mismatches"])
+    elif w == "shoot-vs-rays":
+        ppath = r["photons_per_path"]
+        row("%s: stored photons/s/core (Embree rays/s)" % r["scene"],
+            r["paths_per_s"] * ppath, r["rays"]["rays_per_s"])
+        print("%-44s %14.4g %14s %8s" % ("%s: photon paths/s/core" % r["scene"],
+                                         r["paths_per_s"], "-", "-"))
+    elif w == "speedup":
+        row("%s speed-up, 1 -> %d threads" % (r["tool"], r["threads"]),
+            r["one_s"] / r["all_s"], r["threads"], "x")
+    elif w == "bytes":
+        print("%-44s %14d %14s %8s" % ("bytes per photon in memory",
+                                        r["photon_bytes_in_memory"], "-", "-"))
+        print("%-44s %14.2f %14s %8s" % ("bytes per photon on disk",
+                                          r["disk_bytes"] / r["photons"], "-", "-"))
+        print("%-44s %14.2f %14s %8s" % ("bytes per photon on disk, zlib",
+                                          r["compressed_bytes"] / r["photons"], "-", "-"))
+    elif w == "shoot-big":
+        print("%-44s %14.4g %14s %8s" % ("shot %d photons, all cores, s" % r["photons"],
+                                          r["seconds"], "-", "-"))
+print("JSON: %s" % sys.argv[2])
+PY

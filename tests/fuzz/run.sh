@@ -1,0 +1,44 @@
+#!/bin/sh
+# Runs libFuzzer targets: each first replays its committed corpus once (a
+# regression test: every input that once mattered must still pass), then
+# fuzzes for SECONDS from that corpus, keeping what it finds in WORK/<target>
+# so later runs start further on.  Prints one line per target with the
+# number of executions; exits 1 if any target crashed, leaked, hung or ran
+# out of memory (the reproducer is left in WORK/crash-<target>-*).
+#
+#   sh tests/fuzz/run.sh BINDIR WORK SECONDS TARGET...
+set -u
+bindir=$1
+work=$2
+secs=$3
+shift 3
+fail=0
+mkdir -p "$work"
+for t in "$@"; do
+	bin=$bindir/fuzz_$t
+	corpus=tests/fuzz/corpus/$t
+	dict=
+	[ -f tests/fuzz/$t.dict ] && dict=-dict=tests/fuzz/$t.dict
+	mkdir -p "$work/$t"
+	if ! "$bin" -runs=0 -rss_limit_mb=2048 -timeout=20 "$corpus" \
+	    >"$work/$t.replay.log" 2>&1; then
+		echo "fuzz $t: corpus replay FAILED (see $work/$t.replay.log)"
+		tail -30 "$work/$t.replay.log"
+		fail=1
+		continue
+	fi
+	[ "$secs" -gt 0 ] || { echo "fuzz $t: corpus of $(ls "$corpus" | wc -l) replayed"; continue; }
+	# shellcheck disable=SC2086
+	if "$bin" $dict -max_total_time="$secs" -timeout=20 -rss_limit_mb=2048 \
+	    -malloc_limit_mb=2048 -max_len=65536 -print_final_stats=1 \
+	    -artifact_prefix="$work/crash-$t-" "$work/$t" "$corpus" \
+	    >"$work/$t.log" 2>&1; then
+		runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$work/$t.log")
+		echo "fuzz $t: corpus replayed, then ${runs:-?} executions in ${secs} s, no crash"
+	else
+		echo "fuzz $t: FAILED (see $work/$t.log)"
+		grep -E 'ERROR|SUMMARY|Test unit written|==[0-9]+==' "$work/$t.log" | head -20
+		fail=1
+	fi
+done
+exit $fail

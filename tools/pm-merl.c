@@ -1,0 +1,214 @@
+/*
+ * pm-merl: writes a MERL-layout measured BRDF file (.binary) tabulated
+ * from an analytic model: a Lambertian of a given albedo, a GGX metal
+ * (gold, or any of pm's named conductors), or a plastic (a Lambertian base
+ * under a GGX-rough dielectric coat).  Scenes use the result through
+ * <bsdf type="merl">, exactly as they would use a file of the MERL
+ * database.
+ */
+#include <errno.h>
+#include <getopt.h>
+#include <libgen.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "../common/bsdf.h"
+#include "../common/parse.h"
+#include "../formats/merl.h"
+
+#define PROG "pm-merl"
+#define VERSION "0.1.0"
+
+static const char usage_line[] =
+    "usage: pm-merl [-fv] [--lambert R,G,B | --gold | --conductor NAME |\n"
+    "               --plastic R,G,B] [--alpha A] [--ior N] -o OUT.binary\n";
+
+static void
+usage_error(const char *fmt, const char *arg)
+{
+	fprintf(stderr, PROG ": ");
+	fprintf(stderr, fmt, arg);
+	fprintf(stderr, "\n%s", usage_line);
+	exit(2);
+}
+
+/* "R,G,B" or a single grey value, each in [0, 1]. */
+static int
+parse_rgb(const char *s, struct pm_rgb *c)
+{
+	char buf[128], *p, *q;
+	float v[3];
+	int n = 0;
+
+	if (strlen(s) >= sizeof(buf))
+		return 0;
+	strcpy(buf, s);
+	for (p = buf; n < 3; p = q + 1) {
+		q = strchr(p, ',');
+		if (q != NULL)
+			*q = '\0';
+		if (!pm_parse_float(p, 0.0f, 1.0f, &v[n++]))
+			return 0;
+		if (q == NULL)
+			break;
+	}
+	if (q != NULL || (n != 1 && n != 3))
+		return 0;
+	if (n == 1)
+		v[1] = v[2] = v[0];
+	*c = pm_rgb(v[0], v[1], v[2]);
+	return 1;
+}
+
+static int
+check_output(const char *path, int force)
+{
+	char *copy, *dir;
+	int ok;
+
+	if (strcmp(path, "-") == 0) {
+		if (isatty(STDOUT_FILENO)) {
+			fprintf(stderr, PROG ": refusing to write a binary "
+			    "BRDF to a terminal\n");
+			return 0;
+		}
+		return 1;
+	}
+	if (!force && access(path, F_OK) == 0) {
+		fprintf(stderr, PROG ": %s: already exists (use -f to "
+		    "overwrite)\n", path);
+		return 0;
+	}
+	if ((copy = strdup(path)) == NULL)
+		return 0;
+	dir = dirname(copy);
+	ok = access(dir, W_OK) == 0;
+	if (!ok)
+		fprintf(stderr, PROG ": %s: cannot write to directory %s: %s\n",
+		    path, dir, strerror(errno));
+	free(copy);
+	return ok;
+}
+
+int
+main(int argc, char **argv)
+{
+	enum {
+		OPT_LAMBERT = 256, OPT_GOLD, OPT_CONDUCTOR, OPT_PLASTIC,
+		OPT_ALPHA, OPT_IOR, OPT_HELP, OPT_VERSION,
+	};
+	static const struct option longopts[] = {
+		{"lambert", required_argument, NULL, OPT_LAMBERT},
+		{"gold", no_argument, NULL, OPT_GOLD},
+		{"conductor", required_argument, NULL, OPT_CONDUCTOR},
+		{"plastic", required_argument, NULL, OPT_PLASTIC},
+		{"alpha", required_argument, NULL, OPT_ALPHA},
+		{"ior", required_argument, NULL, OPT_IOR},
+		{"output", required_argument, NULL, 'o'},
+		{"force", no_argument, NULL, 'f'},
+		{"verbose", no_argument, NULL, 'v'},
+		{"help", no_argument, NULL, OPT_HELP},
+		{"version", no_argument, NULL, OPT_VERSION},
+		{NULL, 0, NULL, 0},
+	};
+	struct pm_merl_model mo;
+	struct pm_error err = {PM_OK, ""};
+	const char *out_path = NULL, *what = NULL;
+	float alpha = -1.0f, ior = -1.0f;
+	int force = 0, verbose = 0, nmodels = 0, c;
+
+	memset(&mo, 0, sizeof(mo));
+	while ((c = getopt_long(argc, argv, "fo:v", longopts, NULL)) != -1) {
+		switch (c) {
+		case 'f':
+			force = 1;
+			break;
+		case 'o':
+			out_path = optarg;
+			break;
+		case 'v':
+			verbose = 1;
+			break;
+		case OPT_LAMBERT:
+			mo.type = PM_MERL_LAMBERT;
+			if (!parse_rgb(optarg, &mo.albedo))
+				usage_error("--lambert wants R,G,B in [0, 1], "
+				    "not '%s'", optarg);
+			what = "Lambertian";
+			nmodels++;
+			break;
+		case OPT_GOLD:
+		case OPT_CONDUCTOR:
+			mo.type = PM_MERL_METAL;
+			if (!pm_conductor_lookup(c == OPT_GOLD ? "Au" : optarg,
+			    &mo.eta, &mo.k))
+				usage_error("--conductor: unknown material "
+				    "'%s' (Au, Ag, Al, Cu, ... as pm-scene(5) "
+				    "lists)", optarg);
+			what = c == OPT_GOLD ? "gold" : "conductor";
+			nmodels++;
+			break;
+		case OPT_PLASTIC:
+			mo.type = PM_MERL_PLASTIC;
+			if (!parse_rgb(optarg, &mo.albedo))
+				usage_error("--plastic wants R,G,B in [0, 1], "
+				    "not '%s'", optarg);
+			what = "plastic";
+			nmodels++;
+			break;
+		case OPT_ALPHA:
+			if (!pm_parse_float(optarg, 1e-3f, 1.0f, &alpha))
+				usage_error("--alpha wants a roughness from "
+				    "0.001 to 1, not '%s'", optarg);
+			break;
+		case OPT_IOR:
+			if (!pm_parse_float(optarg, 1.0f, 4.0f, &ior))
+				usage_error("--ior wants an index from 1 to 4, "
+				    "not '%s'", optarg);
+			break;
+		case OPT_HELP:
+			fputs(usage_line, stdout);
+			return fclose(stdout) == 0 ? 0 : 1;
+		case OPT_VERSION:
+			puts(PROG " " VERSION);
+			return fclose(stdout) == 0 ? 0 : 1;
+		default:
+			fputs(usage_line, stderr);
+			return 2;
+		}
+	}
+	if (optind != argc)
+		usage_error("unexpected argument '%s'", argv[optind]);
+	if (nmodels != 1)
+		usage_error("%s", nmodels == 0 ? "no model given (--lambert, "
+		    "--gold, --conductor or --plastic)" : "more than one model "
+		    "given");
+	if (out_path == NULL)
+		usage_error("%s", "no output given (-o OUT.binary, or -o - for "
+		    "stdout)");
+	if (mo.type == PM_MERL_LAMBERT && (alpha >= 0.0 || ior >= 0.0))
+		usage_error("%s", "--alpha and --ior do not apply to "
+		    "--lambert");
+	if (mo.type == PM_MERL_METAL && ior >= 0.0)
+		usage_error("%s", "--ior applies to --plastic only");
+	mo.alpha = alpha >= 0.0f ? alpha : mo.type == PM_MERL_METAL ? 0.2f :
+	    0.1f;
+	mo.ior = ior >= 0.0f ? ior : 1.5f;
+	if (!check_output(out_path, force))
+		return 1;
+	if (pm_merl_write(out_path, &mo, &err) != PM_OK) {
+		fprintf(stderr, PROG ": %s\n", err.msg);
+		return 1;
+	}
+	if (verbose && strcmp(out_path, "-") != 0)
+		fprintf(stderr, PROG ": %s: %s, %zu bytes\n", out_path, what,
+		    PM_MERL_FILE_SIZE);
+	if (strcmp(out_path, "-") == 0 && fclose(stdout) != 0) {
+		fprintf(stderr, PROG ": standard output: %s\n",
+		    strerror(errno));
+		return 1;
+	}
+	return 0;
+}
