@@ -47,13 +47,16 @@ pm_image_alloc(struct pm_image *im, int width, int height, struct pm_error *err)
 		    width, height);
 	if (width > PM_IMAGE_MAX_SIDE || height > PM_IMAGE_MAX_SIDE)
 		return pm_fail(err, PM_ERR_LIMIT,
-		    "image size %dx%d: sides are limited to %d pixels",
-		    width, height, PM_IMAGE_MAX_SIDE);
+		    "image size %dx%d: sides are limited to %d pixels "
+		    "(it would need %.1f GiB of film)", width, height,
+		    PM_IMAGE_MAX_SIDE, (double)width * height * 3 * sizeof(float) /
+		    (1024.0 * 1024.0 * 1024.0));
 	npix = (size_t)width * (size_t)height;
 	if (npix > PM_IMAGE_MAX_PIXELS)
 		return pm_fail(err, PM_ERR_LIMIT,
-		    "image size %dx%d: more than %zu pixels",
-		    width, height, PM_IMAGE_MAX_PIXELS);
+		    "image size %dx%d: more than %zu pixels (it would need "
+		    "%.1f GiB of film)", width, height, PM_IMAGE_MAX_PIXELS,
+		    (double)npix * 3 * sizeof(float) / (1024.0 * 1024.0 * 1024.0));
 	im->rgb = calloc(3 * npix, sizeof(float));
 	if (im->rgb == NULL)
 		return pm_fail(err, PM_ERR_NOMEM,
