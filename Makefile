@@ -85,12 +85,15 @@ include pipelines/progressive.mk
 include pipelines/accuracy.mk
 include pipelines/bench.mk
 
+# Builds use every core; the render stages use every core by themselves.
+NPROC := $(shell nproc 2>/dev/null || echo 1)
+
 demo: deps
-	$(MAKE) all
+	$(MAKE) -j$(NPROC) all
 	$(MAKE) out/bunny.png
 
 test: deps
-	$(MAKE) all $(TEST_BIN)
+	$(MAKE) -j$(NPROC) all $(TEST_BIN)
 	$(MAKE) check-unit check-cli check-man
 	$(MAKE) check-sanitize
 	$(MAKE) check-fuzz
