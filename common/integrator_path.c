@@ -12,16 +12,6 @@
 
 #include "render.h"
 
-static inline float
-power_heuristic(float a, float b)
-{
-	float a2 = a * a, b2 = b * b;
-
-	if (isinf(a2))
-		return 1.0f;
-	return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;
-}
-
 /* Light arriving at the hit point from one light sample, weighted for MIS. */
 static struct pm_rgb
 direct_light(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
@@ -43,7 +33,7 @@ direct_light(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 	if (pm_light_occluded(ctx->accel, h, &ls))
 		return pm_rgb1(0.0f);
 	w = ls.delta ? 1.0f :
-	    power_heuristic(ls.pdf, pm_bsdf_pdf(b, wi_local, wo_local));
+	    pm_power_heuristic(ls.pdf, pm_bsdf_pdf(b, wi_local, wo_local));
 	return pm_rgb_scale(pm_rgb_mul(f, ls.value), w / ls.pdf);
 }
 
@@ -60,35 +50,20 @@ pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 
 	for (depth = 1;; depth++) {
 		struct pm_hit h;
+		bool hit;
 		const struct pm_shape *sh;
 		const struct pm_bsdf *b;
 		struct pm_bsdf_sample bs;
 		struct pm_frame fr;
 		struct pm_vec3 wi_local;
 
-		if (!pm_accel_intersect(ctx->accel, o, d, tmin, tmax, &h)) {
-			if (s->env_light >= 0 && !(depth == 1 && ctx->hide_emitters)) {
-				float w = prev_delta ? 1.0f : power_heuristic(prev_pdf,
-				    pm_lights_pdf_env(ctx->lights, s));
-
-				L = pm_rgb_madd(L, beta, pm_rgb_scale(
-				    s->lights[s->env_light].radiance, w));
-			}
+		hit = pm_accel_intersect(ctx->accel, o, d, tmin, tmax, &h);
+		if (!(depth == 1 && ctx->hide_emitters))
+			L = pm_rgb_madd(L, beta, pm_lights_emitted(ctx->lights, s,
+			    hit ? &h : NULL, d, prev_p, prev_pdf, prev_delta));
+		if (!hit)
 			break;
-		}
 		sh = &s->shapes[h.shape];
-		if (sh->light >= 0 && !(depth == 1 && ctx->hide_emitters)) {
-			struct pm_rgb Le = pm_area_emitted(&s->lights[sh->light],
-			    h.ns, pm_neg(d));
-
-			if (!pm_rgb_is_black(Le)) {
-				float w = prev_delta ? 1.0f : power_heuristic(prev_pdf,
-				    pm_lights_pdf_area(ctx->lights, s, sh->light,
-				    prev_p, h.p, h.ng));
-
-				L = pm_rgb_madd(L, beta, pm_rgb_scale(Le, w));
-			}
-		}
 		if (ctx->max_depth >= 0 && depth >= ctx->max_depth)
 			break;
 

@@ -83,10 +83,8 @@ pm_lights_free(struct pm_lights *ls)
 	pm_distrib_free(&ls->pick);
 }
 
-/* Spot falloff as Mitsuba 3 defines it: full inside beam_width, a linear
- * ramp in angle down to zero at cutoff_angle. */
-static float
-spot_falloff(const struct pm_light *l, struct pm_vec3 w)
+float
+pm_spot_falloff(const struct pm_light *l, struct pm_vec3 w)
 {
 	float cos_t = pm_dot(w, l->frame.n);
 	float cutoff = l->cutoff_angle * (PM_PI / 180.0f);
@@ -130,7 +128,7 @@ pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
 		o->n = pm_neg(o->wi);
 		o->value = pm_rgb_scale(l->intensity, 1.0f / d2);
 		if (l->type == PM_LIGHT_SPOT)
-			o->value = pm_rgb_scale(o->value, spot_falloff(l, o->n));
+			o->value = pm_rgb_scale(o->value, pm_spot_falloff(l, o->n));
 		o->pdf = psel;
 		o->delta = true;
 		return !pm_rgb_is_black(o->value);
@@ -239,4 +237,31 @@ pm_light_occluded(const struct pm_accel *a, const struct pm_hit *h,
 		return false;
 	return pm_accel_occluded(a, o, pm_scale(d, 1.0f / dist), 0.0f,
 	    dist * (1.0f - 1e-4f));
+}
+
+struct pm_rgb
+pm_lights_emitted(const struct pm_lights *ls, const struct pm_scene *s,
+    const struct pm_hit *h, struct pm_vec3 d, struct pm_vec3 prev_p,
+    float prev_pdf, bool prev_delta)
+{
+	struct pm_rgb Le;
+	int light;
+	float w;
+
+	if (h == NULL) {
+		if (s->env_light < 0)
+			return pm_rgb1(0.0f);
+		w = prev_delta ? 1.0f :
+		    pm_power_heuristic(prev_pdf, pm_lights_pdf_env(ls, s));
+		return pm_rgb_scale(s->lights[s->env_light].radiance, w);
+	}
+	light = s->shapes[h->shape].light;
+	if (light < 0)
+		return pm_rgb1(0.0f);
+	Le = pm_area_emitted(&s->lights[light], h->ns, pm_neg(d));
+	if (pm_rgb_is_black(Le))
+		return Le;
+	w = prev_delta ? 1.0f : pm_power_heuristic(prev_pdf,
+	    pm_lights_pdf_area(ls, s, light, prev_p, h->p, h->ng));
+	return pm_rgb_scale(Le, w);
 }

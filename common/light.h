@@ -61,6 +61,31 @@ float pm_lights_pdf_area(const struct pm_lights *ls, const struct pm_scene *s,
 /* The same for the environment in direction w. */
 float pm_lights_pdf_env(const struct pm_lights *ls, const struct pm_scene *s);
 
+/* Veach's power heuristic for a sample of density a against one of b. */
+static inline float pm_power_heuristic(float a, float b)
+{
+	float a2 = a * a, b2 = b * b;
+
+	if (isinf(a2))
+		return 1.0f;
+	return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;
+}
+
+/* Mitsuba's spot falloff: 1 inside beam_width, a linear ramp in angle down
+ * to 0 at cutoff_angle; w is the unit direction leaving the light. */
+float pm_spot_falloff(const struct pm_light *l, struct pm_vec3 w);
+
+/*
+ * Emitted radiance a ray finds along direction d: at hit h (an area light
+ * seen from its front), or in the environment when h is NULL.  The ray was
+ * sampled from prev_p with solid-angle density prev_pdf; unless prev_delta
+ * (a camera ray or a specular bounce, which light sampling cannot produce)
+ * it is weighted against light sampling by the power heuristic.
+ */
+struct pm_rgb pm_lights_emitted(const struct pm_lights *ls,
+    const struct pm_scene *s, const struct pm_hit *h, struct pm_vec3 d,
+    struct pm_vec3 prev_p, float prev_pdf, bool prev_delta);
+
 /* Radiance an area light emits from a point with shading normal n towards
  * w (unit): its radiance on the front side, zero behind. */
 static inline struct pm_rgb pm_area_emitted(const struct pm_light *l,

@@ -234,21 +234,6 @@ aim_sample(const struct pm_shooter *sh, struct pm_vec3 x, float u0, float u1,
 	    pm_square_to_uniform_cone(u1, u2, c));
 }
 
-/* Mitsuba's spot falloff (see light.c). */
-static float
-spot_falloff(const struct pm_light *l, struct pm_vec3 w)
-{
-	float cos_t = pm_dot(w, l->frame.n);
-	float cutoff = l->cutoff_angle * (PM_PI / 180.0f);
-	float beam = l->beam_width * (PM_PI / 180.0f);
-
-	if (cos_t <= cosf(cutoff))
-		return 0.0f;
-	if (cos_t >= cosf(beam))
-		return 1.0f;
-	return (cutoff - acosf(fminf(cos_t, 1.0f))) / (cutoff - beam);
-}
-
 /* Point on an area light's shape, its geometric and shading normals. */
 static void
 sample_shape_point(const struct pm_shooter *sh, int li, float u1, float u2,
@@ -346,7 +331,7 @@ emit(const struct pm_shooter *sh, enum pm_map_pass pass, struct pm_rng *rng,
 			return false;
 		*flux = pm_rgb_scale(l->intensity, 1.0f / (psel * pdf_dir));
 		if (l->type == PM_LIGHT_SPOT)
-			*flux = pm_rgb_scale(*flux, spot_falloff(l, w));
+			*flux = pm_rgb_scale(*flux, pm_spot_falloff(l, w));
 		*o = p;
 		break;
 	case PM_LIGHT_CONSTANT: {
