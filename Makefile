@@ -52,15 +52,21 @@ $(LIB): $(LIB_OBJ)
 	@mkdir -p $(dir $@)
 	$(AR) rcs $@ $(LIB_OBJ)
 
-$(BIN)/%: $(BUILD)/tools/%.o $(LIB)
+# What the tools share (printing, terminals, output checks) but the library
+# must not do.
+CLI_OBJ = $(BUILD)/tools/cli.o
+
+$(BIN)/%: $(BUILD)/tools/%.o $(CLI_OBJ) $(LIB)
 	@mkdir -p $(BIN)
-	$(CC) $(CFLAGS) -pthread -o $@ $< $(LIB) $(PM_LIBS)
+	$(CC) $(CFLAGS) -pthread -o $@ $< $(CLI_OBJ) $(LIB) $(PM_LIBS)
 
 $(BUILD)/tests/%: $(BUILD)/tests/unit/%.o $(LIB)
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS) -pthread -o $@ $< $(LIB) $(PM_LIBS) $(TEST_LIBS)
 
--include $(LIB_OBJ:.o=.d) $(TEST_SRC:tests/unit/%.c=$(BUILD)/tests/unit/%.d) \
+.SECONDARY: $(CLI_OBJ)
+
+-include $(LIB_OBJ:.o=.d) $(CLI_OBJ:.o=.d) $(TEST_SRC:tests/unit/%.c=$(BUILD)/tests/unit/%.d) \
 	$(TOOLS:%=$(BUILD)/tools/%.d)
 
 # Installs what is missing when root, otherwise names it and stops.

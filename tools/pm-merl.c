@@ -17,6 +17,7 @@
 #include "../common/bsdf.h"
 #include "../common/parse.h"
 #include "../formats/merl.h"
+#include "cli.h"
 
 #define PROG "pm-merl"
 #define VERSION "0.1.0"
@@ -60,36 +61,6 @@ parse_rgb(const char *s, struct pm_rgb *c)
 		v[1] = v[2] = v[0];
 	*c = pm_rgb(v[0], v[1], v[2]);
 	return 1;
-}
-
-static int
-check_output(const char *path, int force)
-{
-	char *copy, *dir;
-	int ok;
-
-	if (strcmp(path, "-") == 0) {
-		if (isatty(STDOUT_FILENO)) {
-			fprintf(stderr, PROG ": refusing to write a binary "
-			    "BRDF to a terminal\n");
-			return 0;
-		}
-		return 1;
-	}
-	if (!force && access(path, F_OK) == 0) {
-		fprintf(stderr, PROG ": %s: already exists (use -f to "
-		    "overwrite)\n", path);
-		return 0;
-	}
-	if ((copy = strdup(path)) == NULL)
-		return 0;
-	dir = dirname(copy);
-	ok = access(dir, W_OK) == 0;
-	if (!ok)
-		fprintf(stderr, PROG ": %s: cannot write to directory %s: %s\n",
-		    path, dir, strerror(errno));
-	free(copy);
-	return ok;
 }
 
 int
@@ -196,7 +167,7 @@ main(int argc, char **argv)
 	mo.alpha = alpha >= 0.0f ? alpha : mo.type == PM_MERL_METAL ? 0.2f :
 	    0.1f;
 	mo.ior = ior >= 0.0f ? ior : 1.5f;
-	if (!check_output(out_path, force))
+	if (!pm_cli_check_output(PROG, out_path, force))
 		return 1;
 	if (pm_merl_write(out_path, &mo, &err) != PM_OK) {
 		fprintf(stderr, PROG ": %s\n", err.msg);

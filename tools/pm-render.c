@@ -17,6 +17,7 @@
 #include <unistd.h>
 
 #include "../common/accel.h"
+#include "cli.h"
 #include "../common/parse.h"
 #include "../common/render.h"
 #include "../common/shoot.h"
@@ -51,33 +52,6 @@ usage_error(const char *fmt, const char *arg)
 	fprintf(stderr, fmt, arg);
 	fprintf(stderr, "\n%s", usage_line);
 	exit(2);
-}
-
-static double
-now(void)
-{
-	struct timespec ts;
-
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-/* Fails early, before any rendering, if the output cannot be created. */
-static int
-check_output_dir(const char *path)
-{
-	char *copy = strdup(path), *dir;
-	int ok;
-
-	if (copy == NULL)
-		return 0;
-	dir = dirname(copy);
-	ok = access(dir, W_OK) == 0;
-	if (!ok)
-		fprintf(stderr, PROG ": %s: cannot write to directory %s: %s\n",
-		    path, dir, strerror(errno));
-	free(copy);
-	return ok;
 }
 
 /*
@@ -529,12 +503,12 @@ main(int argc, char **argv)
 		if (ncams < 0)
 			return 1;
 	}
-	if (!check_output_dir(out_path)) {
+	if (!pm_cli_check_output(PROG, out_path, 1)) {
 		free(cams);
 		return 1;
 	}
 
-	t0 = now();
+	t0 = pm_cli_now();
 	if (pm_scene_load(scene_path, defs, ndefs, &scene, &err) != PM_OK) {
 		fprintf(stderr, PROG ": %s\n", err.msg);
 		free(cams);
@@ -596,7 +570,7 @@ main(int argc, char **argv)
 			goto out;
 		}
 	}
-	t_load = now() - t0;
+	t_load = pm_cli_now() - t0;
 
 	ctx.scene = &scene;
 	ctx.accel = accel;
@@ -662,12 +636,12 @@ main(int argc, char **argv)
 		if (show_progress &&
 		    pthread_create(&prog_tid, NULL, progress_thread, &prog) != 0)
 			show_progress = 0;
-		t0 = now();
+		t0 = pm_cli_now();
 		if (pm_render(&ctx, &cam, &opts, &img, &stats, &err) != PM_OK) {
 			fprintf(stderr, PROG ": %s\n", err.msg);
 			status = 1;
 		}
-		t_render = now() - t0;
+		t_render = pm_cli_now() - t0;
 		if (show_progress) {
 			atomic_store(&prog.stop, 1);
 			pthread_join(prog_tid, NULL);

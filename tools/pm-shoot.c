@@ -14,6 +14,7 @@
 #include <unistd.h>
 
 #include "../common/accel.h"
+#include "cli.h"
 #include "../common/parse.h"
 #include "../common/shoot.h"
 #include "../formats/pmap.h"
@@ -35,68 +36,6 @@ usage_error(const char *fmt, const char *arg)
 	fprintf(stderr, fmt, arg);
 	fprintf(stderr, "\n%s", usage_line);
 	exit(2);
-}
-
-static double
-now(void)
-{
-	struct timespec ts;
-
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static int
-check_output(const char *path, int force)
-{
-	char *copy, *dir;
-	int ok;
-
-	if (strcmp(path, "-") == 0) {
-		if (isatty(STDOUT_FILENO)) {
-			fprintf(stderr, PROG ": refusing to write a binary map to a "
-			    "terminal\n");
-			return 0;
-		}
-		return 1;
-	}
-	if (!force && access(path, F_OK) == 0) {
-		fprintf(stderr, PROG ": %s: already exists (use -f to overwrite)\n",
-		    path);
-		return 0;
-	}
-	copy = strdup(path);
-	if (copy == NULL)
-		return 0;
-	dir = dirname(copy);
-	ok = access(dir, W_OK) == 0;
-	if (!ok)
-		fprintf(stderr, PROG ": %s: cannot write to directory %s: %s\n",
-		    path, dir, strerror(errno));
-	free(copy);
-	return ok;
-}
-
-/* The command line as one string, for the file's provenance. */
-static char *
-join_args(int argc, char **argv)
-{
-	size_t len = 1;
-	char *s;
-	int i;
-
-	for (i = 0; i < argc; i++)
-		len += strlen(argv[i]) + 1;
-	s = malloc(len);
-	if (s == NULL)
-		return NULL;
-	s[0] = '\0';
-	for (i = 0; i < argc; i++) {
-		if (i > 0)
-			strcat(s, " ");
-		strcat(s, argv[i]);
-	}
-	return s;
 }
 
 /* Physical memory in bytes; 0 when the system will not say. */
@@ -130,6 +69,7 @@ estimate_stored(const struct pm_shooter *sh, const struct pm_shoot_opts *so,
 	*stored = (double)st.stored / PILOT_PATHS * (double)so->count;
 	return e;
 }
+
 
 static void
 bounds_of(const struct pm_photon_buf *b, float lo[3], float hi[3])
@@ -275,10 +215,10 @@ main(int argc, char **argv)
 	scene_path = argv[optind];
 	if (out_path == NULL)
 		usage_error("%s", "no output given (-o OUT.pmap, or -o - for stdout)");
-	if (!check_output(out_path, force))
+	if (!pm_cli_check_output(PROG, out_path, force))
 		return 1;
 
-	t0 = now();
+	t0 = pm_cli_now();
 	if (pm_scene_load(scene_path, defs, ndefs, &scene, &err) != PM_OK) {
 		fprintf(stderr, PROG ": %s\n", err.msg);
 		return 1;
@@ -312,7 +252,7 @@ main(int argc, char **argv)
 	}
 	if (verbose >= 2)
 		fprintf(stderr, PROG ": %s: loaded in %.3f s; simulating:\n%s",
-		    scene_path, now() - t0, fx.why);
+		    scene_path, pm_cli_now() - t0, fx.why);
 	if (verbose && scene.dropped_triangles > 0)
 		fprintf(stderr, PROG ": %s: warning: %zu degenerate triangles "
 		    "(zero area or non-finite vertices) dropped\n", scene_path,
@@ -371,7 +311,7 @@ main(int argc, char **argv)
 	out.effects = (fx.global ? PM_EFFECT_GLOBAL : 0) |
 	    (fx.caustic ? PM_EFFECT_CAUSTICS : 0) |
 	    (fx.refraction ? PM_EFFECT_REFRACTION : 0);
-	cmdline = join_args(argc, argv);
+	cmdline = pm_cli_join_args(argc, argv);
 	pm_pmap_info_add(&out, "tool", PROG " " VERSION, NULL);
 	pm_pmap_info_add(&out, "command", cmdline ? cmdline : "?", NULL);
 	free(cmdline);
@@ -413,7 +353,7 @@ main(int argc, char **argv)
 		so.count = (uint64_t)n;
 		so.max_depth = (int)max_depth;
 		so.threads = (int)threads;
-		t0 = now();
+		t0 = pm_cli_now();
 		if (pm_shoot(&shooter, &so, &bufs[pass], &st, &err) != PM_OK) {
 			fprintf(stderr, PROG ": %s: %s\n", scene_path, err.msg);
 			status = 1;
@@ -423,8 +363,8 @@ main(int argc, char **argv)
 			fprintf(stderr, PROG ": %s map: %lld paths [%llu, %llu) shot in "
 			    "%.3f s (%.0f paths/s), %llu photons stored, %llu dropped\n",
 			    pass == 0 ? "global" : "caustic", n, first,
-			    first + (unsigned long long)n, now() - t0,
-			    (double)n / (now() - t0), (unsigned long long)st.stored,
+			    first + (unsigned long long)n, pm_cli_now() - t0,
+			    (double)n / (pm_cli_now() - t0), (unsigned long long)st.stored,
 			    (unsigned long long)st.dropped);
 		else if (st.dropped > 0 && verbose)
 			fprintf(stderr, PROG ": warning: %llu non-finite photons dropped\n",
