@@ -42,12 +42,11 @@ pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
     float tmin, float tmax, struct pm_rng *rng)
 {
 	const struct pm_scene *s = ctx->scene;
-	struct pm_rgb L = pm_rgb1(0.0f), beta = pm_rgb1(1.0f);
-	struct pm_vec3 prev_p = o;
-	float prev_pdf = 1.0f, eta_scale = 1.0f;
-	bool prev_delta = true;	/* the camera "sampled" the first direction */
+	struct pm_rgb L = pm_rgb1(0.0f);
+	struct pm_path pa;
 	int depth;
 
+	pm_path_start(&pa, o, d, tmin, tmax);
 	for (depth = 1;; depth++) {
 		struct pm_hit h;
 		bool hit;
@@ -57,10 +56,10 @@ pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 		struct pm_frame fr;
 		struct pm_vec3 wi_local;
 
-		hit = pm_accel_intersect(ctx->accel, o, d, tmin, tmax, &h);
+		hit = pm_accel_intersect(ctx->accel, pa.o, pa.d, pa.tmin, pa.tmax, &h);
 		if (!(depth == 1 && ctx->hide_emitters))
-			L = pm_rgb_madd(L, beta, pm_lights_emitted(ctx->lights, s,
-			    hit ? &h : NULL, d, prev_p, prev_pdf, prev_delta));
+			L = pm_rgb_madd(L, pa.beta, pm_lights_emitted(ctx->lights, s,
+			    hit ? &h : NULL, pa.d, pa.prev_p, pa.prev_pdf, pa.prev_delta));
 		if (!hit)
 			break;
 		sh = &s->shapes[h.shape];
@@ -69,9 +68,9 @@ pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 
 		b = &s->bsdfs[sh->bsdf];
 		fr = pm_frame_from_normal(h.ns);
-		wi_local = pm_to_local(fr, pm_neg(d));
+		wi_local = pm_to_local(fr, pm_neg(pa.d));
 		if (!pm_bsdf_is_delta(b))
-			L = pm_rgb_madd(L, beta,
+			L = pm_rgb_madd(L, pa.beta,
 			    direct_light(ctx, b, &h, fr, wi_local, rng));
 
 		{
@@ -81,27 +80,48 @@ pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 			if (!pm_bsdf_sample(b, wi_local, u1, u2, u3, PM_RADIANCE, &bs))
 				break;
 		}
-		beta = pm_rgb_mul(beta, bs.weight);
-		if (pm_rgb_is_black(beta))
+		if (!pm_path_continue(&pa, &h, fr, &bs, depth, ctx->rr_depth, rng))
 			break;
-		eta_scale *= bs.eta * bs.eta;
-		prev_p = h.p;
-		prev_pdf = bs.pdf;
-		prev_delta = (bs.lobe & PM_LOBE_DELTA) != 0;
-		d = pm_normalize(pm_to_world(fr, bs.wo));
-		o = pm_hit_origin(&h, d);
-		tmin = 0.0f;
-		tmax = INFINITY;
-
-		/* Russian roulette on the throughput, with the radiance scaling
-		 * of refraction undone so that glass does not end paths early. */
-		if (depth >= ctx->rr_depth) {
-			float q = fminf(pm_rgb_max(beta) * eta_scale, 0.95f);
-
-			if (!(pm_rng_float(rng) < q))
-				break;
-			beta = pm_rgb_scale(beta, 1.0f / q);
-		}
 	}
 	return L;
+}
+
+void
+pm_path_start(struct pm_path *pa, struct pm_vec3 o, struct pm_vec3 d, float tmin,
+    float tmax)
+{
+	pa->o = o;
+	pa->d = d;
+	pa->tmin = tmin;
+	pa->tmax = tmax;
+	pa->beta = pm_rgb1(1.0f);
+	pa->eta_scale = 1.0f;
+	pa->prev_p = o;
+	pa->prev_pdf = 1.0f;
+	pa->prev_delta = true;	/* the camera "sampled" the first direction */
+}
+
+bool
+pm_path_continue(struct pm_path *pa, const struct pm_hit *h, struct pm_frame fr,
+    const struct pm_bsdf_sample *bs, int depth, int rr_depth, struct pm_rng *rng)
+{
+	pa->beta = pm_rgb_mul(pa->beta, bs->weight);
+	if (pm_rgb_is_black(pa->beta))
+		return false;
+	pa->eta_scale *= bs->eta * bs->eta;
+	pa->prev_p = h->p;
+	pa->prev_pdf = bs->pdf;
+	pa->prev_delta = (bs->lobe & PM_LOBE_DELTA) != 0;
+	pa->d = pm_normalize(pm_to_world(fr, bs->wo));
+	pa->o = pm_hit_origin(h, pa->d);
+	pa->tmin = 0.0f;
+	pa->tmax = INFINITY;
+	if (depth >= rr_depth) {
+		float q = fminf(pm_rgb_max(pa->beta) * pa->eta_scale, 0.95f);
+
+		if (!(pm_rng_float(rng) < q))
+			return false;
+		pa->beta = pm_rgb_scale(pa->beta, 1.0f / q);
+	}
+	return true;
 }

@@ -269,12 +269,11 @@ pm_photon_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d
 {
 	const struct pm_scene *s = ctx->scene;
 	const struct pm_photon_maps *m = ctx->maps;
-	struct pm_rgb L = pm_rgb1(0.0f), beta = pm_rgb1(1.0f);
-	struct pm_vec3 prev_p = o;
-	float prev_pdf = 1.0f, eta_scale = 1.0f;
-	bool prev_delta = true;
+	struct pm_rgb L = pm_rgb1(0.0f);
+	struct pm_path pa;
 	int depth;
 
+	pm_path_start(&pa, o, d, tmin, tmax);
 	for (depth = 1;; depth++) {
 		struct pm_hit h;
 		bool hit;
@@ -285,10 +284,10 @@ pm_photon_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d
 		struct pm_vec3 wi;
 		float u1, u2, u3;
 
-		hit = pm_accel_intersect(ctx->accel, o, d, tmin, tmax, &h);
+		hit = pm_accel_intersect(ctx->accel, pa.o, pa.d, pa.tmin, pa.tmax, &h);
 		if (!(depth == 1 && ctx->hide_emitters))
-			L = pm_rgb_madd(L, beta, pm_lights_emitted(ctx->lights, s,
-			    hit ? &h : NULL, d, prev_p, prev_pdf, prev_delta));
+			L = pm_rgb_madd(L, pa.beta, pm_lights_emitted(ctx->lights, s,
+			    hit ? &h : NULL, pa.d, pa.prev_p, pa.prev_pdf, pa.prev_delta));
 		if (!hit)
 			break;
 		sh = &s->shapes[h.shape];
@@ -296,11 +295,11 @@ pm_photon_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d
 			break;
 		b = &s->bsdfs[sh->bsdf];
 		fr = pm_frame_from_normal(h.ns);
-		wi = pm_to_local(fr, pm_neg(d));
+		wi = pm_to_local(fr, pm_neg(pa.d));
 
 		if (is_glossy(b)) {
 			/* Path traced: light sampling here, BSDF sampling on. */
-			L = pm_rgb_madd(L, beta, direct_light(ctx, b, &h, fr, wi,
+			L = pm_rgb_madd(L, pa.beta, direct_light(ctx, b, &h, fr, wi,
 			    1, true, rng));
 		} else if (has_nonspecular(b)) {
 			struct pm_rgb E = direct_light(ctx, b, &h, fr, wi,
@@ -317,7 +316,7 @@ pm_photon_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d
 				    m->global_scale, m->global_r2, m->lookup_size,
 				    m->fixed_radius, PM_PHOTON_VIA_DIFFUSE, PM_PHOTON_VIA_DIFFUSE, false,
 				    b, h.p, fr, wi));
-			L = pm_rgb_madd(L, beta, E);
+			L = pm_rgb_madd(L, pa.beta, E);
 			if (!(b->lobes & PM_LOBE_DELTA))
 				break;
 		}
@@ -331,24 +330,8 @@ pm_photon_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d
 		 * coating goes on; its weight already holds 1/P(coating). */
 		if (!is_glossy(b) && !(bs.lobe & PM_LOBE_DELTA))
 			break;
-		beta = pm_rgb_mul(beta, bs.weight);
-		if (pm_rgb_is_black(beta))
+		if (!pm_path_continue(&pa, &h, fr, &bs, depth, ctx->rr_depth, rng))
 			break;
-		eta_scale *= bs.eta * bs.eta;
-		prev_p = h.p;
-		prev_pdf = bs.pdf;
-		prev_delta = (bs.lobe & PM_LOBE_DELTA) != 0;
-		d = pm_normalize(pm_to_world(fr, bs.wo));
-		o = pm_hit_origin(&h, d);
-		tmin = 0.0f;
-		tmax = INFINITY;
-		if (depth >= ctx->rr_depth) {
-			float q = fminf(pm_rgb_max(beta) * eta_scale, 0.95f);
-
-			if (!(pm_rng_float(rng) < q))
-				break;
-			beta = pm_rgb_scale(beta, 1.0f / q);
-		}
 	}
 	return L;
 }

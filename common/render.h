@@ -78,6 +78,32 @@ struct pm_render_stats {
 	uint64_t dropped;		/* samples that were NaN or infinite */
 };
 
+/* What a camera path carries from one vertex to the next. */
+struct pm_path {
+	struct pm_vec3 o, d;		/* the next ray */
+	float tmin, tmax;
+	struct pm_rgb beta;		/* throughput */
+	float eta_scale;		/* product of eta^2 over refractions */
+	struct pm_vec3 prev_p;		/* the last vertex, and the density the */
+	float prev_pdf;			/* ray left it with, for MIS; prev_delta: */
+	bool prev_delta;		/* a camera ray or a specular bounce */
+};
+
+/* A path about to trace the camera ray o + t d, t in (tmin, tmax). */
+void pm_path_start(struct pm_path *pa, struct pm_vec3 o, struct pm_vec3 d,
+    float tmin, float tmax);
+
+/*
+ * Moves the path on through the BSDF sample bs taken at h (shading frame
+ * fr): multiplies the throughput, aims the next ray, records what MIS needs
+ * about this bounce, and from depth rr_depth on plays Russian roulette on
+ * the throughput with refraction's radiance scaling undone, so that glass
+ * does not end paths early.  False when the path ends here.
+ */
+bool pm_path_continue(struct pm_path *pa, const struct pm_hit *h,
+    struct pm_frame fr, const struct pm_bsdf_sample *bs, int depth,
+    int rr_depth, struct pm_rng *rng);
+
 /* Radiance along a camera ray by path tracing with next-event estimation
  * and multiple importance sampling (integrator_path.c). */
 struct pm_rgb pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o,

@@ -21,6 +21,7 @@
 #include <openexr.h>
 
 #include "exr.h"
+#include "tmpfile.h"
 
 /* What the callbacks of one context share with the code that made it. */
 struct exr_io {
@@ -150,31 +151,6 @@ exr_code(exr_result_t rv)
 	}
 }
 
-/*
- * Opens a new file beside path with a unique name and the usual
- * permissions (0666 less the umask); its name goes to tmp.
- */
-static int
-exr_open_temp(const char *path, char *tmp, size_t tmpsize)
-{
-	static unsigned serial;
-	int fd, tries;
-
-	for (tries = 0; tries < 100; tries++) {
-		int n = snprintf(tmp, tmpsize, "%s.tmp%ld.%u", path,
-		    (long)getpid(), serial++);
-
-		if (n < 0 || (size_t)n >= tmpsize) {
-			errno = ENAMETOOLONG;
-			return -1;
-		}
-		fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-		if (fd >= 0 || errno != EEXIST)
-			return fd;
-	}
-	return -1;
-}
-
 /* Encodes every scanline chunk of im into the open part 0 of ctxt. */
 static exr_result_t
 exr_write_pixels(exr_context_t ctxt, const struct pm_image *im)
@@ -257,7 +233,7 @@ pm_exr_write(const char *path, const struct pm_image *im, bool half,
 	if (im == NULL || im->rgb == NULL || im->width < 1 || im->height < 1)
 		return pm_fail(err, PM_ERR_INVALID, "%s: empty image", path);
 	memset(&io, 0, sizeof(io));
-	io.fd = exr_open_temp(path, tmp, sizeof(tmp));
+	io.fd = pm_open_temp(path, tmp, sizeof(tmp));
 	if (io.fd < 0)
 		return pm_fail(err, PM_ERR_IO, "%s: cannot create a temporary "
 		    "file beside it: %s", path, strerror(errno));

@@ -28,6 +28,7 @@
 
 #include "../common/bsdf.h"
 #include "merl.h"
+#include "tmpfile.h"
 
 static const double scale[3] = {PM_MERL_SCALE_R, PM_MERL_SCALE_G,
     PM_MERL_SCALE_B};
@@ -182,7 +183,6 @@ pm_merl_write(const char *path, const struct pm_merl_model *mo,
 	const char *name = to_stdout ? "standard output" : path;
 	unsigned char *buf;
 	char *tmp = NULL;
-	unsigned attempt;
 	enum pm_err r;
 	int fd = -1;
 
@@ -198,14 +198,7 @@ pm_merl_write(const char *path, const struct pm_merl_model *mo,
 		r = pm_fail(err, PM_ERR_NOMEM, "%s: out of memory", name);
 		goto done;
 	}
-	/* O_EXCL rather than mkstemp, so that the umask gives the mode. */
-	for (attempt = 0; fd < 0 && attempt < 100; attempt++) {
-		snprintf(tmp, strlen(path) + 32, "%s.tmp%ld.%u", path,
-		    (long)getpid(), attempt);
-		fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-		if (fd < 0 && errno != EEXIST)
-			break;
-	}
+	fd = pm_open_temp(path, tmp, strlen(path) + 32);
 	if (fd < 0) {
 		r = pm_fail(err, PM_ERR_IO, "%s: cannot create %s: %s", name,
 		    tmp, strerror(errno));

@@ -30,6 +30,7 @@
 #include <zlib.h>
 
 #include "pmap.h"
+#include "tmpfile.h"
 
 #define PMAP_FIXED	64		/* fixed part of the header */
 #define PMAP_ENTRY	96		/* a map-table entry, version 1.0 */
@@ -1304,7 +1305,6 @@ pm_pmap_write(const char *path, const struct pm_pmap *m, bool compress,
 	size_t isize = m->info != NULL ? strlen(m->info) : 0, per = 65536;
 	uint64_t hs, end;
 	enum pm_err r;
-	unsigned int attempt;
 	int fd = -1, i;
 
 	memset(o, 0, sizeof(o));
@@ -1349,14 +1349,7 @@ pm_pmap_write(const char *path, const struct pm_pmap *m, bool compress,
 		r = pm_fail(err, PM_ERR_NOMEM, "%s: out of memory", name);
 		goto done;
 	}
-	/* O_EXCL rather than mkstemp, so that the umask gives the mode. */
-	for (attempt = 0; fd < 0 && attempt < 100; attempt++) {
-		snprintf(tmp, strlen(path) + 32, "%s.tmp%ld.%u", path,
-		    (long)getpid(), attempt);
-		fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-		if (fd < 0 && errno != EEXIST)
-			break;
-	}
+	fd = pm_open_temp(path, tmp, strlen(path) + 32);
 	if (fd < 0) {
 		r = pm_fail(err, PM_ERR_IO, "%s: cannot create %s: %s", name,
 		    tmp, strerror(errno));

@@ -17,6 +17,7 @@
 #include <png.h>
 
 #include "png.h"
+#include "tmpfile.h"
 
 /* What libpng's callbacks share with pm_png_write. */
 struct png_io {
@@ -45,24 +46,9 @@ png_on_warning(png_structp png, png_const_charp msg)
 static FILE *
 png_open_temp(const char *path, char *tmp, size_t tmpsize)
 {
-	static unsigned serial;
 	FILE *fp;
-	int fd = -1, tries;
+	int fd = pm_open_temp(path, tmp, tmpsize);
 
-	for (tries = 0; tries < 100; tries++) {
-		int n = snprintf(tmp, tmpsize, "%s.tmp%ld.%u", path,
-		    (long)getpid(), serial++);
-
-		if (n < 0 || (size_t)n >= tmpsize) {
-			errno = ENAMETOOLONG;
-			return NULL;
-		}
-		fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-		if (fd >= 0)
-			break;
-		if (errno != EEXIST)
-			return NULL;
-	}
 	if (fd < 0)
 		return NULL;
 	if ((fp = fdopen(fd, "wb")) == NULL) {
