@@ -1,6 +1,7 @@
 /*
- * photon.h: the photon record, 20 bytes in memory and on disk (Jensen's
- * size), with the packings of its power and direction.
+ * photon.h: the photon record, 24 bytes in memory and on disk (Jensen's
+ * 20 plus the surface normal that precomputed irradiance needs), with the
+ * packings of its power and directions.
  *
  * Power is stored unnormalised: a photon carries the flux it would carry
  * if it were the only one emitted, and the map's header says how many were
@@ -20,12 +21,17 @@ struct pm_photon {
 	uint8_t power[4];	/* RGBE: shared exponent (Ward, Radiance) */
 	uint8_t dir[2];		/* incident direction (towards where the photon
 				 * came from), octahedral, 8 bits per axis */
+	uint8_t normal[2];	/* surface normal at the hit, octahedral, on
+				 * the side the photon arrived from: lookups
+				 * count only photons of compatible normal,
+				 * so light does not leak through walls */
 	uint8_t flags;		/* PM_KD_* split axis in bits 0-1, PM_PHOTON_* */
 	uint8_t depth;		/* diffuse or glossy bounces before this hit,
 				 * specular ones included: 0 is direct light */
+	uint8_t reserved[2];	/* zero */
 };
 
-_Static_assert(sizeof(struct pm_photon) == 20, "a photon is 20 bytes");
+_Static_assert(sizeof(struct pm_photon) == 24, "a photon is 24 bytes");
 
 /* Bits 0-1 of flags: the kd-tree node's split axis, or a leaf. */
 enum {

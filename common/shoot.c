@@ -401,6 +401,11 @@ trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 			ph.pos[2] = h.p.z;
 			pm_rgbe_pack(flux, pm_rng_float(&rng), ph.power);
 			pm_dir_pack(pm_neg(d), ph.dir);
+			/* The shading normal, turned to the side the photon
+			 * came from (judged by the true surface). */
+			pm_dir_pack(pm_dot(h.ng, d) < 0.0f ? h.ns : pm_neg(h.ns),
+			    ph.normal);
+			ph.reserved[0] = ph.reserved[1] = 0;
 			ph.flags = PM_KD_LEAF;
 			if (via_diffuse)
 				ph.flags |= PM_PHOTON_VIA_DIFFUSE;

@@ -34,7 +34,7 @@
 
 #define PMAP_FIXED	64		/* fixed part of the header */
 #define PMAP_ENTRY	96		/* a map-table entry, version 1.0 */
-#define PMAP_REC	20		/* one photon record */
+#define PMAP_REC	24		/* one photon record */
 #define PMAP_ALIGN	64		/* payload alignment */
 #define PMAP_MAXMAPS	2
 /* Bytes per read(2), write(2), crc32 or zlib call: fits ssize_t and uInt. */
@@ -66,8 +66,10 @@
 _Static_assert(offsetof(struct pm_photon, pos) == 0, "photon layout");
 _Static_assert(offsetof(struct pm_photon, power) == 12, "photon layout");
 _Static_assert(offsetof(struct pm_photon, dir) == 16, "photon layout");
-_Static_assert(offsetof(struct pm_photon, flags) == 18, "photon layout");
-_Static_assert(offsetof(struct pm_photon, depth) == 19, "photon layout");
+_Static_assert(offsetof(struct pm_photon, normal) == 18, "photon layout");
+_Static_assert(offsetof(struct pm_photon, flags) == 20, "photon layout");
+_Static_assert(offsetof(struct pm_photon, depth) == 21, "photon layout");
+_Static_assert(offsetof(struct pm_photon, reserved) == 22, "photon layout");
 _Static_assert(sizeof(struct pm_photon) == PMAP_REC, "photon layout");
 
 static const unsigned char pmap_magic[8] = {
@@ -453,6 +455,10 @@ read_header(struct pmap_in *in, unsigned char **hp, uint32_t *hsp)
 		    PMAP_FIXED, (uint64_t)got);
 	major = get16(fixed + 8);
 	minor = get16(fixed + 10);
+	if (major == 1)
+		return pm_fail(in->err, PM_ERR_UNSUPPORTED, "%s: a version 1 "
+		    "photon map (20-byte photons without normals); re-shoot "
+		    "it with this pm-shoot", in->name);
 	if (major != PM_PMAP_VERSION_MAJOR)
 		return pm_fail(in->err, PM_ERR_UNSUPPORTED, "%s: unknown "
 		    "version %u.%u (this reader knows %d.x)", in->name,

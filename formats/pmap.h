@@ -12,12 +12,17 @@
 #include "../common/error.h"
 #include "../common/photon.h"
 
-#define PM_PMAP_VERSION_MAJOR 1
+#define PM_PMAP_VERSION_MAJOR 2
 #define PM_PMAP_VERSION_MINOR 0
 
 enum pm_map_kind {
 	PM_MAP_GLOBAL = 1,
 	PM_MAP_CAUSTIC = 2,
+	/* Precomputed irradiance (Christensen 1999): records in the photon
+	 * layout whose power is the irradiance E (W/m^2, not divided by
+	 * emitted), whose normal is the surface's, at a fraction of the
+	 * global photons; made by pm-balance. */
+	PM_MAP_IRRADIANCE = 3,
 };
 
 /* Effects a map file simulates (header field `effects`). */
@@ -46,8 +51,8 @@ struct pm_pmap {
 	char *info;			/* provenance: "key=value\n" lines, NUL-
 					 * terminated, each tool appending its
 					 * own; owned */
-	int nmaps;			/* 0, 1 or 2 */
-	struct pm_map maps[2];
+	int nmaps;			/* 0 to 3 */
+	struct pm_map maps[3];
 	/* Private: set by the reader when the photons are memory-mapped. */
 	void *mapped;
 	size_t mapped_len;
