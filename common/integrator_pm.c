@@ -32,6 +32,7 @@
  */
 #include <math.h>
 
+#include "irradiance.h"
 #include "kdtree.h"
 #include "merl.h"
 #include "render.h"
@@ -55,15 +56,30 @@ is_glossy(const struct pm_bsdf *b)
 	    (b->type == PM_BSDF_MERL && b->merl != NULL && b->merl->glossy);
 }
 
+/* The shading normal turned to the side a ray of direction d arrives
+ * from, judged by the true surface: the rule pm-shoot stores photons'
+ * normals by, so that the two compare. */
+static inline struct pm_vec3
+side_normal(const struct pm_hit *h, struct pm_vec3 d)
+{
+	return pm_dot(h->ng, d) < 0.0f ? h->ns : pm_neg(h->ns);
+}
+
 /* The photon's contribution before the density division: BSDF for its
- * incident direction over the cosine, times its power; false for none. */
+ * incident direction over the cosine, times its power; false for none,
+ * and for photons on a surface of another orientation (the other side of
+ * a wall, a surface meeting this one at a corner): they never reach here. */
 static inline bool
 photon_term(const struct pm_photon *x, const struct pm_bsdf *b,
-    struct pm_frame fr, struct pm_vec3 wi_local, struct pm_rgb *out)
+    struct pm_frame fr, struct pm_vec3 wi_local, struct pm_vec3 nrm,
+    struct pm_rgb *out)
 {
-	struct pm_vec3 wo = pm_to_local(fr, pm_dir_unpack(x->dir));
+	struct pm_vec3 wo;
 	struct pm_rgb f;
 
+	if (pm_dot(pm_dir_unpack(x->normal), nrm) <= PM_IRR_COS)
+		return false;
+	wo = pm_to_local(fr, pm_dir_unpack(x->dir));
 	if (fabsf(wo.z) < 1e-4f)
 		return false;
 	f = pm_bsdf_eval(b, wi_local, wo, PM_RADIANCE);
@@ -74,12 +90,19 @@ photon_term(const struct pm_photon *x, const struct pm_bsdf *b,
 	return true;
 }
 
+bool
+pm_photon_cacheable(const struct pm_bsdf *b)
+{
+	return has_nonspecular(b) && !is_glossy(b);
+}
+
 /* The fixed-radius estimate of progressive photon mapping: every photon
  * within sqrt(r2), walked without a buffer. */
 static struct pm_rgb
 estimate_fixed(const struct pm_photon *ph, size_t n, float scale, float r2,
     uint8_t mask, uint8_t want, bool cone, const struct pm_bsdf *b,
-    struct pm_vec3 p, struct pm_frame fr, struct pm_vec3 wi_local)
+    struct pm_vec3 p, struct pm_vec3 nrm, struct pm_frame fr,
+    struct pm_vec3 wi_local)
 {
 	struct pm_kd_range it;
 	float q[3] = {p.x, p.y, p.z}, r, d2, w;
@@ -94,7 +117,7 @@ estimate_fixed(const struct pm_photon *ph, size_t n, float scale, float r2,
 	r = sqrtf(r2);
 	pm_kdtree_range_init(&it, ph, n, q, r2, mask, want);
 	while (pm_kdtree_range_next(&it, &idx, &d2)) {
-		if (!photon_term(&ph[idx], b, fr, wi_local, &t))
+		if (!photon_term(&ph[idx], b, fr, wi_local, nrm, &t))
 			continue;
 		w = cone ? 1.0f - sqrtf(d2) / (CONE_K * r) : 1.0f;
 		sum[0] += (double)t.r * w;
@@ -107,22 +130,24 @@ estimate_fixed(const struct pm_photon *ph, size_t n, float scale, float r2,
 	return pm_rgb((float)(sum[0] * w), (float)(sum[1] * w), (float)(sum[2] * w));
 }
 
-/* Radiance towards wi_local from photons near p (see the top of the file). */
+/* Radiance towards wi_local from photons near p on a surface of normal
+ * nrm (see the top of the file). */
 static struct pm_rgb
 estimate(const struct pm_photon *ph, size_t n, float scale, float max_r2, int k,
     bool fixed, uint8_t mask, uint8_t want, bool cone, const struct pm_bsdf *b,
-    struct pm_vec3 p, struct pm_frame fr, struct pm_vec3 wi_local)
+    struct pm_vec3 p, struct pm_vec3 nrm, struct pm_frame fr,
+    struct pm_vec3 wi_local)
 {
 	struct pm_knn nb[PM_MAX_LOOKUP];
 	float q[3] = {p.x, p.y, p.z}, r2, r, w;
-	struct pm_rgb sum = pm_rgb1(0.0f);
+	struct pm_rgb sum = pm_rgb1(0.0f), t;
 	size_t found, i;
 
 	if (n == 0 || max_r2 <= 0.0f)
 		return sum;
 	if (fixed)
 		return estimate_fixed(ph, n, scale, max_r2, mask, want, cone, b, p,
-		    fr, wi_local);
+		    nrm, fr, wi_local);
 	found = pm_kdtree_knn(ph, n, q, (size_t)k, max_r2, mask, want, nb);
 	if (found == 0)
 		return sum;
@@ -131,19 +156,10 @@ estimate(const struct pm_photon *ph, size_t n, float scale, float max_r2, int k,
 		return sum;
 	r = sqrtf(r2);
 	for (i = 0; i < found; i++) {
-		const struct pm_photon *x = &ph[nb[i].idx];
-		struct pm_vec3 wo = pm_to_local(fr, pm_dir_unpack(x->dir));
-		struct pm_rgb f;
-
-		if (fabsf(wo.z) < 1e-4f)
+		if (!photon_term(&ph[nb[i].idx], b, fr, wi_local, nrm, &t))
 			continue;
-		f = pm_bsdf_eval(b, wi_local, wo, PM_RADIANCE);
-		if (pm_rgb_is_black(f))
-			continue;
-		w = 1.0f / fabsf(wo.z);
-		if (cone)
-			w *= 1.0f - sqrtf(nb[i].d2) / (CONE_K * r);
-		sum = pm_rgb_madd(sum, pm_rgb_scale(f, w), pm_rgbe_unpack(x->power));
+		w = cone ? 1.0f - sqrtf(nb[i].d2) / (CONE_K * r) : 1.0f;
+		sum = pm_rgb_add(sum, pm_rgb_scale(t, w));
 	}
 	w = scale / (PM_PI * r2);
 	if (cone)
@@ -196,41 +212,67 @@ direct_light(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 	return pm_rgb_scale(L, 1.0f / (float)n);
 }
 
-/* Radiance leaving the first non-specular surface along a gather ray, from
- * the whole global map; specular surfaces on the way are followed. */
-static struct pm_rgb
-gather_ray(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
-    struct pm_rng *rng)
+/*
+ * Radiance leaving the first non-specular surface along a gather ray;
+ * specular surfaces on the way are followed.  With irradiance records
+ * the surface's radiance is its reflectance times E / pi, E from the
+ * nearest record of compatible normal (exact for a Lambertian surface
+ * under any light; for plastic and measured BRDFs, one BSDF sample
+ * weighs E / pi, which is exact when the light arriving there is
+ * uniform, and a sample of a specular coating goes on as a gather ray).
+ * Without records, the whole global map is looked up there.
+ */
+struct pm_rgb
+pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
+    struct pm_vec3 d, struct pm_rng *rng, float *t)
 {
 	const struct pm_photon_maps *m = ctx->maps;
 	const struct pm_scene *s = ctx->scene;
 	struct pm_rgb beta = pm_rgb1(1.0f);
 	int bounce;
 
+	if (t != NULL)
+		*t = INFINITY;
 	for (bounce = 0; bounce < 16; bounce++) {
 		struct pm_hit h;
 		const struct pm_bsdf *b;
 		struct pm_frame fr;
-		struct pm_vec3 wi;
+		struct pm_vec3 wi, nrm;
 		struct pm_bsdf_sample bs;
 		float u1, u2, u3;
 
 		if (!pm_accel_intersect(ctx->accel, o, d, 0.0f, INFINITY, &h))
 			break;
+		if (t != NULL && bounce == 0)
+			*t = h.t;
 		b = &s->bsdfs[s->shapes[h.shape].bsdf];
 		fr = pm_frame_from_normal(h.ns);
 		wi = pm_to_local(fr, pm_neg(d));
-		if (has_nonspecular(b))
+		nrm = side_normal(&h, d);
+		if (has_nonspecular(b) && m->irradiance_grid == NULL)
 			return pm_rgb_mul(beta, estimate(m->global, m->nglobal,
 			    m->global_scale, m->global_r2, m->lookup_size, m->fixed_radius,
-			    0, 0, false,
-			    b, h.p, fr, wi));
+			    0, 0, false, b, h.p, nrm, fr, wi));
 		u1 = pm_rng_float(rng);
 		u2 = pm_rng_float(rng);
 		u3 = pm_rng_float(rng);
 		if (!pm_bsdf_sample(b, wi, u1, u2, u3, PM_RADIANCE, &bs))
 			break;
 		beta = pm_rgb_mul(beta, bs.weight);
+		if (!(bs.lobe & PM_LOBE_DELTA)) {
+			struct pm_rgb E;
+
+			if (!pm_irradiance_lookup(m->irradiance_grid, h.p, nrm, &E)) {
+				/* No record near: estimate here (rare: small or
+				 * thin features between records). */
+				struct pm_irradiance_opts io = {1, m->lookup_size,
+				    m->global_r2, m->fixed_radius, 1};
+
+				E = pm_irradiance_estimate(m->global, m->nglobal,
+				    m->global_scale, h.p, nrm, &io);
+			}
+			return pm_rgb_mul(beta, pm_rgb_scale(E, 1.0f / PM_PI));
+		}
 		d = pm_normalize(pm_to_world(fr, bs.wo));
 		o = pm_hit_origin(&h, d);
 	}
@@ -257,15 +299,48 @@ final_gather(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 		    (bs.lobe & PM_LOBE_DELTA))
 			continue;
 		d = pm_normalize(pm_to_world(fr, bs.wo));
-		L = pm_rgb_madd(L, bs.weight, gather_ray(ctx,
-		    pm_hit_origin(h, d), d, rng));
+		L = pm_rgb_madd(L, bs.weight, pm_photon_gather(ctx,
+		    pm_hit_origin(h, d), d, rng, NULL));
 	}
 	return pm_rgb_scale(L, 1.0f / (float)n);
+}
+
+/* Indirect light at a camera path's non-specular vertex: from the
+ * irradiance cache at the first surface seen (one BSDF sample weighs the
+ * cached E / pi: exact for a Lambertian surface, and for the others'
+ * non-specular lobes when the light around is uniform), else by final
+ * gathering. */
+static struct pm_rgb
+indirect(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
+    const struct pm_hit *h, struct pm_frame fr, struct pm_vec3 wi,
+    struct pm_vec3 nrm, int depth, float fx, float fy, struct pm_rng *rng)
+{
+	struct pm_rgb E;
+
+	if (depth == 1 && pm_icache_lookup(ctx->icache, fx, fy, h->p, nrm, &E)) {
+		struct pm_bsdf_sample bs;
+		float u1 = pm_rng_float(rng), u2 = pm_rng_float(rng);
+		float u3 = pm_rng_float(rng);
+
+		if (!pm_bsdf_sample(b, wi, u1, u2, u3, PM_RADIANCE, &bs) ||
+		    (bs.lobe & PM_LOBE_DELTA))
+			return pm_rgb1(0.0f);
+		return pm_rgb_mul(bs.weight, pm_rgb_scale(E, 1.0f / PM_PI));
+	}
+	return final_gather(ctx, b, h, fr, wi, rng);
 }
 
 struct pm_rgb
 pm_photon_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
     float tmin, float tmax, struct pm_rng *rng)
+{
+	return pm_photon_li_px(ctx, o, d, tmin, tmax, NAN, NAN, rng);
+}
+
+struct pm_rgb
+pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
+    struct pm_vec3 d, float tmin, float tmax, float fx, float fy,
+    struct pm_rng *rng)
 {
 	const struct pm_scene *s = ctx->scene;
 	const struct pm_photon_maps *m = ctx->maps;
@@ -305,17 +380,20 @@ pm_photon_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d
 			struct pm_rgb E = direct_light(ctx, b, &h, fr, wi,
 			    m->direct_samples, false, rng);
 
+			struct pm_vec3 nrm = side_normal(&h, pa.d);
+
 			E = pm_rgb_add(E, estimate(m->caustic, m->ncaustic,
 			    m->caustic_scale, m->caustic_r2, m->lookup_size,
 			    m->fixed_radius, 0, 0, true,
-			    b, h.p, fr, wi));
+			    b, h.p, nrm, fr, wi));
 			if (m->final_gather)
-				E = pm_rgb_add(E, final_gather(ctx, b, &h, fr, wi, rng));
+				E = pm_rgb_add(E, indirect(ctx, b, &h, fr, wi, nrm,
+				    depth, fx, fy, rng));
 			else
 				E = pm_rgb_add(E, estimate(m->global, m->nglobal,
 				    m->global_scale, m->global_r2, m->lookup_size,
 				    m->fixed_radius, PM_PHOTON_VIA_DIFFUSE, PM_PHOTON_VIA_DIFFUSE, false,
-				    b, h.p, fr, wi));
+				    b, h.p, nrm, fr, wi));
 			L = pm_rgb_madd(L, pa.beta, E);
 			if (!(b->lobes & PM_LOBE_DELTA))
 				break;

@@ -79,8 +79,8 @@ render_tile(struct job *j, int tile)
 				struct pm_vec3 d = pm_camera_ray(&j->rays, fx, fy,
 				    &tmin, &tmax);
 				struct pm_rgb L = j->opts->method == PM_METHOD_PHOTON ?
-				    pm_photon_li(j->ctx, j->rays.origin, d, tmin, tmax,
-				    &rng) : pm_path_li(j->ctx, j->rays.origin, d, tmin,
+				    pm_photon_li_px(j->ctx, j->rays.origin, d, tmin, tmax,
+				    fx, fy, &rng) : pm_path_li(j->ctx, j->rays.origin, d, tmin,
 				    tmax, &rng);
 
 				if (!pm_rgb_is_finite(L)) {
@@ -122,6 +122,8 @@ pm_render(const struct pm_render_ctx *ctx, const struct pm_camera *cam,
     struct pm_render_stats *stats, struct pm_error *err)
 {
 	struct job j;
+	struct pm_render_ctx cctx = *ctx;
+	struct pm_icache cache = {0, 0, 0, 0.0f, NULL};
 	pthread_t *tid;
 	int i, nthreads = opts->threads < 1 ? 1 : opts->threads, started = 0;
 	enum pm_err rc;
@@ -132,7 +134,7 @@ pm_render(const struct pm_render_ctx *ctx, const struct pm_camera *cam,
 	rc = pm_image_alloc(out, cam->width, cam->height, err);
 	if (rc != PM_OK)
 		return rc;
-	j.ctx = ctx;
+	j.ctx = &cctx;
 	j.cam = cam;
 	j.opts = opts;
 	j.out = out;
@@ -141,11 +143,24 @@ pm_render(const struct pm_render_ctx *ctx, const struct pm_camera *cam,
 	j.ntiles = j.tiles_x * ((cam->height + TILE - 1) / TILE);
 	atomic_init(&j.next, 0);
 	atomic_init(&j.dropped, 0);
+	/* Indirect light on the surfaces seen, gathered once on a grid. */
+	if (opts->method == PM_METHOD_PHOTON && ctx->maps != NULL &&
+	    ctx->maps->final_gather && ctx->maps->icache_step > 0) {
+		rc = pm_icache_build(&cache, ctx, &j.rays, ctx->maps->icache_step,
+		    ctx->maps->icache_rays, ctx->maps->icache_a, opts->seed,
+		    nthreads, err);
+		if (rc != PM_OK) {
+			pm_image_free(out);
+			return rc;
+		}
+		cctx.icache = &cache;
+	}
 	if (opts->tiles_total != NULL)
 		*opts->tiles_total = j.ntiles;
 
 	tid = calloc((size_t)nthreads, sizeof(*tid));
 	if (tid == NULL) {
+		pm_icache_free(&cache);
 		pm_image_free(out);
 		return pm_fail(err, PM_ERR_NOMEM, "no memory for threads");
 	}
@@ -158,6 +173,7 @@ pm_render(const struct pm_render_ctx *ctx, const struct pm_camera *cam,
 	for (i = 0; i < started; i++)
 		pthread_join(tid[i], NULL);
 	free(tid);
+	pm_icache_free(&cache);
 	if (stats != NULL) {
 		stats->samples = (uint64_t)cam->width * (uint64_t)cam->height *
 		    (uint64_t)opts->spp;

@@ -12,6 +12,8 @@
 #include "accel.h"
 #include "camera.h"
 #include "error.h"
+#include "icache.h"
+#include "irradiance.h"
 #include "image.h"
 #include "light.h"
 #include "rng.h"
@@ -26,10 +28,21 @@ struct pm_photon_maps {
 	size_t ncaustic;
 	float caustic_scale;
 	float global_r2, caustic_r2;	/* squared maximum lookup radii */
+	/* Precomputed irradiance records (irradiance.h), or none; gather
+	 * rays end in the nearest one within sqrt(irradiance_r2). */
+	const struct pm_photon *irradiance;
+	size_t nirradiance;
+	const struct pm_irr_grid *irradiance_grid;	/* over them */
 	int lookup_size;		/* k nearest photons per estimate */
 	int direct_samples;		/* light samples per non-specular hit */
 	bool final_gather;
-	int final_gather_samples;
+	int final_gather_samples;	/* rays per sample without the cache */
+	/* The image-space irradiance cache (icache.h): grid points every
+	 * icache_step pixels (0: none), icache_rays gather rays each, Ward's
+	 * accuracy icache_a. */
+	int icache_step;
+	int icache_rays;
+	float icache_a;
 	/* Progressive photon mapping: every photon within the radii counts
 	 * (no k-nearest), so that passes with shrinking radii average to the
 	 * right answer; lookup_size is then unused. */
@@ -56,6 +69,8 @@ struct pm_render_ctx {
 	int rr_depth;
 	bool hide_emitters;
 	const struct pm_photon_maps *maps;	/* PM_METHOD_PHOTON only */
+	float scene_radius;		/* bounding sphere; 0: unknown */
+	const struct pm_icache *icache;	/* set by pm_render, or NULL */
 };
 
 enum pm_method {
@@ -114,6 +129,23 @@ struct pm_rgb pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o,
  * (integrator_pm.c). */
 struct pm_rgb pm_photon_li(const struct pm_render_ctx *ctx, struct pm_vec3 o,
     struct pm_vec3 d, float tmin, float tmax, struct pm_rng *rng);
+
+/* The same for the camera sample at film position (fx, fy), which lets
+ * the first surface seen take its indirect light from ctx->icache. */
+struct pm_rgb pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
+    struct pm_vec3 d, float tmin, float tmax, float fx, float fy,
+    struct pm_rng *rng);
+
+/* True where the photon render estimates light at a surface rather than
+ * following or path tracing it: where indirect light may be cached. */
+bool pm_photon_cacheable(const struct pm_bsdf *b);
+
+/* Radiance arriving along a final-gathering ray from o in direction d,
+ * from the irradiance records (or the global map) at the first
+ * non-specular surface; *t (if not NULL) gets the distance to the first
+ * surface hit, INFINITY for none. */
+struct pm_rgb pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
+    struct pm_vec3 d, struct pm_rng *rng, float *t);
 
 /*
  * Renders the scene's camera into out (allocated here, cam->width by

@@ -45,11 +45,11 @@ pm_scene_init(struct pm_scene *s)
 	s->integrator.photon.global_lookup_radius = 0.05f;
 	s->integrator.photon.caustic_lookup_radius = 0.0125f;
 	s->integrator.photon.lookup_size = 120;
-	s->integrator.photon.direct_samples = 16;
+	s->integrator.photon.direct_samples = 1;
 	s->integrator.photon.glossy_samples = 32;
 	s->integrator.photon.granularity = 0;
-	s->integrator.photon.final_gather = false;
-	s->integrator.photon.final_gather_samples = 64;
+	s->integrator.photon.final_gather = true;
+	s->integrator.photon.final_gather_samples = 4;
 }
 
 /* Frees the arrays, meshes and path; s is left empty. */

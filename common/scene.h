@@ -95,11 +95,13 @@ struct pm_photon_params {
 	float caustic_lookup_radius;	/* causticLookupRadius, 0.0125: of the
 					 * scene's bounding-sphere radius */
 	int lookup_size;		/* lookupSize, 120 */
-	int direct_samples;		/* directSamples, 16 */
+	int direct_samples;		/* directSamples, 1 (Mitsuba 0.6: 16) */
 	int glossy_samples;		/* glossySamples, 32 */
 	int granularity;		/* granularity, 0: automatic */
-	bool final_gather;		/* finalGather, false */
-	int final_gather_samples;	/* finalGatherSamples, 64 */
+	bool final_gather;		/* finalGather, true (Mitsuba 0.6: false) */
+	int final_gather_samples;	/* finalGatherSamples, 4 (Mitsuba 0.6: 64):
+				 * per camera sample where the cache
+				 * does not serve */
 };
 
 struct pm_integrator {

@@ -36,7 +36,7 @@
 #define PMAP_ENTRY	96		/* a map-table entry, version 1.0 */
 #define PMAP_REC	24		/* one photon record */
 #define PMAP_ALIGN	64		/* payload alignment */
-#define PMAP_MAXMAPS	2
+#define PMAP_MAXMAPS	3
 /* Bytes per read(2), write(2), crc32 or zlib call: fits ssize_t and uInt. */
 #define PMAP_CHUNK	((size_t)1 << 30)
 /* Buffer for compressed bytes read from a descriptor. */
@@ -169,6 +169,7 @@ kind_name(uint32_t kind)
 	switch (kind) {
 	case PM_MAP_GLOBAL:	return "global";
 	case PM_MAP_CAUSTIC:	return "caustic";
+	case PM_MAP_IRRADIANCE:	return "irradiance";
 	}
 	return "unknown";
 }
@@ -525,7 +526,7 @@ check_entry(struct pmap_in *in, const struct pmap_entry *me, uint32_t hs)
 	uint64_t raw, end;
 	int k;
 
-	if (me->kind != PM_MAP_GLOBAL && me->kind != PM_MAP_CAUSTIC)
+	if (me->kind != PM_MAP_GLOBAL && me->kind != PM_MAP_CAUSTIC && me->kind != PM_MAP_IRRADIANCE)
 		return pm_fail(in->err, in->strict ? PM_ERR_FORMAT :
 		    PM_ERR_UNSUPPORTED, "%s: unknown map kind %lu (byte "
 		    "%" PRIu64 "; this reader knows 1, global, and 2, "
@@ -887,7 +888,7 @@ parse(struct pmap_in *in, struct pm_pmap *m)
 	uint32_t hs;
 	enum pm_err r;
 	size_t got;
-	int i, order[PMAP_MAXMAPS] = {0, 1};
+	int i, order[PMAP_MAXMAPS] = {0, 1, 2};
 
 	if ((r = read_header(in, &h, &hs)) != PM_OK)
 		return r;
@@ -1060,7 +1061,7 @@ check_for_write(const char *name, const struct pm_pmap *m,
 		    name, (unsigned long)m->effects);
 	for (i = 0; i < m->nmaps; i++) {
 		a = &m->maps[i];
-		if (a->kind != PM_MAP_GLOBAL && a->kind != PM_MAP_CAUSTIC)
+		if (a->kind != PM_MAP_GLOBAL && a->kind != PM_MAP_CAUSTIC && a->kind != PM_MAP_IRRADIANCE)
 			return pm_fail(err, PM_ERR_INVALID, "%s: map %d has "
 			    "unknown kind %d", name, i, (int)a->kind);
 		for (j = 0; j < i; j++)

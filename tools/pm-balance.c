@@ -18,6 +18,7 @@
  */
 #include <errno.h>
 #include <getopt.h>
+#include <math.h>
 #include <stdarg.h>
 #include <stdbool.h>
 #include <stdint.h>
@@ -29,9 +30,11 @@
 #include <unistd.h>
 
 #include "../common/error.h"
+#include "../common/irradiance.h"
 #include "../common/kdtree.h"
 #include "../common/parse.h"
 #include "../common/photon.h"
+#include "../common/render.h"
 #include "../formats/pmap.h"
 
 #ifndef PM_VERSION
@@ -42,13 +45,22 @@
 #define MAX_THREADS	4096
 
 static const char usage_line[] =
-    "usage: pm-balance [-fqv] [-t THREADS] [--compress] -o OUT.pmap "
-    "IN.pmap ...";
+    "usage: pm-balance [-fqv] [-t THREADS] [--compress] [--irradiance-stride N] "
+    "[--irradiance-k K] [--irradiance-radius R] [--pass I [--alpha A]] "
+    "-o OUT.pmap IN.pmap ...";
 
-enum { OPT_COMPRESS = 256, OPT_VERSION };
+enum {
+	OPT_COMPRESS = 256, OPT_VERSION, OPT_IRR_STRIDE, OPT_IRR_K, OPT_IRR_RADIUS,
+	OPT_PASS, OPT_ALPHA,
+};
 
 static const struct option longopts[] = {
+	{ "alpha",	required_argument,	NULL,	OPT_ALPHA },
 	{ "compress",	no_argument,		NULL,	OPT_COMPRESS },
+	{ "irradiance-k", required_argument,	NULL,	OPT_IRR_K },
+	{ "irradiance-radius", required_argument, NULL,	OPT_IRR_RADIUS },
+	{ "irradiance-stride", required_argument, NULL,	OPT_IRR_STRIDE },
+	{ "pass",	required_argument,	NULL,	OPT_PASS },
 	{ "force",	no_argument,		NULL,	'f' },
 	{ "help",	no_argument,		NULL,	'h' },
 	{ "output",	required_argument,	NULL,	'o' },
@@ -81,10 +93,19 @@ help(void)
 	printf(
 	    "Merge photon-map shards of one scene and balance their kd-trees.\n"
 	    "An input of - is standard input.\n\n"
+	    "      --alpha a         progressive radius schedule (default 2/3)\n"
 	    "      --compress        zlib-compress the photon records\n"
 	    "  -f, --force           overwrite an existing output\n"
 	    "  -h, --help            print this help and exit\n"
+	    "      --irradiance-k k  photons per irradiance record (default 64)\n"
+	    "      --irradiance-radius r  largest record radius, as a fraction\n"
+	    "                        of the global map's half-diagonal (default"
+	    " 0.05)\n"
+	    "      --irradiance-stride n  one irradiance record per n global\n"
+	    "                        photons (default 4; 0: none)\n"
 	    "  -o, --output file     the merged map; - is standard output\n"
+	    "      --pass i          progressive pass i: records over a fixed\n"
+	    "                        radius shrinking with i\n"
 	    "  -q, --quiet           no warnings\n"
 	    "  -t, --threads n       threads for the kd-tree build (default:"
 	    " all cores)\n"
@@ -507,6 +528,73 @@ free_inputs(struct input *in, int n)
 		}
 }
 
+/*
+ * Adds precomputed irradiance records (irradiance.h) made from the
+ * balanced global map of m, with their own kd-tree.  Their radius is a
+ * fraction of the global map's half-diagonal: the k-nearest cap, or with
+ * a progressive pass the fixed radius, shrinking along the schedule
+ * pm-render's --pass follows, so that the records' blur averages away
+ * over passes.  True when done (or when there is no global map).
+ */
+static bool
+add_irradiance(struct pm_pmap *m, size_t stride, int k, float radius,
+    long pass, float alpha, int threads, const char *output)
+{
+	struct pm_error err = {PM_OK, ""};
+	struct pm_map *g = pm_pmap_find(m, PM_MAP_GLOBAL), *r;
+	struct pm_irradiance_opts o;
+	float lo[3] = {INFINITY, INFINITY, INFINITY};
+	float hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+	double diag = 0.0, t = now();
+	size_t i, n;
+	int a;
+
+	if (g == NULL || g->count == 0 || g->emitted == 0 ||
+	    pm_pmap_find(m, PM_MAP_IRRADIANCE) != NULL ||
+	    m->nmaps >= (int)(sizeof(m->maps) / sizeof(m->maps[0])))
+		return true;
+	for (i = 0; i < (size_t)g->count; i++)
+		for (a = 0; a < 3; a++) {
+			lo[a] = fminf(lo[a], g->photons[i].pos[a]);
+			hi[a] = fmaxf(hi[a], g->photons[i].pos[a]);
+		}
+	for (a = 0; a < 3; a++)
+		diag += (double)(hi[a] - lo[a]) * (hi[a] - lo[a]);
+	o.stride = stride;
+	o.k = k;
+	o.max_r2 = (float)(radius * radius * 0.25 * diag);
+	o.fixed_radius = pass > 0;
+	if (pass > 0) {
+		double f = pm_pppm_radius_scale(pass, alpha);
+
+		o.max_r2 = (float)(o.max_r2 * f * f);
+	}
+	o.threads = threads;
+	r = &m->maps[m->nmaps];
+	memset(r, 0, sizeof(*r));
+	r->kind = PM_MAP_IRRADIANCE;
+	r->emitted = g->emitted;
+	r->first_index = g->first_index;
+	if (pm_irradiance_records(g->photons, (size_t)g->count,
+	    1.0f / (float)g->emitted, &o, &r->photons, &n, &err) != PM_OK ||
+	    pm_kdtree_build(r->photons, n, threads, &err) != PM_OK) {
+		fprintf(stderr, "%s: %s: irradiance records: %s\n", PROG, output,
+		    err.msg);
+		free(r->photons);
+		r->photons = NULL;
+		return false;
+	}
+	r->count = n;
+	r->balanced = true;
+	m->nmaps++;
+	if (verbosity >= 2)
+		fprintf(stderr, "%s: irradiance map: %zu records, one per %zu "
+		    "global photons, %s %.6g, in %.3f s\n", PROG, n, stride,
+		    pass > 0 ? "fixed radius" : "k-nearest within", sqrt(o.max_r2),
+		    now() - t);
+	return true;
+}
+
 int
 main(int argc, char *argv[])
 {
@@ -519,6 +607,8 @@ main(int argc, char *argv[])
 	char *cmd = NULL;
 	bool force = false, compress = false;
 	long threads = sysconf(_SC_NPROCESSORS_ONLN);
+	long irr_stride = 4, irr_k = 64, pass = 0;
+	float irr_radius = 0.05f, alpha = 2.0f / 3.0f;
 	int ch, i, j, k, n = 0, nstdin = 0, status = 1;
 	int orig_argc = argc;
 	char **orig_argv = argv;
@@ -556,6 +646,31 @@ main(int argc, char *argv[])
 			break;
 		case OPT_COMPRESS:
 			compress = true;
+			break;
+		case OPT_IRR_STRIDE:
+			if (!pm_parse_long(optarg, 0, 1L << 30, &irr_stride))
+				usage_error("--irradiance-stride: expected a count "
+				    "from 0, got '%s'", optarg);
+			break;
+		case OPT_IRR_K:
+			if (!pm_parse_long(optarg, 1, PM_IRR_MAX_K, &irr_k))
+				usage_error("--irradiance-k: expected a count from 1 "
+				    "to %d, got '%s'", PM_IRR_MAX_K, optarg);
+			break;
+		case OPT_IRR_RADIUS:
+			if (!pm_parse_float(optarg, 1e-9f, 1e9f, &irr_radius))
+				usage_error("--irradiance-radius: expected a positive "
+				    "number, got '%s'", optarg);
+			break;
+		case OPT_PASS:
+			if (!pm_parse_long(optarg, 1, 1L << 30, &pass))
+				usage_error("--pass: expected a pass number from 1, "
+				    "got '%s'", optarg);
+			break;
+		case OPT_ALPHA:
+			if (!pm_parse_float(optarg, 1e-6f, 1.0f - 1e-6f, &alpha))
+				usage_error("--alpha: expected a number in (0, 1), "
+				    "got '%s'", optarg);
 			break;
 		case OPT_VERSION:
 			printf("%s (pm) %s\n", PROG, PM_VERSION);
@@ -715,6 +830,10 @@ main(int argc, char *argv[])
 			    n, n == 1 ? "" : "s", t_sort, now() - t, threads,
 			    threads == 1 ? "" : "s");
 	}
+
+	if (irr_stride > 0 && !add_irradiance(&out, (size_t)irr_stride,
+	    (int)irr_k, irr_radius, pass, alpha, (int)threads, output))
+		goto done;
 
 	t = now();
 	if (pm_pmap_write(output, &out, compress, &err) != PM_OK) {

@@ -225,10 +225,13 @@ load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
 			maps->global = m->photons;
 			maps->nglobal = (size_t)m->count;
 			maps->global_scale = m->emitted ? 1.0f / (float)m->emitted : 0.0f;
-		} else {
+		} else if (m->kind == PM_MAP_CAUSTIC) {
 			maps->caustic = m->photons;
 			maps->ncaustic = (size_t)m->count;
 			maps->caustic_scale = m->emitted ? 1.0f / (float)m->emitted : 0.0f;
+		} else if (m->kind == PM_MAP_IRRADIANCE) {
+			maps->irradiance = m->photons;
+			maps->nirradiance = (size_t)m->count;
 		}
 	}
 	/* Radii are fractions of the scene's bounding-sphere radius, as in
@@ -261,10 +264,15 @@ load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
 	maps->direct_samples = pp->direct_samples;
 	maps->final_gather = pp->final_gather;
 	maps->final_gather_samples = pp->final_gather_samples;
+	maps->icache_step = PM_ICACHE_STEP;
+	maps->icache_rays = PM_ICACHE_RAYS;
+	maps->icache_a = PM_ICACHE_ACCURACY;
 	if (verbose >= 2)
 		fprintf(stderr, PROG ": %s: %zu global photons, %zu caustic photons, "
+		    "%zu irradiance records, "
 		    "radii %g and %g, %s%d, %d direct samples, final gathering %s\n",
-		    path, maps->nglobal, maps->ncaustic, sqrt(maps->global_r2),
+		    path, maps->nglobal, maps->ncaustic, maps->nirradiance,
+		    sqrt(maps->global_r2),
 		    sqrt(maps->caustic_r2), maps->fixed_radius ?
 		    "every photon within them (k unused: " : "k = ",
 		    maps->lookup_size, maps->direct_samples,
@@ -279,7 +287,8 @@ main(int argc, char **argv)
 		OPT_METHOD = 256, OPT_SPP, OPT_SIZE, OPT_EYE, OPT_TARGET, OPT_UP,
 		OPT_FOV, OPT_SEED, OPT_HALF, OPT_HELP, OPT_VERSION, OPT_CAMERAS,
 		OPT_GRADIUS, OPT_CRADIUS, OPT_LOOKUP, OPT_DIRECT, OPT_FG, OPT_NOFG,
-		OPT_FGSAMPLES, OPT_PASS, OPT_RADIUS, OPT_ALPHA,
+		OPT_FGSAMPLES, OPT_PASS, OPT_RADIUS, OPT_ALPHA, OPT_CSTEP,
+		OPT_CRAYS, OPT_CACC,
 	};
 	static const struct option longopts[] = {
 		{"method", required_argument, NULL, OPT_METHOD},
@@ -302,6 +311,9 @@ main(int argc, char **argv)
 		{"final-gather", no_argument, NULL, OPT_FG},
 		{"no-final-gather", no_argument, NULL, OPT_NOFG},
 		{"final-gather-samples", required_argument, NULL, OPT_FGSAMPLES},
+		{"cache-step", required_argument, NULL, OPT_CSTEP},
+		{"cache-rays", required_argument, NULL, OPT_CRAYS},
+		{"cache-accuracy", required_argument, NULL, OPT_CACC},
 		{"pass", required_argument, NULL, OPT_PASS},
 		{"radius", required_argument, NULL, OPT_RADIUS},
 		{"alpha", required_argument, NULL, OPT_ALPHA},
@@ -322,6 +334,8 @@ main(int argc, char **argv)
 	int verbose = 1, c, fg = -1;
 	long spp = 0, threads = sysconf(_SC_NPROCESSORS_ONLN);
 	long lookup = 0, direct = 0, fg_samples = 0;
+	long cache_step = -1, cache_rays = 0;
+	float cache_acc = 0.0f;
 	float fov = 0.0f, gradius = 0.0f, cradius = 0.0f, alpha = 2.0f / 3.0f;
 	struct pppm pg = {0, 0.0f, 2.0 / 3.0};
 	unsigned long long seed = 0;
@@ -329,6 +343,7 @@ main(int argc, char **argv)
 	struct pm_accel *accel = NULL;
 	struct pm_lights lights;
 	struct pm_render_ctx ctx;
+	struct pm_irr_grid irr_grid = {0};
 	struct pm_render_opts opts;
 	struct pm_render_stats stats;
 	struct pm_error err = {PM_OK, ""};
@@ -440,6 +455,21 @@ main(int argc, char **argv)
 			break;
 		case OPT_NOFG:
 			fg = 0;
+			break;
+		case OPT_CSTEP:
+			if (!pm_parse_long(optarg, 0, 1 << 16, &cache_step))
+				usage_error("--cache-step wants 0 to 65536 pixels, not '%s'",
+				    optarg);
+			break;
+		case OPT_CRAYS:
+			if (!pm_parse_long(optarg, 1, 1 << 20, &cache_rays))
+				usage_error("--cache-rays wants 1 to 1048576, not '%s'",
+				    optarg);
+			break;
+		case OPT_CACC:
+			if (!pm_parse_float(optarg, 1e-3f, 100.0f, &cache_acc))
+				usage_error("--cache-accuracy wants a number in [0.001, "
+				    "100], not '%s'", optarg);
 			break;
 		case OPT_FGSAMPLES:
 			if (!pm_parse_long(optarg, 1, 1 << 16, &fg_samples))
@@ -569,6 +599,15 @@ main(int argc, char **argv)
 			status = 1;
 			goto out;
 		}
+		if (maps.nirradiance > 0) {
+			if (pm_irr_grid_build(&irr_grid, maps.irradiance,
+			    maps.nirradiance, &err) != PM_OK) {
+				fprintf(stderr, PROG ": %s: %s\n", map_path, err.msg);
+				status = 1;
+				goto out;
+			}
+			maps.irradiance_grid = &irr_grid;
+		}
 	}
 	t_load = pm_cli_now() - t0;
 
@@ -578,6 +617,16 @@ main(int argc, char **argv)
 	ctx.max_depth = scene.integrator.max_depth;
 	ctx.rr_depth = scene.integrator.rr_depth;
 	ctx.hide_emitters = scene.integrator.hide_emitters;
+	ctx.scene_radius = radius;
+	ctx.icache = NULL;
+	if (map_path != NULL) {
+		if (cache_step >= 0)
+			maps.icache_step = (int)cache_step;
+		if (cache_rays > 0)
+			maps.icache_rays = (int)cache_rays;
+		if (cache_acc > 0.0f)
+			maps.icache_a = cache_acc;
+	}
 	ctx.maps = map_path != NULL ? &maps : NULL;
 	memset(&opts, 0, sizeof(opts));
 	opts.method = map_path != NULL ? PM_METHOD_PHOTON : PM_METHOD_PATH;
@@ -662,6 +711,7 @@ main(int argc, char **argv)
 		pm_image_free(&img);
 	}
 out:
+	pm_irr_grid_free(&irr_grid);
 	if (have_pmap)
 		pm_pmap_free(&pmap);
 	if (cams != &one)

@@ -1,0 +1,71 @@
+/*
+ * icache.h: an irradiance cache in image space (Ward, Rubinstein and
+ * Clear 1988, with the points on a pixel grid).
+ *
+ * Indirect light on diffuse surfaces changes slowly, yet estimating it at
+ * every camera sample by final gathering pays the gather's noise at every
+ * sample.  Before the camera pass, the indirect irradiance is gathered
+ * once, with many stratified rays, at the first surface seen through
+ * every `step`-th pixel of a grid; camera samples then interpolate it from
+ * the grid points around them with Ward's weights, which trust a point
+ * only within a distance set by how far its surroundings are (the
+ * harmonic mean of its gather rays' lengths) and only for similar
+ * normals.  Where no grid point is trusted (edges, corners, surfaces seen
+ * through glass) the sample gathers for itself.
+ *
+ * The grid is a pure function of the camera, the maps and the seed, and
+ * is computed before the camera pass, so images stay bit-identical
+ * whatever the thread count.
+ */
+#ifndef PM_ICACHE_H
+#define PM_ICACHE_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "error.h"
+#include "vec.h"
+
+/* Defaults: measured on the study's scenes (docs/accuracy.md). */
+#define PM_ICACHE_STEP		4
+#define PM_ICACHE_RAYS		256
+#define PM_ICACHE_ACCURACY	0.3f
+
+struct pm_render_ctx;
+struct pm_camera_rays;
+
+struct pm_icache_point {
+	struct pm_vec3 p, n;		/* position, normal on the seen side */
+	struct pm_rgb E;		/* indirect irradiance */
+	float inv_r;			/* 1 / Ward's validity distance */
+	bool valid;
+};
+
+struct pm_icache {
+	int step;			/* pixels between grid points */
+	int gw, gh;			/* grid points across and down */
+	float a;			/* Ward's accuracy: larger, smoother */
+	struct pm_icache_point *pt;	/* gw * gh, row by row; owned */
+};
+
+/*
+ * Fills c for the camera rays cr: grid points every `step` pixels (from
+ * the top-left corner to the far edges), each gathering with `rays` rays
+ * (rounded down to a square, stratified), seeded from seed; `threads`
+ * threads.  ctx->maps must hold irradiance records or a global map.
+ */
+enum pm_err pm_icache_build(struct pm_icache *c, const struct pm_render_ctx *ctx,
+    const struct pm_camera_rays *cr, int step, int rays, float a,
+    uint64_t seed, int threads, struct pm_error *err);
+
+/*
+ * The indirect irradiance at p (normal n, on the seen side) for a camera
+ * sample at film position (fx, fy), interpolated from the grid points
+ * around it; false when none is trusted there.
+ */
+bool pm_icache_lookup(const struct pm_icache *c, float fx, float fy,
+    struct pm_vec3 p, struct pm_vec3 n, struct pm_rgb *E);
+
+void pm_icache_free(struct pm_icache *c);
+
+#endif

@@ -1,0 +1,327 @@
+/*
+ * irradiance.c: precomputed irradiance records (irradiance.h).
+ *
+ * Each record is computed from the global map alone, by the same code
+ * whichever thread runs it, into its own slot: the records are the same
+ * bytes for any thread count.
+ */
+#include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "irradiance.h"
+#include "kdtree.h"
+
+/* Records are handed to threads in chunks of this many. */
+#define IRR_CHUNK	1024
+#define IRR_MAX_THREADS	256
+
+static inline bool
+compatible(const struct pm_photon *x, struct pm_vec3 nrm)
+{
+	return pm_dot(pm_dir_unpack(x->normal), nrm) > PM_IRR_COS;
+}
+
+struct pm_rgb
+pm_irradiance_estimate(const struct pm_photon *g, size_t n, float scale,
+    struct pm_vec3 p, struct pm_vec3 nrm, const struct pm_irradiance_opts *o)
+{
+	float q[3] = {p.x, p.y, p.z}, r2;
+	double sum[3] = {0, 0, 0}, w;
+
+	if (n == 0 || !(o->max_r2 > 0.0f))
+		return pm_rgb1(0.0f);
+	if (o->fixed_radius) {
+		struct pm_kd_range it;
+		uint32_t idx;
+		float d2;
+
+		pm_kdtree_range_init(&it, g, n, q, o->max_r2, 0, 0);
+		while (pm_kdtree_range_next(&it, &idx, &d2)) {
+			struct pm_rgb c;
+
+			if (!compatible(&g[idx], nrm))
+				continue;
+			c = pm_rgbe_unpack(g[idx].power);
+			sum[0] += c.r;
+			sum[1] += c.g;
+			sum[2] += c.b;
+		}
+		r2 = o->max_r2;
+	} else {
+		struct pm_knn nb[PM_IRR_MAX_K];
+		size_t found, i, k = o->k < 1 ? 1 :
+		    (o->k > PM_IRR_MAX_K ? PM_IRR_MAX_K : (size_t)o->k);
+
+		found = pm_kdtree_knn(g, n, q, k, o->max_r2, 0, 0, nb);
+		if (found == 0)
+			return pm_rgb1(0.0f);
+		for (i = 0; i < found; i++) {
+			struct pm_rgb c;
+
+			if (!compatible(&g[nb[i].idx], nrm))
+				continue;
+			c = pm_rgbe_unpack(g[nb[i].idx].power);
+			sum[0] += c.r;
+			sum[1] += c.g;
+			sum[2] += c.b;
+		}
+		r2 = found == k ? nb[0].d2 : o->max_r2;
+		if (!(r2 > 0.0f))
+			return pm_rgb1(0.0f);
+	}
+	w = (double)scale / (PM_PI * (double)r2);
+	return pm_rgb((float)(sum[0] * w), (float)(sum[1] * w), (float)(sum[2] * w));
+}
+
+struct irr_job {
+	const struct pm_photon *g;
+	size_t n;
+	float scale;
+	const struct pm_irradiance_opts *o;
+	struct pm_photon *out;
+	size_t nout;
+	_Atomic size_t next;
+};
+
+/* A deterministic dither for the RGBE rounding of record i: the golden
+ * ratio's sequence, uniform enough that rounding errors cancel. */
+static inline float
+dither(size_t i)
+{
+	double x = (double)i * 0.6180339887498949;
+
+	return (float)(x - floor(x));
+}
+
+static void *
+irr_worker(void *arg)
+{
+	struct irr_job *j = arg;
+	size_t lo, hi, i;
+
+	while ((lo = atomic_fetch_add(&j->next, IRR_CHUNK)) < j->nout) {
+		hi = lo + IRR_CHUNK < j->nout ? lo + IRR_CHUNK : j->nout;
+		for (i = lo; i < hi; i++) {
+			const struct pm_photon *x = &j->g[i * j->o->stride +
+			    j->o->stride / 2];
+			struct pm_photon *r = &j->out[i];
+			struct pm_vec3 nrm = pm_dir_unpack(x->normal);
+			struct pm_rgb E = pm_irradiance_estimate(j->g, j->n,
+			    j->scale, pm_photon_pos(x), nrm, j->o);
+
+			memset(r, 0, sizeof(*r));
+			memcpy(r->pos, x->pos, sizeof(r->pos));
+			memcpy(r->normal, x->normal, sizeof(r->normal));
+			pm_rgbe_pack(E, dither(i), r->power);
+			r->flags = PM_KD_LEAF;
+		}
+	}
+	return NULL;
+}
+
+enum pm_err
+pm_irradiance_records(const struct pm_photon *g, size_t n, float scale,
+    const struct pm_irradiance_opts *o, struct pm_photon **out, size_t *nout,
+    struct pm_error *err)
+{
+	struct irr_job j;
+	pthread_t tid[IRR_MAX_THREADS];
+	int i, nthreads = o->threads < 1 ? 1 :
+	    (o->threads > IRR_MAX_THREADS ? IRR_MAX_THREADS : o->threads);
+	int started = 0;
+
+	*out = NULL;
+	*nout = 0;
+	if (o->stride < 1)
+		return pm_fail(err, PM_ERR_INVALID,
+		    "irradiance records: stride must be at least 1");
+	j.nout = n / o->stride;
+	if (j.nout == 0)
+		return PM_OK;
+	j.g = g;
+	j.n = n;
+	j.scale = scale;
+	j.o = o;
+	j.out = malloc(j.nout * sizeof(*j.out));
+	if (j.out == NULL)
+		return pm_fail(err, PM_ERR_NOMEM, "no memory for %zu irradiance "
+		    "records", j.nout);
+	atomic_init(&j.next, 0);
+	for (i = 1; i < nthreads; i++)
+		if (pthread_create(&tid[started], NULL, irr_worker, &j) == 0)
+			started++;
+	irr_worker(&j);
+	for (i = 0; i < started; i++)
+		pthread_join(tid[i], NULL);
+	*out = j.out;
+	*nout = j.nout;
+	return PM_OK;
+}
+
+/* Cells at most: 4M cells is 16 MB of offsets. */
+#define GRID_MAX_CELLS	(1u << 22)
+
+static inline int
+cell_coord(float x, float lo, float inv_cell, int n)
+{
+	float c = (x - lo) * inv_cell;
+	int i = c > 0.0f ? (int)c : 0;
+
+	return i < n ? i : n - 1;
+}
+
+enum pm_err
+pm_irr_grid_build(struct pm_irr_grid *g, const struct pm_photon *r, size_t n,
+    struct pm_error *err)
+{
+	float hi[3], ext, cell, vol, spacing;
+	size_t i, ncell, samples = 0;
+	double dsum = 0.0;
+	int a;
+
+	memset(g, 0, sizeof(*g));
+	if (n == 0)
+		return PM_OK;
+	if (n >= UINT32_MAX)
+		return pm_fail(err, PM_ERR_INVALID, "too many irradiance records");
+	for (a = 0; a < 3; a++) {
+		g->lo[a] = INFINITY;
+		hi[a] = -INFINITY;
+	}
+	for (i = 0; i < n; i++)
+		for (a = 0; a < 3; a++) {
+			g->lo[a] = fminf(g->lo[a], r[i].pos[a]);
+			hi[a] = fmaxf(hi[a], r[i].pos[a]);
+		}
+	/* The records' spacing: the mean distance to the nearest other
+	 * record, from up to 256 of them (records are in kd-tree order, so
+	 * pm_kdtree_knn works on them). */
+	for (i = 0; i < n && samples < 256; i += n / 256 + 1) {
+		struct pm_knn nb[2];
+		float q[3] = {r[i].pos[0], r[i].pos[1], r[i].pos[2]};
+
+		if (pm_kdtree_knn(r, n, q, 2, INFINITY, 0, 0, nb) == 2) {
+			dsum += sqrt((double)nb[0].d2);
+			samples++;
+		}
+	}
+	ext = fmaxf(fmaxf(hi[0] - g->lo[0], hi[1] - g->lo[1]), hi[2] - g->lo[2]);
+	spacing = samples > 0 ? (float)(dsum / (double)samples) : ext;
+	cell = fmaxf(2.0f * spacing, 1e-6f * fmaxf(ext, 1e-30f));
+	for (;;) {
+		vol = 1.0f;
+		for (a = 0; a < 3; a++)
+			vol *= floorf((hi[a] - g->lo[a]) / cell) + 1.0f;
+		if (vol <= (float)GRID_MAX_CELLS)
+			break;
+		cell *= 1.25f;
+	}
+	g->inv_cell = 1.0f / cell;
+	g->nx = (int)((hi[0] - g->lo[0]) / cell) + 1;
+	g->ny = (int)((hi[1] - g->lo[1]) / cell) + 1;
+	g->nz = (int)((hi[2] - g->lo[2]) / cell) + 1;
+	ncell = (size_t)g->nx * (size_t)g->ny * (size_t)g->nz;
+	g->start = calloc(ncell + 1, sizeof(*g->start));
+	g->rec = malloc(n * sizeof(*g->rec));
+	if (g->start == NULL || g->rec == NULL) {
+		pm_irr_grid_free(g);
+		return pm_fail(err, PM_ERR_NOMEM, "no memory for the irradiance grid");
+	}
+	/* Counting sort of the records by cell. */
+	for (i = 0; i < n; i++) {
+		size_t c = ((size_t)cell_coord(r[i].pos[2], g->lo[2], g->inv_cell, g->nz) *
+		    (size_t)g->ny + (size_t)cell_coord(r[i].pos[1], g->lo[1],
+		    g->inv_cell, g->ny)) * (size_t)g->nx + (size_t)cell_coord(r[i].pos[0],
+		    g->lo[0], g->inv_cell, g->nx);
+
+		g->start[c + 1]++;
+	}
+	for (i = 0; i < ncell; i++)
+		g->start[i + 1] += g->start[i];
+	for (i = 0; i < n; i++) {
+		size_t c = ((size_t)cell_coord(r[i].pos[2], g->lo[2], g->inv_cell, g->nz) *
+		    (size_t)g->ny + (size_t)cell_coord(r[i].pos[1], g->lo[1],
+		    g->inv_cell, g->ny)) * (size_t)g->nx + (size_t)cell_coord(r[i].pos[0],
+		    g->lo[0], g->inv_cell, g->nx);
+
+		struct pm_irr_rec *x = &g->rec[g->start[c]++];
+		struct pm_vec3 nv = pm_dir_unpack(r[i].normal);
+
+		memcpy(x->p, r[i].pos, sizeof(x->p));
+		x->n[0] = nv.x;
+		x->n[1] = nv.y;
+		x->n[2] = nv.z;
+		memcpy(x->E, r[i].power, sizeof(x->E));
+		x->pad = 0.0f;
+	}
+	/* The fill moved each start to the next cell's: shift back. */
+	for (i = ncell; i > 0; i--)
+		g->start[i] = g->start[i - 1];
+	g->start[0] = 0;
+	return PM_OK;
+}
+
+void
+pm_irr_grid_free(struct pm_irr_grid *g)
+{
+	free(g->start);
+	free(g->rec);
+	g->start = NULL;
+	g->rec = NULL;
+}
+
+/* The nearest compatible record of one cell, improving *best. */
+static inline void
+scan_cell(const struct pm_irr_grid *g, size_t c, struct pm_vec3 p,
+    struct pm_vec3 nrm, float *best, uint32_t *bi)
+{
+	uint32_t k;
+
+	for (k = g->start[c]; k < g->start[c + 1]; k++) {
+		const struct pm_irr_rec *x = &g->rec[k];
+		float dx = x->p[0] - p.x, dy = x->p[1] - p.y, dz = x->p[2] - p.z;
+		float d2 = dx * dx + dy * dy + dz * dz;
+
+		if (d2 < *best && x->n[0] * nrm.x + x->n[1] * nrm.y +
+		    x->n[2] * nrm.z > PM_IRR_COS) {
+			*best = d2;
+			*bi = k;
+		}
+	}
+}
+
+bool
+pm_irradiance_lookup(const struct pm_irr_grid *g, struct pm_vec3 p,
+    struct pm_vec3 nrm, struct pm_rgb *E)
+{
+	float best = INFINITY;
+	uint32_t bi = 0;
+	int cx, cy, cz, x, y, z;
+
+	if (g == NULL || g->start == NULL)
+		return false;
+	cx = cell_coord(p.x, g->lo[0], g->inv_cell, g->nx);
+	cy = cell_coord(p.y, g->lo[1], g->inv_cell, g->ny);
+	cz = cell_coord(p.z, g->lo[2], g->inv_cell, g->nz);
+	scan_cell(g, ((size_t)cz * (size_t)g->ny + (size_t)cy) * (size_t)g->nx +
+	    (size_t)cx, p, nrm, &best, &bi);
+	if (best == INFINITY)
+		for (z = cz - 1; z <= cz + 1; z++)
+			for (y = cy - 1; y <= cy + 1; y++)
+				for (x = cx - 1; x <= cx + 1; x++) {
+					if (x < 0 || y < 0 || z < 0 || x >= g->nx ||
+					    y >= g->ny || z >= g->nz ||
+					    (x == cx && y == cy && z == cz))
+						continue;
+					scan_cell(g, ((size_t)z * (size_t)g->ny +
+					    (size_t)y) * (size_t)g->nx + (size_t)x,
+					    p, nrm, &best, &bi);
+				}
+	if (best == INFINITY)
+		return false;
+	*E = pm_rgbe_unpack(g->rec[bi].E);
+	return true;
+}
