@@ -25,12 +25,11 @@ struct job {
 };
 
 /* Offset from the pixel centre drawn from the reconstruction filter, so
- * that the plain mean of the samples equals the filtered pixel value. */
+ * that the plain mean of the samples equals the filtered pixel value; u
+ * in [0, 1) picks it (stratified by the caller), rng serves rejection. */
 static float
-filter_offset(enum pm_rfilter f, float radius, struct pm_rng *rng)
+filter_offset(enum pm_rfilter f, float radius, float u, struct pm_rng *rng)
 {
-	float u = pm_rng_float(rng);
-
 	switch (f) {
 	case PM_RFILTER_TENT:
 		return u < 0.5f ? radius * (sqrtf(2.0f * u) - 1.0f) :
@@ -59,9 +58,16 @@ render_tile(struct job *j, int tile)
 	int x0 = (tile % j->tiles_x) * TILE, y0 = (tile / j->tiles_x) * TILE;
 	int x1 = x0 + TILE < cam->width ? x0 + TILE : cam->width;
 	int y1 = y0 + TILE < cam->height ? y0 + TILE : cam->height;
-	int spp = j->opts->spp, x, y, i;
+	int spp = j->opts->spp, x, y, i, k;
 	uint64_t dropped = 0;
 
+	/* The first k x k samples of a pixel are stratified over its filter
+	 * (jittered: one per cell of a k x k grid), the rest independent:
+	 * an edge or a small bright light inside the pixel is then covered
+	 * in proportion, not by chance.  Each sample still depends only on
+	 * (seed, pixel, sample index). */
+	for (k = 1; (k + 1) * (k + 1) <= spp; k++)
+		;
 	for (y = y0; y < y1; y++) {
 		for (x = x0; x < x1; x++) {
 			uint64_t pix = (uint64_t)y * (uint64_t)cam->width + (uint64_t)x;
@@ -71,10 +77,17 @@ render_tile(struct job *j, int tile)
 			for (i = 0; i < spp; i++) {
 				struct pm_rng rng = pm_rng_seed(j->opts->seed, pix,
 				    (uint64_t)i);
-				float fx = (float)x + 0.5f + filter_offset(cam->rfilter,
-				    cam->filter_radius, &rng);
-				float fy = (float)y + 0.5f + filter_offset(cam->rfilter,
-				    cam->filter_radius, &rng);
+				float ux = pm_rng_float(&rng), uy = pm_rng_float(&rng);
+				float fx, fy;
+
+				if (i < k * k) {
+					ux = ((float)(i % k) + ux) / (float)k;
+					uy = ((float)(i / k) + uy) / (float)k;
+				}
+				fx = (float)x + 0.5f + filter_offset(cam->rfilter,
+				    cam->filter_radius, ux, &rng);
+				fy = (float)y + 0.5f + filter_offset(cam->rfilter,
+				    cam->filter_radius, uy, &rng);
 				float tmin, tmax;
 				struct pm_vec3 d = pm_camera_ray(&j->rays, fx, fy,
 				    &tmin, &tmax);
