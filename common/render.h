@@ -26,6 +26,12 @@ struct pm_photon_maps {
 	size_t ncaustic;
 	float caustic_scale;
 	float global_r2, caustic_r2;	/* squared maximum lookup radii */
+	/* Precomputed irradiance records (kd-tree order; power is E in
+	 * W/m^2, undivided), NULL if the map file has none, and the square
+	 * of the radius they were computed with (0: unknown). */
+	const struct pm_photon *irradiance;
+	size_t nirradiance;
+	float irradiance_r2;
 	int lookup_size;		/* k nearest photons per estimate */
 	int direct_samples;		/* light samples per non-specular hit */
 	bool final_gather;
