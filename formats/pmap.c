@@ -639,18 +639,26 @@ check_entry(struct pmap_in *in, const struct pmap_entry *me, uint32_t hs)
 	return PM_OK;
 }
 
-/* The indices of e[0..n) in increasing order of payload offset, ties in
- * table order (n is at most PMAP_MAXMAPS: an insertion sort). */
+/* Whether payload a comes after b: by offset, and at one offset the
+ * shorter first, so that an empty payload ends where the next starts. */
+static bool
+after(const struct pmap_entry *a, const struct pmap_entry *b)
+{
+	return a->offset != b->offset ? a->offset > b->offset :
+	    a->stored > b->stored;
+}
+
+/* The indices of e[0..n) in file order of their payloads (n is at most
+ * PMAP_MAXMAPS: an insertion sort, stable). */
 static void
 offset_order(const struct pmap_entry *e, uint32_t n, uint32_t *order)
 {
-	uint32_t i, j, t;
+	uint32_t i, j;
 
 	for (i = 0; i < n; i++) {
-		t = i;
-		for (j = i; j > 0 && e[order[j - 1]].offset > e[t].offset; j--)
+		for (j = i; j > 0 && after(&e[order[j - 1]], &e[i]); j--)
 			order[j] = order[j - 1];
-		order[j] = t;
+		order[j] = i;
 	}
 }
 

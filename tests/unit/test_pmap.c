@@ -1032,9 +1032,9 @@ test_forged(void **state)
 	FORGE(wr64(buf + e2 + 40, g1), PM_ERR_FORMAT,
 	    "overlaps the irradiance map");
 	FORGE(wr64(buf + e0 + 40, g1), PM_ERR_FORMAT,
-	    "the global map (bytes");
+	    "the caustic map (bytes");
 	FORGE(wr64(buf + e0 + 40, g1), PM_ERR_FORMAT,
-	    "overlaps the caustic map");
+	    "overlaps the global map");
 	FORGE(wr64(buf + e0 + 48, 99), PM_ERR_FORMAT,
 	    "stores 99 bytes, but 5 photons take 120");
 	/* count * 24 that overflows, here to exactly 0 bytes. */
@@ -1140,6 +1140,39 @@ test_reserved_records(void **state)
 	assert_non_null(strstr(err.msg, "photon 9000 of the global map has "
 	    "nonzero reserved bytes"));
 	assert_int_equal(access(p, F_OK), -1);
+	pm_pmap_free(&m);
+}
+
+/* An empty payload may share its offset with the next payload, whatever
+ * the order of their entries. */
+static void
+test_empty_payload_order(void **state)
+{
+	static unsigned char buf[BUFCAP];
+	struct pm_pmap m, r;
+	struct pm_error err;
+	uint64_t g1;
+	size_t n;
+
+	(void)state;
+	make_pmap(&m, 3, 5, 3, 0);
+	n = write_bytes(&m, false, buf);
+	g1 = rd32(buf + 160 + 40);
+	/* The empty irradiance map, last in the table, where the caustic
+	 * map starts; the file then ends with the caustic map. */
+	wr64(buf + 256 + 40, g1);
+	fix_crc(buf);
+	assert_true(g1 + 3 * 24 < n);
+	if (pm_pmap_parse("t.pmap", buf, (size_t)g1 + 3 * 24, &r, &err) !=
+	    PM_OK)
+		fail_msg("%s", err.msg);
+	assert_same(&m, &r);
+	pm_pmap_free(&r);
+	/* Inside it, it is an overlap. */
+	wr64(buf + 256 + 40, g1 + 64);
+	fix_crc(buf);
+	expect_fail(buf, (size_t)g1 + 3 * 24, PM_ERR_FORMAT,
+	    "the caustic map (bytes");
 	pm_pmap_free(&m);
 }
 
@@ -1504,6 +1537,7 @@ main(void)
 		cmocka_unit_test(test_truncated),
 		cmocka_unit_test(test_bitflips),
 		cmocka_unit_test(test_forged),
+		cmocka_unit_test(test_empty_payload_order),
 		cmocka_unit_test(test_forged_zlib),
 		cmocka_unit_test(test_reserved_records),
 		cmocka_unit_test(test_pipes),
