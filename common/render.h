@@ -28,11 +28,14 @@ struct pm_photon_maps {
 	size_t ncaustic;
 	float caustic_scale;
 	float global_r2, caustic_r2;	/* squared maximum lookup radii */
-	/* Precomputed irradiance records (irradiance.h), or none; gather
-	 * rays end in the nearest one within sqrt(irradiance_r2). */
+	/* Precomputed irradiance records (kd-tree order; power is E in
+	 * W/m^2, undivided), NULL if the map file has none, the square of
+	 * the radius they were computed with (0: unknown), and the grid
+	 * gather rays look them up in. */
 	const struct pm_photon *irradiance;
 	size_t nirradiance;
-	const struct pm_irr_grid *irradiance_grid;	/* over them */
+	float irradiance_r2;
+	const struct pm_irr_grid *irradiance_grid;
 	int lookup_size;		/* k nearest photons per estimate */
 	int direct_samples;		/* light samples per non-specular hit */
 	bool final_gather;

@@ -33,10 +33,13 @@
 #include "tmpfile.h"
 
 #define PMAP_FIXED	64		/* fixed part of the header */
-#define PMAP_ENTRY	96		/* a map-table entry, version 1.0 */
+#define PMAP_ENTRY	96		/* a map-table entry, version 2.0 */
 #define PMAP_REC	24		/* one photon record */
 #define PMAP_ALIGN	64		/* payload alignment */
-#define PMAP_MAXMAPS	3
+#define PMAP_MAXMAPS	3		/* one of each kind */
+/* Records per crc32 and reserved-byte check of a payload in place: 96 KiB,
+ * so that the check reads what the crc32 has just brought into cache. */
+#define PMAP_CHECK_RECS	4096
 /* Bytes per read(2), write(2), crc32 or zlib call: fits ssize_t and uInt. */
 #define PMAP_CHUNK	((size_t)1 << 30)
 /* Buffer for compressed bytes read from a descriptor. */
@@ -81,6 +84,7 @@ struct pmap_entry {
 	uint32_t kind, flags, compression, crc;
 	uint64_t count, emitted, first_index, offset, stored;
 	float lo[3], hi[3];
+	float radius;
 	uint64_t at;			/* byte offset of the entry */
 };
 
@@ -172,6 +176,37 @@ kind_name(uint32_t kind)
 	case PM_MAP_IRRADIANCE:	return "irradiance";
 	}
 	return "unknown";
+}
+
+static bool
+kind_known(uint32_t kind)
+{
+	return kind == PM_MAP_GLOBAL || kind == PM_MAP_CAUSTIC ||
+	    kind == PM_MAP_IRRADIANCE;
+}
+
+/* Index of the first of n records whose reserved bytes are not zero, or
+ * n.  The bytes are or-ed a block at a time, so the common case is one
+ * load and one or per record, and no branch. */
+static size_t
+first_reserved(const unsigned char *rec, size_t n)
+{
+	size_t i, j, m;
+	unsigned acc;
+
+	for (i = 0; i < n; i += m) {
+		m = n - i < 256 ? n - i : 256;
+		acc = 0;
+		for (j = 0; j < m; j++)
+			acc |= (unsigned)rec[(i + j) * PMAP_REC + 22] |
+			    (unsigned)rec[(i + j) * PMAP_REC + 23];
+		if (acc != 0)
+			for (j = 0; j < m; j++)
+				if ((rec[(i + j) * PMAP_REC + 22] |
+				    rec[(i + j) * PMAP_REC + 23]) != 0)
+					return i + j;
+	}
+	return n;
 }
 
 /* Records from little-endian file order to the host's, in place. */
@@ -282,13 +317,18 @@ info_problem(const unsigned char *s, size_t n, size_t *at)
 /*
  * What is wrong with a map's counts, or NULL: they must give a byte size
  * that fits 64 bits, a non-zero flux normaliser when there are photons,
- * and an index range that does not wrap.
+ * and an index range that does not wrap.  An irradiance map emitted no
+ * paths: its records hold irradiance, which nothing divides.
  */
 static const char *
-counts_problem(uint64_t count, uint64_t emitted, uint64_t first_index)
+counts_problem(uint32_t kind, uint64_t count, uint64_t emitted,
+    uint64_t first_index)
 {
 	if (count > UINT64_MAX / PMAP_REC)
 		return "its photon count overflows 64-bit byte sizes";
+	if (kind == PM_MAP_IRRADIANCE)
+		return emitted != 0 || first_index != 0 ? "an irradiance map's "
+		    "emitted and first_index must be 0" : NULL;
 	if (count > 0 && emitted == 0)
 		return "it has photons but emitted none";
 	if (first_index > UINT64_MAX - emitted)
@@ -457,9 +497,11 @@ read_header(struct pmap_in *in, unsigned char **hp, uint32_t *hsp)
 	major = get16(fixed + 8);
 	minor = get16(fixed + 10);
 	if (major == 1)
-		return pm_fail(in->err, PM_ERR_UNSUPPORTED, "%s: a version 1 "
-		    "photon map (20-byte photons without normals); re-shoot "
-		    "it with this pm-shoot", in->name);
+		return pm_fail(in->err, PM_ERR_UNSUPPORTED, "%s: a version "
+		    "1.%u photon map, whose 20-byte photons lack the surface "
+		    "normal that version %d needs: shoot it again with "
+		    "pm-shoot", in->name, (unsigned)minor,
+		    PM_PMAP_VERSION_MAJOR);
 	if (major != PM_PMAP_VERSION_MAJOR)
 		return pm_fail(in->err, PM_ERR_UNSUPPORTED, "%s: unknown "
 		    "version %u.%u (this reader knows %d.x)", in->name,
@@ -526,11 +568,12 @@ check_entry(struct pmap_in *in, const struct pmap_entry *me, uint32_t hs)
 	uint64_t raw, end;
 	int k;
 
-	if (me->kind != PM_MAP_GLOBAL && me->kind != PM_MAP_CAUSTIC && me->kind != PM_MAP_IRRADIANCE)
+	if (!kind_known(me->kind))
 		return pm_fail(in->err, in->strict ? PM_ERR_FORMAT :
 		    PM_ERR_UNSUPPORTED, "%s: unknown map kind %lu (byte "
-		    "%" PRIu64 "; this reader knows 1, global, and 2, "
-		    "caustic)", in->name, (unsigned long)me->kind, me->at);
+		    "%" PRIu64 "; this reader knows 1, global, 2, caustic, "
+		    "and 3, irradiance)", in->name, (unsigned long)me->kind,
+		    me->at);
 	if (in->strict && (me->flags & ~PMAP_MAP_BALANCED) != 0)
 		return pm_fail(in->err, PM_ERR_FORMAT, "%s: unknown flags "
 		    "0x%lx in the %s map (byte %" PRIu64 ")", in->name,
@@ -541,8 +584,8 @@ check_entry(struct pmap_in *in, const struct pmap_entry *me, uint32_t hs)
 		    "uses compression method %lu (byte %" PRIu64 "; this "
 		    "reader knows 0, none, and 1, zlib)", in->name, kn,
 		    (unsigned long)me->compression, me->at + 8);
-	if ((why = counts_problem(me->count, me->emitted, me->first_index))
-	    != NULL)
+	if ((why = counts_problem(me->kind, me->count, me->emitted,
+	    me->first_index)) != NULL)
 		return pm_fail(in->err, PM_ERR_FORMAT, "%s: the %s map is "
 		    "corrupt: %s (%" PRIu64 " photons, %" PRIu64 " emitted "
 		    "from index %" PRIu64 "; byte %" PRIu64 ")", in->name, kn,
@@ -587,7 +630,36 @@ check_entry(struct pmap_in *in, const struct pmap_entry *me, uint32_t hs)
 				    "the %s map's bounds are not finite and "
 				    "ordered (byte %" PRIu64 ")", in->name, kn,
 				    me->at + 56);
+	/* The radius belongs to irradiance maps; elsewhere it is reserved. */
+	if (me->kind == PM_MAP_IRRADIANCE && !(isfinite(me->radius) &&
+	    me->radius >= 0.0f))
+		return pm_fail(in->err, PM_ERR_FORMAT, "%s: the irradiance "
+		    "map's radius is not a finite number >= 0 (byte "
+		    "%" PRIu64 ")", in->name, me->at + 80);
 	return PM_OK;
+}
+
+/* Whether payload a comes after b: by offset, and at one offset the
+ * shorter first, so that an empty payload ends where the next starts. */
+static bool
+after(const struct pmap_entry *a, const struct pmap_entry *b)
+{
+	return a->offset != b->offset ? a->offset > b->offset :
+	    a->stored > b->stored;
+}
+
+/* The indices of e[0..n) in file order of their payloads (n is at most
+ * PMAP_MAXMAPS: an insertion sort, stable). */
+static void
+offset_order(const struct pmap_entry *e, uint32_t n, uint32_t *order)
+{
+	uint32_t i, j;
+
+	for (i = 0; i < n; i++) {
+		for (j = i; j > 0 && after(&e[order[j - 1]], &e[i]); j--)
+			order[j] = order[j - 1];
+		order[j] = i;
+	}
 }
 
 /*
@@ -598,7 +670,7 @@ static enum pm_err
 parse_header(struct pmap_in *in, const unsigned char *h, uint32_t hs,
     struct pm_pmap *m, struct pmap_entry *e)
 {
-	uint32_t flags, nmaps, esize, isize, effects;
+	uint32_t flags, nmaps, esize, isize, effects, order[PMAP_MAXMAPS];
 	uint64_t need, at;
 	const unsigned char *p, *info;
 	const char *why;
@@ -621,12 +693,13 @@ parse_header(struct pmap_in *in, const unsigned char *h, uint32_t hs,
 	if (nmaps > PMAP_MAXMAPS)
 		return pm_fail(in->err, in->strict ? PM_ERR_FORMAT :
 		    PM_ERR_UNSUPPORTED, "%s: %lu maps (byte 44; at most %d, "
-		    "global and caustic)", in->name, (unsigned long)nmaps,
-		    PMAP_MAXMAPS);
+		    "global, caustic and irradiance)", in->name,
+		    (unsigned long)nmaps, PMAP_MAXMAPS);
 	if (esize < PMAP_ENTRY || (in->strict && esize != PMAP_ENTRY))
 		return pm_fail(in->err, PM_ERR_FORMAT, "%s: map entries of "
-		    "%lu bytes (byte 48; version 1.%d has %d)", in->name,
-		    (unsigned long)esize, PM_PMAP_VERSION_MINOR, PMAP_ENTRY);
+		    "%lu bytes (byte 48; version %d.%d has %d)", in->name,
+		    (unsigned long)esize, PM_PMAP_VERSION_MAJOR,
+		    PM_PMAP_VERSION_MINOR, PMAP_ENTRY);
 	if (in->strict && get64(h + 56) != 0)
 		return pm_fail(in->err, PM_ERR_FORMAT, "%s: nonzero reserved "
 		    "field (byte 56)", in->name);
@@ -660,11 +733,16 @@ parse_header(struct pmap_in *in, const unsigned char *h, uint32_t hs,
 			e[i].lo[k] = getf(p + 56 + 4 * k);
 			e[i].hi[k] = getf(p + 68 + 4 * k);
 		}
-		if (in->strict && (get64(p + 80) != 0 || get64(p + 88) != 0))
-			return pm_fail(in->err, PM_ERR_FORMAT, "%s: nonzero "
-			    "reserved field in the %s map (byte %" PRIu64 ")",
-			    in->name, kind_name(e[i].kind),
-			    at + (get64(p + 80) != 0 ? 80 : 88));
+		e[i].radius = getf(p + 80);
+		/* Bytes 80-83 are the radius of an irradiance map and
+		 * reserved in the others; 84-95 are reserved. */
+		for (k = e[i].kind == PM_MAP_IRRADIANCE ? 84 : 80;
+		    in->strict && k < 96; k += 4)
+			if (get32(p + k) != 0)
+				return pm_fail(in->err, PM_ERR_FORMAT, "%s: "
+				    "nonzero reserved field in the %s map "
+				    "(byte %" PRIu64 ")", in->name,
+				    kind_name(e[i].kind), at + (uint64_t)k);
 		if ((r = check_entry(in, &e[i], hs)) != PM_OK)
 			return r;
 		for (j = 0; j < i; j++)
@@ -674,16 +752,19 @@ parse_header(struct pmap_in *in, const unsigned char *h, uint32_t hs,
 				    "%" PRIu64 ")", in->name,
 				    kind_name(e[i].kind), e[j].at, at);
 	}
-	/* Payloads must not overlap one another. */
-	if (nmaps == 2) {
-		i = e[0].offset <= e[1].offset ? 0 : 1;
-		if (e[i].offset + e[i].stored > e[1 - i].offset)
+	/* Payloads must not overlap one another: in order of offset, each
+	 * ends at or before the next begins. */
+	offset_order(e, nmaps, order);
+	for (i = 0; i + 1 < nmaps; i++) {
+		const struct pmap_entry *a = &e[order[i]], *b = &e[order[i + 1]];
+
+		if (a->offset + a->stored > b->offset)
 			return pm_fail(in->err, PM_ERR_FORMAT, "%s: the %s map "
 			    "(bytes %" PRIu64 " to %" PRIu64 ") overlaps the "
 			    "%s map (from byte %" PRIu64 ")", in->name,
-			    kind_name(e[i].kind), e[i].offset,
-			    e[i].offset + e[i].stored,
-			    kind_name(e[1 - i].kind), e[1 - i].offset);
+			    kind_name(a->kind), a->offset,
+			    a->offset + a->stored, kind_name(b->kind),
+			    b->offset);
 	}
 
 	at = PMAP_FIXED + (uint64_t)nmaps * esize;
@@ -819,6 +900,46 @@ inflate_map(struct pmap_in *in, const struct pmap_entry *me,
 	return PM_OK;
 }
 
+/*
+ * Checks the count records at rec, raw bytes: their crc32 when they are
+ * the payload as stored (with_crc), then, unless the file is of a newer
+ * minor version, that their reserved bytes are zero.  Both walk the
+ * records a cache-sized block at a time, so that a memory-mapped map is
+ * read from memory once.  A damaged byte is reported as a checksum
+ * mismatch first.
+ */
+static enum pm_err
+check_records(struct pmap_in *in, const struct pmap_entry *me,
+    const unsigned char *rec, uint64_t raw, bool with_crc)
+{
+	const size_t block = (size_t)PMAP_CHECK_RECS * PMAP_REC;
+	uint64_t at, bad = UINT64_MAX;
+	uLong crc = 0;
+	size_t n, j;
+
+	for (at = 0; at < raw; at += n) {
+		n = raw - at < block ? (size_t)(raw - at) : block;
+		if (with_crc)
+			crc = crc32_z(crc, rec + at, n);
+		if (in->strict && bad == UINT64_MAX &&
+		    (j = first_reserved(rec + at, n / PMAP_REC)) <
+		    n / PMAP_REC)
+			bad = at / PMAP_REC + j;
+	}
+	if (with_crc && (uint32_t)crc != me->crc)
+		return crc_mismatch(in, me, (uint32_t)crc);
+	if (bad == UINT64_MAX)
+		return PM_OK;
+	if (me->compression == PMAP_STORE_NONE)
+		return pm_fail(in->err, PM_ERR_FORMAT, "%s: nonzero reserved "
+		    "bytes in record %" PRIu64 " of the %s map (byte %" PRIu64
+		    ")", in->name, bad, kind_name(me->kind), me->offset +
+		    bad * PMAP_REC + 22);
+	return pm_fail(in->err, PM_ERR_FORMAT, "%s: nonzero reserved bytes in "
+	    "record %" PRIu64 " of the %s map (bytes 22-23 of the record, "
+	    "decompressed)", in->name, bad, kind_name(me->kind));
+}
+
 /* Reads one map's payload (the current position is at or before it). */
 static enum pm_err
 load_map(struct pmap_in *in, const struct pmap_entry *me, struct pm_map *out)
@@ -826,7 +947,6 @@ load_map(struct pmap_in *in, const struct pmap_entry *me, struct pm_map *out)
 	char what[32];
 	unsigned char *dst;
 	uint64_t raw = me->count * PMAP_REC;
-	uint32_t crc;
 	enum pm_err e;
 	int k;
 
@@ -836,6 +956,7 @@ load_map(struct pmap_in *in, const struct pmap_entry *me, struct pm_map *out)
 	out->emitted = me->emitted;
 	out->first_index = me->first_index;
 	out->balanced = (me->flags & PMAP_MAP_BALANCED) != 0;
+	out->radius = me->kind == PM_MAP_IRRADIANCE ? me->radius : 0.0f;
 	for (k = 0; k < 3; k++) {
 		out->lo[k] = me->lo[k];
 		out->hi[k] = me->hi[k];
@@ -851,9 +972,8 @@ load_map(struct pmap_in *in, const struct pmap_entry *me, struct pm_map *out)
 	if (me->compression == PMAP_STORE_NONE && in->zero_copy) {
 		dst = (unsigned char *)(uintptr_t)(in->buf + in->pos);
 		in->pos += raw;
-		crc = (uint32_t)crc32_z(0, dst, (size_t)raw);
-		if (crc != me->crc)
-			return crc_mismatch(in, me, crc);
+		if ((e = check_records(in, me, dst, raw, true)) != PM_OK)
+			return e;
 		out->photons = raw > 0 ? (struct pm_photon *)(void *)dst : NULL;
 		return PM_OK;
 	}
@@ -865,11 +985,13 @@ load_map(struct pmap_in *in, const struct pmap_entry *me, struct pm_map *out)
 		    kind_name(me->kind), me->count);
 	if (me->compression == PMAP_STORE_NONE) {
 		e = in_need(in, dst, (size_t)raw, what);
-		if (e == PM_OK &&
-		    (crc = (uint32_t)crc32_z(0, dst, (size_t)raw)) != me->crc)
-			e = crc_mismatch(in, me, crc);
-	} else
+		if (e == PM_OK)
+			e = check_records(in, me, dst, raw, true);
+	} else {
 		e = inflate_map(in, me, dst, raw, what);
+		if (e == PM_OK)
+			e = check_records(in, me, dst, raw, false);
+	}
 	if (e != PM_OK || raw == 0) {
 		free(dst);
 		return e;
@@ -885,10 +1007,10 @@ parse(struct pmap_in *in, struct pm_pmap *m)
 {
 	struct pmap_entry e[PMAP_MAXMAPS];
 	unsigned char *h, extra;
-	uint32_t hs;
+	uint32_t hs, order[PMAP_MAXMAPS];
 	enum pm_err r;
 	size_t got;
-	int i, order[PMAP_MAXMAPS] = {0, 1, 2};
+	int i;
 
 	if ((r = read_header(in, &h, &hs)) != PM_OK)
 		return r;
@@ -896,10 +1018,8 @@ parse(struct pmap_in *in, struct pm_pmap *m)
 	free(h);
 	if (r != PM_OK)
 		return r;
-	if (m->nmaps == 2 && e[1].offset < e[0].offset) {
-		order[0] = 1;
-		order[1] = 0;
-	}
+	/* In file order, so that a pipe is read front to back. */
+	offset_order(e, (uint32_t)m->nmaps, order);
 	for (i = 0; i < m->nmaps; i++)
 		if ((r = load_map(in, &e[order[i]], &m->maps[order[i]])) !=
 		    PM_OK)
@@ -1061,14 +1181,20 @@ check_for_write(const char *name, const struct pm_pmap *m,
 		    name, (unsigned long)m->effects);
 	for (i = 0; i < m->nmaps; i++) {
 		a = &m->maps[i];
-		if (a->kind != PM_MAP_GLOBAL && a->kind != PM_MAP_CAUSTIC && a->kind != PM_MAP_IRRADIANCE)
+		if (!kind_known((uint32_t)a->kind))
 			return pm_fail(err, PM_ERR_INVALID, "%s: map %d has "
 			    "unknown kind %d", name, i, (int)a->kind);
+		if (a->kind == PM_MAP_IRRADIANCE ? !(isfinite(a->radius) &&
+		    a->radius >= 0.0f) : a->radius != 0.0f)
+			return pm_fail(err, PM_ERR_INVALID, "%s: the %s map has "
+			    "radius %g (an irradiance map's is finite and >= "
+			    "0, the others' 0)", name, kind_name(a->kind),
+			    (double)a->radius);
 		for (j = 0; j < i; j++)
 			if (m->maps[j].kind == a->kind)
 				return pm_fail(err, PM_ERR_INVALID, "%s: two "
 				    "%s maps", name, kind_name(a->kind));
-		if ((why = counts_problem(a->count, a->emitted,
+		if ((why = counts_problem(a->kind, a->count, a->emitted,
 		    a->first_index)) != NULL)
 			return pm_fail(err, PM_ERR_INVALID, "%s: the %s map: "
 			    "%s", name, kind_name(a->kind), why);
@@ -1085,7 +1211,8 @@ check_for_write(const char *name, const struct pm_pmap *m,
 	return PM_OK;
 }
 
-/* Bounds of a map's positions, which must be finite. */
+/* Bounds of a map's positions, which must be finite; and its records'
+ * reserved bytes, which must be zero. */
 static enum pm_err
 map_bounds(const char *name, const struct pm_map *a, struct pmap_out *o,
     struct pm_error *err)
@@ -1096,7 +1223,12 @@ map_bounds(const char *name, const struct pm_map *a, struct pmap_out *o,
 
 	for (k = 0; k < 3; k++)
 		o->lo[k] = o->hi[k] = 0.0f;
-	for (i = 0; i < a->count; i++)
+	for (i = 0; i < a->count; i++) {
+		if ((a->photons[i].reserved[0] | a->photons[i].reserved[1]) !=
+		    0)
+			return pm_fail(err, PM_ERR_INVALID, "%s: photon "
+			    "%" PRIu64 " of the %s map has nonzero reserved "
+			    "bytes", name, i, kind_name(a->kind));
 		for (k = 0; k < 3; k++) {
 			x = a->photons[i].pos[k];
 			if (!isfinite(x))
@@ -1109,6 +1241,7 @@ map_bounds(const char *name, const struct pm_map *a, struct pmap_out *o,
 			if (i == 0 || x > o->hi[k])
 				o->hi[k] = x;
 		}
+	}
 	return PM_OK;
 }
 
@@ -1256,6 +1389,7 @@ build_header(unsigned char *h, uint32_t hs, const struct pm_pmap *m,
 			putf(p + 56 + 4 * k, o[i].lo[k]);
 			putf(p + 68 + 4 * k, o[i].hi[k]);
 		}
+		putf(p + 80, a->radius);
 	}
 	if (isize > 0)
 		memcpy(h + PMAP_FIXED + m->nmaps * PMAP_ENTRY, m->info, isize);

@@ -20,8 +20,9 @@ enum pm_map_kind {
 	PM_MAP_CAUSTIC = 2,
 	/* Precomputed irradiance (Christensen 1999): records in the photon
 	 * layout whose power is the irradiance E (W/m^2, not divided by
-	 * emitted), whose normal is the surface's, at a fraction of the
-	 * global photons; made by pm-balance. */
+	 * emitted, which is 0 as first_index is), whose normal is the
+	 * surface's, at a fraction of the global photons; made by
+	 * pm-balance.  dir is undefined (0) and depth 0. */
 	PM_MAP_IRRADIANCE = 3,
 };
 
@@ -40,6 +41,9 @@ struct pm_map {
 	uint64_t first_index;		/* index of the first path shot */
 	bool balanced;			/* photons are in kd-tree order */
 	float lo[3], hi[3];		/* bounds of the positions */
+	float radius;			/* irradiance maps: the lookup radius
+					 * the records were computed with,
+					 * 0 if unknown; 0 for other kinds */
 	struct pm_photon *photons;	/* count records (owned or mapped) */
 };
 
@@ -69,7 +73,9 @@ enum pm_err pm_pmap_write(const char *path, const struct pm_pmap *m,
 /*
  * Reads path ("-": standard input).  Every count, size and offset is
  * checked against the file's size before it is used, every crc32 is
- * verified, and reserved fields must be zero.  With allow_mmap, the
+ * verified, and reserved fields (the records' included) must be zero.
+ * A version 1 file is refused (PM_ERR_UNSUPPORTED): it must be shot
+ * again.  With allow_mmap, the
  * records of an uncompressed file are memory-mapped rather than copied
  * (little-endian hosts only).  m is initialised here; free it with
  * pm_pmap_free.
@@ -81,6 +87,8 @@ enum pm_err pm_pmap_read(const char *path, struct pm_pmap *m, bool allow_mmap,
 enum pm_err pm_pmap_parse(const char *name, const unsigned char *buf,
     size_t len, struct pm_pmap *m, struct pm_error *err);
 
+/* Frees the records of every slot of m->maps (those past nmaps too) that
+ * the reader or the caller put there, and the info; zeroes m. */
 void pm_pmap_free(struct pm_pmap *m);
 
 /* Appends "key=value\n" to m->info (value may contain anything but NUL

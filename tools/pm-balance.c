@@ -163,11 +163,14 @@ kind_name(enum pm_map_kind kind)
 		return "global";
 	case PM_MAP_CAUSTIC:
 		return "caustic";
+	case PM_MAP_IRRADIANCE:
+		return "irradiance";
 	}
 	return "unknown";
 }
 
-/* The set of map kinds in m, as bits 1 << kind. */
+/* The set of photon-map kinds in m, as bits 1 << kind: irradiance maps
+ * are not merged (see drop_irradiance). */
 static unsigned
 kind_set(const struct pm_pmap *m)
 {
@@ -175,8 +178,40 @@ kind_set(const struct pm_pmap *m)
 	int i;
 
 	for (i = 0; i < m->nmaps; i++)
-		set |= 1u << m->maps[i].kind;
+		if (m->maps[i].kind != PM_MAP_IRRADIANCE)
+			set |= 1u << m->maps[i].kind;
 	return set;
+}
+
+/*
+ * Takes an input's irradiance map out of it, with a note: its records
+ * estimate irradiance from that input's global photons alone, so they
+ * cannot be merged with another shard's, and they are no longer in kd-tree
+ * order once the photons they describe are rebalanced.  The other maps
+ * keep their order; the last slot keeps the records, so that
+ * pm_pmap_free, which frees every slot, still frees them.
+ */
+static void
+drop_irradiance(struct input *in)
+{
+	struct pm_pmap *m = &in->m;
+	struct pm_map t;
+	int i;
+
+	for (i = 0; i < m->nmaps; i++) {
+		if (m->maps[i].kind != PM_MAP_IRRADIANCE)
+			continue;
+		if (verbosity >= 1)
+			fprintf(stderr, "%s: %s: note: its irradiance map "
+			    "(%llu records) is dropped, not merged\n", PROG,
+			    in->name, (unsigned long long)m->maps[i].count);
+		t = m->maps[i];
+		memmove(&m->maps[i], &m->maps[i + 1], (size_t)(m->nmaps - 1 -
+		    i) * sizeof(t));
+		m->maps[m->nmaps - 1] = t;
+		m->nmaps--;
+		return;		/* a kind appears at most once */
+	}
 }
 
 static void
@@ -304,10 +339,10 @@ cmp_piece(const void *a, const void *b)
 /*
  * Sorts p[0..n) into the canonical order: by the bytes of the records
  * (split-axis bits already cleared), as memcmp orders them, looking only at
- * bytes [byte, 20) since the earlier ones are equal throughout.  An
+ * bytes [byte, 24) since the earlier ones are equal throughout.  An
  * in-place most-significant-byte radix sort (McIlroy, Bostic and McIlroy's
  * American flag sort): a quarter of qsort's time and no extra memory.
- * Recursion is at most 20 deep.
+ * Recursion is at most 24 deep.
  */
 static void
 canonical_sort(struct pm_photon *p, size_t n, size_t byte)
@@ -573,8 +608,7 @@ add_irradiance(struct pm_pmap *m, size_t stride, int k, float radius,
 	r = &m->maps[m->nmaps];
 	memset(r, 0, sizeof(*r));
 	r->kind = PM_MAP_IRRADIANCE;
-	r->emitted = g->emitted;
-	r->first_index = g->first_index;
+	r->radius = sqrtf(o.max_r2);
 	if (pm_irradiance_records(g->photons, (size_t)g->count,
 	    1.0f / (float)g->emitted, &o, &r->photons, &n, &err) != PM_OK ||
 	    pm_kdtree_build(r->photons, n, threads, &err) != PM_OK) {
@@ -727,6 +761,7 @@ main(int argc, char *argv[])
 			goto done;
 		}
 		in[i].loaded = true;
+		drop_irradiance(&in[i]);
 		if (i > 0 && !compatible(&in[0], &in[i]))
 			goto done;
 		if (verbosity >= 2) {

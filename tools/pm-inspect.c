@@ -46,7 +46,8 @@
 
 static const char usage_line[] =
     "usage: pm-inspect [-qv] [--json] [--verify] [--dump xyz|ply|csv] "
-    "[--map global|caustic] [--knn-check N [-k K]] [--seed S] MAP.pmap";
+    "[--map global|caustic|irradiance] [--knn-check N [-k K]] [--seed S] "
+    "MAP.pmap";
 
 enum {
 	OPT_JSON = 256, OPT_VERIFY, OPT_DUMP, OPT_MAP, OPT_KNN, OPT_SEED,
@@ -73,6 +74,9 @@ enum dump_kind { DUMP_NONE, DUMP_XYZ, DUMP_PLY, DUMP_CSV };
 struct map_report {
 	const struct pm_map *m;
 	double flux[3];			/* watts: sum of power / emitted */
+	/* Irradiance maps, whose records hold E, not flux: */
+	double mean_e[3];		/* W/m^2, over the records */
+	double max_e;			/* W/m^2, the largest channel */
 	uint64_t depth[256];		/* photons per depth */
 	int max_depth;			/* largest depth present, -1: none */
 	uint64_t via_diffuse, caustic;	/* photons with each flag */
@@ -93,7 +97,7 @@ struct report {
 	bool have_version;
 	uint64_t photons;
 	int n;
-	struct map_report maps[2];
+	struct map_report maps[3];
 	bool verify;
 	size_t knn_queries, knn_k;
 	uint64_t seed;
@@ -116,7 +120,8 @@ help(void)
 	    "  -k K                  neighbours per --knn-check query"
 	    " (default 50)\n"
 	    "      --knn-check N     compare N k-nearest queries with FLANN\n"
-	    "      --map kind        only the global or the caustic map\n"
+	    "      --map kind        only the global, caustic or irradiance"
+	    " map\n"
 	    "  -q, --quiet           no warnings\n"
 	    "      --seed S          seed of the --knn-check queries"
 	    " (default 1)\n"
@@ -175,6 +180,8 @@ kind_name(enum pm_map_kind kind)
 		return "global";
 	case PM_MAP_CAUSTIC:
 		return "caustic";
+	case PM_MAP_IRRADIANCE:
+		return "irradiance";
 	}
 	return "unknown";
 }
@@ -333,7 +340,7 @@ load(const char *path, struct pm_pmap *pm, struct report *r)
 static uint32_t
 records_crc(const struct pm_photon *p, size_t n)
 {
-	unsigned char buf[20 * 512];
+	unsigned char buf[sizeof(struct pm_photon) * 512];
 	uLong crc = crc32(0L, Z_NULL, 0);
 	size_t i, at = 0;
 	int a;
@@ -352,8 +359,12 @@ records_crc(const struct pm_photon *p, size_t n)
 		at += 4;
 		memcpy(buf + at, p[i].dir, 2);
 		at += 2;
+		memcpy(buf + at, p[i].normal, 2);
+		at += 2;
 		buf[at++] = p[i].flags;
 		buf[at++] = p[i].depth;
+		memcpy(buf + at, p[i].reserved, 2);
+		at += 2;
 		if (at == sizeof(buf)) {
 			crc = crc32(crc, buf, (uInt)at);
 			at = 0;
@@ -379,6 +390,8 @@ map_stats(struct map_report *mr, const struct pm_map *m)
 		sum[0] += c.r;
 		sum[1] += c.g;
 		sum[2] += c.b;
+		if (pm_rgb_max(c) > mr->max_e)
+			mr->max_e = pm_rgb_max(c);
 		mr->depth[p->depth]++;
 		if (p->depth > mr->max_depth)
 			mr->max_depth = p->depth;
@@ -387,9 +400,11 @@ map_stats(struct map_report *mr, const struct pm_map *m)
 		if (p->flags & PM_PHOTON_CAUSTIC)
 			mr->caustic++;
 	}
-	for (i = 0; i < 3; i++)
+	for (i = 0; i < 3; i++) {
 		mr->flux[i] = m->emitted > 0 ? sum[i] / (double)m->emitted :
 		    0.0;
+		mr->mean_e[i] = n > 0 ? sum[i] / (double)n : 0.0;
+	}
 	mr->crc = records_crc(m->photons, n);
 }
 
@@ -441,10 +456,17 @@ print_tsv(const struct report *r)
 		const struct pm_map *m = mr->m;
 		const char *k = kind_name(m->kind);
 
-		printf("%s.photons\t%llu\n", k, (unsigned long long)m->count);
-		printf("%s.emitted\t%llu\n", k, (unsigned long long)m->emitted);
-		printf("%s.first_index\t%llu\n", k,
-		    (unsigned long long)m->first_index);
+		if (m->kind == PM_MAP_IRRADIANCE)
+			printf("%s.records\t%llu\n", k,
+			    (unsigned long long)m->count);
+		else {
+			printf("%s.photons\t%llu\n", k,
+			    (unsigned long long)m->count);
+			printf("%s.emitted\t%llu\n", k,
+			    (unsigned long long)m->emitted);
+			printf("%s.first_index\t%llu\n", k,
+			    (unsigned long long)m->first_index);
+		}
 		printf("%s.balanced\t%s\n", k, m->balanced ? "true" : "false");
 		printf("%s.lo", k);
 		tsv_float(m->lo[0]);
@@ -454,15 +476,24 @@ print_tsv(const struct report *r)
 		tsv_float(m->hi[0]);
 		tsv_float(m->hi[1]);
 		tsv_float(m->hi[2]);
-		printf("\n%s.flux\t%.9g\t%.9g\t%.9g\n", k, mr->flux[0],
-		    mr->flux[1], mr->flux[2]);
-		for (d = 0; d <= mr->max_depth; d++)
-			printf("%s.depth.%d\t%llu\n", k, d,
-			    (unsigned long long)mr->depth[d]);
-		printf("%s.flag.via_diffuse\t%llu\n", k,
-		    (unsigned long long)mr->via_diffuse);
-		printf("%s.flag.caustic\t%llu\n", k,
-		    (unsigned long long)mr->caustic);
+		putchar('\n');
+		if (m->kind == PM_MAP_IRRADIANCE) {
+			printf("%s.radius", k);
+			tsv_float(m->radius);
+			printf("\n%s.mean_irradiance\t%.9g\t%.9g\t%.9g\n", k,
+			    mr->mean_e[0], mr->mean_e[1], mr->mean_e[2]);
+			printf("%s.max_irradiance\t%.9g\n", k, mr->max_e);
+		} else {
+			printf("%s.flux\t%.9g\t%.9g\t%.9g\n", k,
+			    mr->flux[0], mr->flux[1], mr->flux[2]);
+			for (d = 0; d <= mr->max_depth; d++)
+				printf("%s.depth.%d\t%llu\n", k, d,
+				    (unsigned long long)mr->depth[d]);
+			printf("%s.flag.via_diffuse\t%llu\n", k,
+			    (unsigned long long)mr->via_diffuse);
+			printf("%s.flag.caustic\t%llu\n", k,
+			    (unsigned long long)mr->caustic);
+		}
 		printf("%s.records_crc32\t%08x\n", k, (unsigned)mr->crc);
 		if (mr->verified) {
 			if (!m->balanced)
@@ -649,32 +680,51 @@ print_json(const struct report *r)
 
 		printf("%s\n    {\n      \"kind\": \"%s\",\n", i > 0 ? "," : "",
 		    kind_name(m->kind));
-		printf("      \"photons\": %llu,\n",
-		    (unsigned long long)m->count);
-		printf("      \"emitted\": %llu,\n",
-		    (unsigned long long)m->emitted);
-		printf("      \"first_index\": %llu,\n",
-		    (unsigned long long)m->first_index);
+		if (m->kind == PM_MAP_IRRADIANCE)
+			printf("      \"records\": %llu,\n",
+			    (unsigned long long)m->count);
+		else {
+			printf("      \"photons\": %llu,\n",
+			    (unsigned long long)m->count);
+			printf("      \"emitted\": %llu,\n",
+			    (unsigned long long)m->emitted);
+			printf("      \"first_index\": %llu,\n",
+			    (unsigned long long)m->first_index);
+		}
 		printf("      \"balanced\": %s,\n",
 		    m->balanced ? "true" : "false");
 		printf("      \"lo\": ");
 		json_vec(m->lo);
 		printf(",\n      \"hi\": ");
 		json_vec(m->hi);
-		printf(",\n      \"flux\": [");
-		json_num(mr->flux[0], 9);
-		printf(", ");
-		json_num(mr->flux[1], 9);
-		printf(", ");
-		json_num(mr->flux[2], 9);
-		printf("],\n      \"depth\": [");
-		for (d = 0; d <= mr->max_depth; d++)
-			printf("%s%llu", d > 0 ? ", " : "",
-			    (unsigned long long)mr->depth[d]);
-		printf("],\n      \"flags\": {\"via_diffuse\": %llu, "
-		    "\"caustic\": %llu},\n",
-		    (unsigned long long)mr->via_diffuse,
-		    (unsigned long long)mr->caustic);
+		if (m->kind == PM_MAP_IRRADIANCE) {
+			printf(",\n      \"radius\": ");
+			json_num(m->radius, 9);
+			printf(",\n      \"mean_irradiance\": [");
+			json_num(mr->mean_e[0], 9);
+			printf(", ");
+			json_num(mr->mean_e[1], 9);
+			printf(", ");
+			json_num(mr->mean_e[2], 9);
+			printf("],\n      \"max_irradiance\": ");
+			json_num(mr->max_e, 9);
+			printf(",\n");
+		} else {
+			printf(",\n      \"flux\": [");
+			json_num(mr->flux[0], 9);
+			printf(", ");
+			json_num(mr->flux[1], 9);
+			printf(", ");
+			json_num(mr->flux[2], 9);
+			printf("],\n      \"depth\": [");
+			for (d = 0; d <= mr->max_depth; d++)
+				printf("%s%llu", d > 0 ? ", " : "",
+				    (unsigned long long)mr->depth[d]);
+			printf("],\n      \"flags\": {\"via_diffuse\": %llu, "
+			    "\"caustic\": %llu},\n",
+			    (unsigned long long)mr->via_diffuse,
+			    (unsigned long long)mr->caustic);
+		}
 		printf("      \"records_crc32\": \"%08x\"", (unsigned)mr->crc);
 		if (mr->verified) {
 			printf(",\n      \"kdtree\": ");
@@ -791,10 +841,11 @@ dump(const struct report *r, enum dump_kind kind)
 		    "property uchar blue\nend_header\n");
 	} else if (kind == DUMP_CSV)
 		printf("kind,x,y,z,flux_r,flux_g,flux_b,dir_x,dir_y,dir_z,"
-		    "depth,flags\n");
+		    "depth,flags,normal_x,normal_y,normal_z\n");
 	for (i = 0; i < r->n; i++) {
 		const struct pm_map *m = r->maps[i].m;
 		const char *k = kind_name(m->kind);
+		/* Irradiance records hold E, which nothing divides. */
 		double norm = m->emitted > 0 ? 1.0 / (double)m->emitted : 1.0;
 
 		if (kind == DUMP_PLY && !colour_scale(m, &scale)) {
@@ -822,14 +873,21 @@ dump(const struct report *r, enum dump_kind kind)
 				break;
 			case DUMP_CSV:
 				c = pm_rgbe_unpack(p->power);
-				d = pm_dir_unpack(p->dir);
-				printf("%s,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,"
-				    "%.6g,%.6g,%.6g,%u,%u\n", k,
+				printf("%s,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,", k,
 				    (double)p->pos[0], (double)p->pos[1],
 				    (double)p->pos[2], c.r * norm, c.g * norm,
-				    c.b * norm, (double)d.x, (double)d.y,
-				    (double)d.z, (unsigned)p->depth,
-				    (unsigned)p->flags);
+				    c.b * norm);
+				/* An irradiance record has no direction. */
+				d = pm_dir_unpack(p->dir);
+				if (m->kind == PM_MAP_IRRADIANCE)
+					printf(",,,");
+				else
+					printf("%.6g,%.6g,%.6g,", (double)d.x,
+					    (double)d.y, (double)d.z);
+				d = pm_dir_unpack(p->normal);
+				printf("%u,%u,%.6g,%.6g,%.6g\n",
+				    (unsigned)p->depth, (unsigned)p->flags,
+				    (double)d.x, (double)d.y, (double)d.z);
 				break;
 			case DUMP_NONE:
 				break;
@@ -902,9 +960,11 @@ main(int argc, char *argv[])
 				only = PM_MAP_GLOBAL;
 			else if (strcmp(optarg, "caustic") == 0)
 				only = PM_MAP_CAUSTIC;
+			else if (strcmp(optarg, "irradiance") == 0)
+				only = PM_MAP_IRRADIANCE;
 			else
 				usage_error("--map: unknown map '%s'; expected "
-				    "global or caustic", optarg);
+				    "global, caustic or irradiance", optarg);
 			break;
 		case OPT_SEED:
 			if (!pm_parse_u64(optarg, &seed))
@@ -981,7 +1041,8 @@ main(int argc, char *argv[])
 		const struct pm_map *m = r.maps[i].m;
 
 		map_stats(&r.maps[i], m);
-		r.photons += m->count;
+		if (m->kind != PM_MAP_IRRADIANCE)
+			r.photons += m->count;
 	}
 	for (i = 0; i < r.n; i++) {
 		struct map_report *mr = &r.maps[i];

@@ -215,23 +215,33 @@ load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
 	for (i = 0; i < pm->nmaps; i++) {
 		const struct pm_map *m = &pm->maps[i];
 
-		if (!m->balanced && m->count > 1) {
-			fprintf(stderr, PROG ": %s: the %s map is not balanced; run "
-			    "pm-balance on it first\n", path,
-			    m->kind == PM_MAP_GLOBAL ? "global" : "caustic");
-			return 0;
-		}
-		if (m->kind == PM_MAP_GLOBAL) {
+		const char *kind = "";
+
+		switch (m->kind) {
+		case PM_MAP_GLOBAL:
+			kind = "global";
 			maps->global = m->photons;
 			maps->nglobal = (size_t)m->count;
 			maps->global_scale = m->emitted ? 1.0f / (float)m->emitted : 0.0f;
-		} else if (m->kind == PM_MAP_CAUSTIC) {
+			break;
+		case PM_MAP_CAUSTIC:
+			kind = "caustic";
 			maps->caustic = m->photons;
 			maps->ncaustic = (size_t)m->count;
 			maps->caustic_scale = m->emitted ? 1.0f / (float)m->emitted : 0.0f;
-		} else if (m->kind == PM_MAP_IRRADIANCE) {
+			break;
+		case PM_MAP_IRRADIANCE:
+			/* Irradiance, not flux: nothing to divide by. */
+			kind = "irradiance";
 			maps->irradiance = m->photons;
 			maps->nirradiance = (size_t)m->count;
+			maps->irradiance_r2 = m->radius * m->radius;
+			break;
+		}
+		if (!m->balanced && m->count > 1) {
+			fprintf(stderr, PROG ": %s: the %s map is not balanced; run "
+			    "pm-balance on it first\n", path, kind);
+			return 0;
 		}
 	}
 	/* Radii are fractions of the scene's bounding-sphere radius, as in
@@ -269,10 +279,9 @@ load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
 	maps->icache_a = PM_ICACHE_ACCURACY;
 	if (verbose >= 2)
 		fprintf(stderr, PROG ": %s: %zu global photons, %zu caustic photons, "
-		    "%zu irradiance records, "
-		    "radii %g and %g, %s%d, %d direct samples, final gathering %s\n",
-		    path, maps->nglobal, maps->ncaustic, maps->nirradiance,
-		    sqrt(maps->global_r2),
+		    "%zu irradiance records, radii %g and %g, %s%d, %d direct "
+		    "samples, final gathering %s\n", path, maps->nglobal,
+		    maps->ncaustic, maps->nirradiance, sqrt(maps->global_r2),
 		    sqrt(maps->caustic_r2), maps->fixed_radius ?
 		    "every photon within them (k unused: " : "k = ",
 		    maps->lookup_size, maps->direct_samples,

@@ -154,8 +154,11 @@ map_refused() { # description pattern file
 }
 patch_bytes "$tmp/bal.pmap" "$tmp/magic.pmap" 0 "89504e470d0a1a0a"
 map_refused "a PNG's magic" "magic.pmap.*(magic|not a photon map)" magic.pmap
-patch_bytes "$tmp/bal.pmap" "$tmp/version.pmap" 8 "0200"
-map_refused "an unknown major version" "version.pmap.*version" version.pmap
+patch_bytes "$tmp/bal.pmap" "$tmp/version.pmap" 8 "0300"
+map_refused "an unknown major version" "version.pmap.*unknown version 3\.0" version.pmap
+# A real version 1 file (pmap(5)'s example as version 1.0 wrote it).
+cp tests/golden/pmap-1.0.pmap "$tmp/v1.pmap"
+map_refused "a version 1 map" "v1.pmap: a version 1\.0 photon map.*shoot it again" v1.pmap
 head -c 100 "$tmp/bal.pmap" >"$tmp/header.pmap"
 map_refused "a file cut inside the header" "header.pmap" header.pmap
 head -c $(($(wc -c <"$tmp/bal.pmap") - 7)) "$tmp/bal.pmap" >"$tmp/cut.pmap"

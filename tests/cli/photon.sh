@@ -49,15 +49,63 @@ hs = struct.unpack_from("<I", b, 12)[0]
 e = 64
 count, emitted, first, off, stored = struct.unpack_from("<5Q", b, e + 16)
 assert struct.unpack_from("<I", b, e + 8)[0] == 0 and count >= 2
-last = off + 20 * (count - 1)
+rec = 24
+last = off + rec * (count - 1)
 if sys.argv[2] == "reverse":
-    r = [b[off + 20 * i:off + 20 * i + 20] for i in range(count)]
-    b[off:off + 20 * count] = b"".join(reversed(r))
+    r = [b[off + rec * i:off + rec * i + rec] for i in range(count)]
+    b[off:off + rec * count] = b"".join(reversed(r))
 else:
-    b[off:off + 20], b[last:last + 20] = b[last:last + 20], b[off:off + 20]
+    b[off:off + rec], b[last:last + rec] = b[last:last + rec], b[off:off + rec]
 struct.pack_into("<I", b, e + 12, zlib.crc32(b[off:off + stored]))
 struct.pack_into("<I", b, hs - 4, zlib.crc32(b[:hs - 4]))
 open(sys.argv[1], "wb").write(b)
+EOF
+}
+
+# Adds to an uncompressed map file an irradiance map (kind 3), laid out as
+# pmap(5) says, whose records are the global map's (so in kd-tree order)
+# with E = the photon's power, no direction, depth 0, and the given
+# lookup radius: what pm-balance will write, before it can.
+add_irradiance() { # in out radius
+	python3 - "$@" <<'EOF'
+import struct, sys, zlib
+b = open(sys.argv[1], "rb").read()
+n, esize, isize = struct.unpack_from("<3I", b, 44)
+assert esize == 96
+ents = [bytearray(b[64 + 96 * i:64 + 96 * (i + 1)]) for i in range(n)]
+info = b[64 + 96 * n:64 + 96 * n + isize]
+pays = []
+for e in ents:
+    kind, flags, comp = struct.unpack_from("<3I", e, 0)
+    off, stored = struct.unpack_from("<2Q", e, 40)
+    assert comp == 0
+    pays.append(b[off:off + stored])
+    if kind == 1:
+        g, irr = e, bytearray(pays[-1])
+for i in range(0, len(irr), 24):
+    irr[i + 16:i + 18] = b"\0\0"
+    irr[i + 20] &= 3
+    irr[i + 21] = 0
+e = bytearray(g)
+struct.pack_into("<4I", e, 0, 3, 1, 0, zlib.crc32(irr))
+struct.pack_into("<2Q", e, 24, 0, 0)
+struct.pack_into("<f", e, 80, float(sys.argv[3]))
+ents.append(e)
+pays.append(bytes(irr))
+hs = 64 + 96 * len(ents) + isize + 4
+off = (hs + 63) // 64 * 64
+for e, p in zip(ents, pays):
+    struct.pack_into("<Q", e, 40, off)
+    off = (off + len(p) + 63) // 64 * 64
+h = bytearray(b[:64])
+struct.pack_into("<I", h, 12, hs)
+struct.pack_into("<I", h, 44, len(ents))
+h += b"".join(ents) + info
+h += struct.pack("<I", zlib.crc32(h))
+out = bytearray(h)
+for e, p in zip(ents, pays):
+    out += bytes(struct.unpack_from("<Q", e, 40)[0] - len(out)) + p
+open(sys.argv[2], "wb").write(out)
 EOF
 }
 
@@ -239,6 +287,36 @@ flux_sums() { # the csv fluxes add up to the report's red flux
 	    'NR > 1 { s += $5 } END { d = s - f; if (d < 0) d = -d; exit !(f > 0 && d <= 1e-4 * f) }'
 }
 check "...whose fluxes sum to the reported flux" flux_sums
+
+# --- Irradiance maps (kind 3), which pm-balance will make ---
+if add_irradiance "$tmp/whole.pmap" "$tmp/irr.pmap" 0.0625; then
+	ng=$(key "$tmp/whole.pmap" global.photons)
+	check "pm-inspect reads a map with an irradiance map" status 0 $INS --verify "$tmp/irr.pmap"
+	check "...naming its kind and records" grep -q "^irradiance.records	$ng\$" "$tmp/out"
+	check "...its radius" grep -q "^irradiance.radius	0.0625\$" "$tmp/out"
+	check "...its mean and largest irradiance" sh -c "awk -F'\t' '\$1 == \"irradiance.mean_irradiance\" && \$2 > 0 { m = 1 } \$1 == \"irradiance.max_irradiance\" && \$2 > 0 { x = 1 } END { exit !(m && x) }' $tmp/out"
+	check "...no flux, emitted count or depths, which it has not" sh -c "! grep -q -e '^irradiance.flux' -e '^irradiance.emitted' -e '^irradiance.depth' -e '^irradiance.photons' $tmp/out"
+	check "...its kd-tree order" grep -q "^irradiance.kdtree	ok\$" "$tmp/out"
+	check "...counting photons without the records" grep -q "^photons	$ng\$" "$tmp/out"
+	check "...and the global map as before" sh -c "$INS $tmp/whole.pmap | grep '^global\.' >$tmp/g1 && grep '^global\.' $tmp/out | grep -v kdtree >$tmp/g2 && cmp -s $tmp/g1 $tmp/g2"
+	check "--map irradiance reports that map only" sh -c "$INS --map irradiance $tmp/irr.pmap >$tmp/o2 && grep -q '^irradiance.records' $tmp/o2 && ! grep -q '^global\.' $tmp/o2"
+	check "--map irradiance on a map without one exits 1" status 1 $INS --map irradiance "$tmp/whole.pmap"
+	check "--json names the kind, records and radius" sh -c "$INS --json $tmp/irr.pmap | python3 -c 'import json,sys; d = json.load(sys.stdin); m = d[\"maps\"][1]; assert m[\"kind\"] == \"irradiance\" and m[\"records\"] == $ng and m[\"radius\"] == 0.0625 and \"flux\" not in m and d[\"photons\"] == $ng'"
+	check "--dump csv has a line per photon and record" sh -c "test \$($INS --dump csv $tmp/irr.pmap | wc -l) -eq $((2 * ng + 1))"
+	check "...the records without a direction, with a normal" sh -c "$INS --dump csv $tmp/irr.pmap | awk -F, '\$1 == \"irradiance\" { r++; if (\$8 != \"\" || \$13 == \"\") bad = 1 } END { exit bad || !r }'"
+	check "--knn-check runs on the irradiance map too" status 0 $INS --knn-check 50 --map irradiance "$tmp/irr.pmap"
+	check "pm-balance drops an input's irradiance map" status 0 $BAL -o "$tmp/irr-bal.pmap" "$tmp/irr.pmap"
+	check "...with one note saying so" sh -c "test \$(wc -l <$tmp/err) -eq 1 && grep -q 'irr.pmap: note: its irradiance map ($ng records) is dropped, not merged' $tmp/err"
+	check "...keeping the photons as they were" same_content "$tmp/whole.pmap" "$tmp/irr-bal.pmap"
+	check "...and no irradiance map" sh -c "! $INS $tmp/irr-bal.pmap | grep -q '^irradiance'"
+	$SHOOT "$scene" -q --seed 3 --photons 1000 --first-index 6000 -o "$tmp/next.pmap"
+	check "...merging it with a shard that has none" status 0 $BAL -q -f -o "$tmp/irr-bal.pmap" "$tmp/irr.pmap" "$tmp/next.pmap"
+	check "...-q silencing the note" test ! -s "$tmp/err"
+	check "...into photons of paths [0, 7000)" test "$(key "$tmp/irr-bal.pmap" global.emitted)" -eq 7000
+	check "pm-render renders with a map that has irradiance records" status 0 ${BIN:-bin}/pm-render -q --spp 1 --size 8x8 -o "$tmp/irr.exr" "$scene" "$tmp/irr.pmap"
+else
+	check "the map with an irradiance map was made" false
+fi
 
 echo "photon cli: $((n - fail)) passed, $fail failed"
 [ "$fail" -eq 0 ]

@@ -344,7 +344,8 @@ test_map_past_2gb(void **state)
 		return;
 	}
 	if (statvfs(tmpdir, &fs) != 0 ||
-	    (double)fs.f_bavail * (double)fs.f_frsize < 3.0 * (double)n * 20.0) {
+	    (double)fs.f_bavail * (double)fs.f_frsize < 3.0 * (double)n *
+	    (double)sizeof(struct pm_photon)) {
 		print_message("skipped: not enough disk in %s\n", tmpdir);
 		return;
 	}

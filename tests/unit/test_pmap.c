@@ -1,13 +1,15 @@
 /*
- * test_pmap.c: the photon-map file.  Files written by pm_pmap_write must
- * read back identical, compressed or not, memory-mapped or not, with 0, 1
- * or 2 maps and empty maps, from files, pipes and standard input; the
- * writer's bytes must equal those of a file built here from man/pmap.5
- * alone; and damaged files -- every prefix of a small file, every single
- * flipped bit, and forged headers with valid checksums (bad counts,
- * offsets past the end, count x 20 overflow, reserved fields, unknown
- * versions and kinds) -- must each fail with their own clear error.
- * Offsets beyond 4 GiB are tested on sparse files, which take no disk.
+ * test_pmap.c: the photon-map file, version 2.  Files written by
+ * pm_pmap_write must read back identical, compressed or not, memory-mapped
+ * or not, with 0 to 3 maps (global, caustic, irradiance) and empty maps,
+ * from files, pipes and standard input; the writer's bytes must equal
+ * those of a file built here from man/pmap.5 alone; a version 1 file must
+ * be refused in one line; and damaged files -- every prefix of a small
+ * file, every single flipped bit, and forged headers with valid checksums
+ * (bad counts, offsets past the end, count x 24 overflow, reserved fields
+ * and record bytes, irradiance maps that emitted paths, unknown versions
+ * and kinds) -- must each fail with their own clear error.  Offsets
+ * beyond 4 GiB are tested on sparse files, which take no disk.
  */
 #include <dirent.h>
 #include <errno.h>
@@ -73,6 +75,9 @@ make_photons(size_t n, uint64_t seed)
 		d = pm_normalize(pm_v3(rndf(&s) - 0.5f, rndf(&s),
 		    rndf(&s) - 0.5f));
 		pm_dir_pack(d, p[i].dir);
+		d = pm_normalize(pm_v3(rndf(&s) - 0.5f, rndf(&s) + 0.1f,
+		    rndf(&s) - 0.5f));
+		pm_dir_pack(d, p[i].normal);
 		p[i].flags = (uint8_t)(rnd(&s) & (PM_PHOTON_VIA_DIFFUSE |
 		    PM_PHOTON_CAUSTIC | PM_KD_AXIS_MASK));
 		p[i].depth = (uint8_t)(rnd(&s) % 5);
@@ -97,12 +102,32 @@ set_bounds(struct pm_map *a)
 		}
 }
 
-/* A map file in memory with nmaps maps of the given sizes. */
-static void
-make_pmap(struct pm_pmap *m, int nmaps, size_t n0, size_t n1)
+/* Irradiance records as pm-balance stores them: E in the power, the
+ * surface normal, no direction, depth 0, only the kd-tree bits. */
+static struct pm_photon *
+make_irradiance(size_t n, uint64_t seed)
 {
+	struct pm_photon *p = make_photons(n, seed);
+	size_t i;
+
+	for (i = 0; i < n; i++) {
+		p[i].dir[0] = p[i].dir[1] = 0;
+		p[i].flags &= PM_KD_AXIS_MASK;
+		p[i].depth = 0;
+	}
+	return p;
+}
+
+/* A map file in memory with nmaps maps of the given sizes: global,
+ * caustic and irradiance, in that order. */
+static void
+make_pmap(struct pm_pmap *m, int nmaps, size_t n0, size_t n1, size_t n2)
+{
+	static const enum pm_map_kind kinds[3] = {
+		PM_MAP_GLOBAL, PM_MAP_CAUSTIC, PM_MAP_IRRADIANCE
+	};
 	struct pm_error err;
-	size_t n[2] = {n0, n1};
+	size_t n[3] = {n0, n1, n2};
 	int i;
 
 	memset(m, 0, sizeof(*m));
@@ -114,13 +139,19 @@ make_pmap(struct pm_pmap *m, int nmaps, size_t n0, size_t n1)
 	assert_int_equal(pm_pmap_info_add(m, "seed", "42", &err), PM_OK);
 	m->nmaps = nmaps;
 	for (i = 0; i < nmaps; i++) {
-		m->maps[i].kind = i == 0 ? PM_MAP_GLOBAL : PM_MAP_CAUSTIC;
+		m->maps[i].kind = kinds[i];
 		m->maps[i].count = n[i];
-		m->maps[i].emitted = n[i] / 2 + 1 + (uint64_t)i;
-		m->maps[i].first_index = 1000u * (uint64_t)i;
-		m->maps[i].balanced = i == 1;
-		m->maps[i].photons = n[i] ? make_photons(n[i], 7u + (uint64_t)i)
-		    : NULL;
+		m->maps[i].balanced = i >= 1;
+		if (kinds[i] == PM_MAP_IRRADIANCE) {
+			m->maps[i].radius = 0.125f;
+			m->maps[i].photons = n[i] ? make_irradiance(n[i], 9u) :
+			    NULL;
+		} else {
+			m->maps[i].emitted = n[i] / 2 + 1 + (uint64_t)i;
+			m->maps[i].first_index = 1000u * (uint64_t)i;
+			m->maps[i].photons = n[i] ? make_photons(n[i], 7u +
+			    (uint64_t)i) : NULL;
+		}
 		set_bounds(&m->maps[i]);
 	}
 }
@@ -145,6 +176,7 @@ assert_same(const struct pm_pmap *a, const struct pm_pmap *b)
 		assert_true(x->emitted == y->emitted);
 		assert_true(x->first_index == y->first_index);
 		assert_int_equal(x->balanced, y->balanced);
+		assert_true(x->radius == y->radius);
 		for (k = 0; k < 3; k++) {
 			assert_true(x->lo[k] == y->lo[k]);
 			assert_true(x->hi[k] == y->hi[k]);
@@ -280,6 +312,7 @@ write_bytes(const struct pm_pmap *m, bool compress, unsigned char *buf)
 struct spec_map {
 	uint32_t kind, flags, compression;
 	uint64_t count, emitted, first_index;
+	float radius;
 	const struct pm_photon *p;
 };
 
@@ -289,15 +322,16 @@ struct spec {
 	uint64_t scene_hash, seed;
 	const char *info;
 	uint32_t nmaps;
-	struct spec_map maps[2];
+	struct spec_map maps[3];
 };
 
 /* The file the specification describes for s, into out; its length. */
 static size_t
 spec_build(const struct spec *s, unsigned char *out)
 {
-	unsigned char payload[2][65536], *e;
-	uint64_t off, stored[2];
+	static unsigned char payload[3][65536];
+	unsigned char *e;
+	uint64_t off, stored[3];
 	uint32_t isize = (uint32_t)strlen(s->info), hs, i;
 	uLongf zlen;
 	float lo[3], hi[3], x;
@@ -323,9 +357,9 @@ spec_build(const struct spec *s, unsigned char *out)
 		const struct spec_map *sm = &s->maps[i];
 
 		for (j = 0; j < sm->count; j++) {
-			unsigned char *r = payload[i] + 20 * j;
+			unsigned char *r = payload[i] + 24 * j;
 
-			assert_true(20 * (j + 1) <= sizeof(payload[0]));
+			assert_true(24 * (j + 1) <= sizeof(payload[0]));
 			for (k = 0; k < 3; k++) {
 				x = sm->p[j].pos[k];
 				wrf(r + 4 * k, x);
@@ -336,8 +370,10 @@ spec_build(const struct spec *s, unsigned char *out)
 			}
 			memcpy(r + 12, sm->p[j].power, 4);
 			memcpy(r + 16, sm->p[j].dir, 2);
-			r[18] = sm->p[j].flags;
-			r[19] = sm->p[j].depth;
+			memcpy(r + 18, sm->p[j].normal, 2);
+			r[20] = sm->p[j].flags;
+			r[21] = sm->p[j].depth;
+			memcpy(r + 22, sm->p[j].reserved, 2);
 		}
 		if (sm->count == 0)
 			for (k = 0; k < 3; k++)
@@ -347,13 +383,13 @@ spec_build(const struct spec *s, unsigned char *out)
 		if (sm->compression == 1) {
 			unsigned char raw[65536];
 
-			memcpy(raw, payload[i], 20 * sm->count);
+			memcpy(raw, payload[i], 24 * sm->count);
 			zlen = sizeof(payload[i]);
 			assert_int_equal(compress2(payload[i], &zlen, raw,
-			    20 * sm->count, 1), Z_OK);
+			    24 * sm->count, 1), Z_OK);
 			stored[i] = zlen;
 		} else
-			stored[i] = 20 * sm->count;
+			stored[i] = 24 * sm->count;
 		wr32(e, sm->kind);
 		wr32(e + 4, sm->flags);
 		wr32(e + 8, sm->compression);
@@ -367,6 +403,7 @@ spec_build(const struct spec *s, unsigned char *out)
 			wrf(e + 56 + 4 * k, lo[k]);
 			wrf(e + 68 + 4 * k, hi[k]);
 		}
+		wrf(e + 80, sm->radius);
 		memcpy(out + off, payload[i], stored[i]);
 		off += stored[i];
 	}
@@ -381,7 +418,7 @@ spec_of(struct spec *s, const struct pm_pmap *m, uint32_t compression)
 	int i;
 
 	memset(s, 0, sizeof(*s));
-	s->major = 1;
+	s->major = 2;
 	s->entry_size = 96;
 	s->effects = m->effects;
 	s->max_depth = m->max_depth;
@@ -396,14 +433,47 @@ spec_of(struct spec *s, const struct pm_pmap *m, uint32_t compression)
 		s->maps[i].count = m->maps[i].count;
 		s->maps[i].emitted = m->maps[i].emitted;
 		s->maps[i].first_index = m->maps[i].first_index;
+		s->maps[i].radius = m->maps[i].radius;
 		s->maps[i].p = m->maps[i].photons;
 	}
 }
 
 /* --- Tests --- */
 
-/* The example of man/pmap.5, byte for byte: version 1.0's golden file. */
-static const unsigned char golden[212] = {
+/* The example of man/pmap.5, byte for byte: version 2.0's golden file. */
+static const unsigned char golden[216] = {
+	0x89, 0x50, 0x4d, 0x41, 0x50, 0x0d, 0x0a, 0x1a,
+	0x02, 0x00, 0x00, 0x00, 0xb9, 0x00, 0x00, 0x00,
+	0x00, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00,
+	0xef, 0xcd, 0xab, 0x89, 0x67, 0x45, 0x23, 0x01,
+	0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+	0x00, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00,
+	0x60, 0x00, 0x00, 0x00, 0x15, 0x00, 0x00, 0x00,
+	0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+	0x01, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00,
+	0x00, 0x00, 0x00, 0x00, 0xbc, 0xdf, 0xf7, 0xdc,
+	0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+	0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+	0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+	0xc0, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+	0x18, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+	0x00, 0x00, 0x00, 0x3f, 0x00, 0x00, 0x80, 0x3f,
+	0x00, 0x00, 0x80, 0xbe, 0x00, 0x00, 0x00, 0x3f,
+	0x00, 0x00, 0x80, 0x3f, 0x00, 0x00, 0x80, 0xbe,
+	0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+	0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+	0x74, 0x6f, 0x6f, 0x6c, 0x3d, 0x70, 0x6d, 0x2d,
+	0x73, 0x68, 0x6f, 0x6f, 0x74, 0x0a, 0x73, 0x65,
+	0x65, 0x64, 0x3d, 0x31, 0x0a, 0x53, 0x2b, 0x98,
+	0xde, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+	0x00, 0x00, 0x00, 0x3f, 0x00, 0x00, 0x80, 0x3f,
+	0x00, 0x00, 0x80, 0xbe, 0x80, 0x40, 0x20, 0x81,
+	0x80, 0x80, 0x80, 0x80, 0x07, 0x01, 0x00, 0x00,
+};
+
+/* The same example as version 1.0 wrote it (20-byte records without a
+ * normal), which version 2 refuses. */
+static const unsigned char golden_v1[212] = {
 	0x89, 0x50, 0x4d, 0x41, 0x50, 0x0d, 0x0a, 0x1a,
 	0x01, 0x00, 0x00, 0x00, 0xb9, 0x00, 0x00, 0x00,
 	0x00, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00,
@@ -465,20 +535,60 @@ test_golden(void **state)
 	assert_true(c.r == 1.0f && c.g == 0.5f && c.b == 0.25f);
 	d = pm_dir_unpack(p->dir);
 	assert_true(d.z > 0.9999f);
+	d = pm_dir_unpack(p->normal);
+	assert_true(d.z > 0.9999f);
 	assert_int_equal(p->flags, PM_KD_LEAF | PM_PHOTON_VIA_DIFFUSE);
 	assert_int_equal(p->depth, 1);
+	assert_true(p->reserved[0] == 0 && p->reserved[1] == 0);
 	n = write_bytes(&m, false, buf);
 	assert_int_equal(n, sizeof(golden));
 	assert_memory_equal(buf, golden, n);
 	pm_pmap_free(&m);
 }
 
+/* A real version 1 file is refused in one line that names the file, says
+ * what it is and what to do; so is every file that says version 1. */
+static void
+test_v1_refused(void **state)
+{
+	static unsigned char buf[BUFCAP];
+	struct pm_pmap m;
+	struct pm_error err;
+	char p[PATHCAP];
+	int mm;
+
+	(void)state;
+	expect_fail(golden_v1, sizeof(golden_v1), PM_ERR_UNSUPPORTED,
+	    "t.pmap: a version 1.0 photon map, whose 20-byte photons lack "
+	    "the surface normal that version 2 needs: shoot it again with "
+	    "pm-shoot");
+	tpath(p, "v1.pmap");
+	spit(p, golden_v1, sizeof(golden_v1));
+	for (mm = 0; mm < 2; mm++) {
+		assert_int_equal(pm_pmap_read(p, &m, mm, &err),
+		    PM_ERR_UNSUPPORTED);
+		assert_non_null(strstr(err.msg, "v1.pmap: a version 1.0 photon "
+		    "map"));
+		assert_null(strchr(err.msg, '\n'));
+	}
+	unlink(p);
+	/* Only its first 12 bytes are needed to know, even cut short. */
+	expect_fail(golden_v1, 64, PM_ERR_UNSUPPORTED, "version 1.0");
+	/* A later 1.x minor version alike. */
+	memcpy(buf, golden_v1, sizeof(golden_v1));
+	wr16(buf + 10, 4);
+	fix_crc(buf);
+	expect_fail(buf, sizeof(golden_v1), PM_ERR_UNSUPPORTED,
+	    "a version 1.4 photon map");
+}
+
 static void
 test_roundtrip(void **state)
 {
-	static const size_t sizes[][3] = {
-		{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {1, 2500, 0}, {2, 3000, 700},
-		{2, 0, 9}, {2, 1, 0},
+	static const size_t sizes[][4] = {
+		{0, 0, 0, 0}, {1, 0, 0, 0}, {1, 1, 0, 0}, {1, 2500, 0, 0},
+		{2, 3000, 700, 0}, {2, 0, 9, 0}, {2, 1, 0, 0},
+		{3, 3000, 700, 400}, {3, 0, 0, 0}, {3, 5, 0, 1}, {3, 0, 0, 7},
 	};
 	struct pm_pmap m, r;
 	struct pm_error err;
@@ -490,7 +600,8 @@ test_roundtrip(void **state)
 	(void)state;
 	tpath(p, "rt.pmap");
 	for (t = 0; t < sizeof(sizes) / sizeof(sizes[0]); t++) {
-		make_pmap(&m, (int)sizes[t][0], sizes[t][1], sizes[t][2]);
+		make_pmap(&m, (int)sizes[t][0], sizes[t][1], sizes[t][2],
+		    sizes[t][3]);
 		for (c = 0; c < 2; c++) {
 			assert_int_equal(pm_pmap_write(p, &m, c, &err), PM_OK);
 			for (mm = 0; mm < 2; mm++) {
@@ -527,7 +638,7 @@ test_mmap_private(void **state)
 
 	(void)state;
 	tpath(p, "mm.pmap");
-	make_pmap(&m, 1, 100, 0);
+	make_pmap(&m, 1, 100, 0, 0);
 	assert_int_equal(pm_pmap_write(p, &m, false, &err), PM_OK);
 	assert_int_equal(pm_pmap_read(p, &r, true, &err), PM_OK);
 	assert_non_null(r.mapped);
@@ -558,7 +669,7 @@ test_spec_bytes(void **state)
 	int c;
 
 	(void)state;
-	make_pmap(&m, 2, 5, 3);
+	make_pmap(&m, 3, 5, 3, 4);
 	for (c = 0; c < 2; c++) {
 		na = write_bytes(&m, c, a);
 		spec_of(&s, &m, (uint32_t)c);
@@ -570,9 +681,13 @@ test_spec_bytes(void **state)
 		assert_same(&m, &r);
 		pm_pmap_free(&r);
 	}
-	/* Payloads start on 64-byte boundaries after a 64 + 2*96 + info +
-	 * 4 byte header. */
-	assert_int_equal(rd32(a + 12), 64 + 2 * 96 + strlen(m.info) + 4);
+	/* Payloads start on 64-byte boundaries after a 64 + 3*96 + info +
+	 * 4 byte header; the irradiance map's radius is at byte 80 of its
+	 * entry. */
+	assert_int_equal(rd32(a + 12), 64 + 3 * 96 + strlen(m.info) + 4);
+	assert_int_equal(rd32(a + 64 + 2 * 96), PM_MAP_IRRADIANCE);
+	assert_int_equal(rd32(a + 64 + 2 * 96 + 80), 0x3e000000);
+	assert_int_equal(rd32(a + 64 + 96 + 80), 0);
 	pm_pmap_free(&m);
 }
 
@@ -622,14 +737,17 @@ test_find(void **state)
 	struct pm_pmap m;
 
 	(void)state;
-	make_pmap(&m, 2, 3, 4);
+	make_pmap(&m, 3, 3, 4, 5);
 	assert_ptr_equal(pm_pmap_find(&m, PM_MAP_GLOBAL), &m.maps[0]);
 	assert_ptr_equal(pm_pmap_find(&m, PM_MAP_CAUSTIC), &m.maps[1]);
+	assert_ptr_equal(pm_pmap_find(&m, PM_MAP_IRRADIANCE), &m.maps[2]);
+	m.nmaps = 2;
+	assert_null(pm_pmap_find(&m, PM_MAP_IRRADIANCE));
 	m.nmaps = 1;
 	assert_null(pm_pmap_find(&m, PM_MAP_CAUSTIC));
-	m.nmaps = 2;
+	m.nmaps = 3;
 	pm_pmap_free(&m);
-	make_pmap(&m, 0, 0, 0);
+	make_pmap(&m, 0, 0, 0, 0);
 	assert_null(pm_pmap_find(&m, PM_MAP_GLOBAL));
 	pm_pmap_free(&m);
 }
@@ -642,7 +760,7 @@ test_magic(void **state)
 	size_t n;
 
 	(void)state;
-	make_pmap(&m, 1, 4, 0);
+	make_pmap(&m, 1, 4, 0, 0);
 	n = write_bytes(&m, false, buf);
 	pm_pmap_free(&m);
 	expect_fail(buf, 0, PM_ERR_TRUNCATED, "empty file");
@@ -674,17 +792,20 @@ test_versions(void **state)
 	struct pm_error err;
 	struct spec s;
 	size_t n, n2;
+	int c;
 
 	(void)state;
-	make_pmap(&m, 2, 6, 2);
+	make_pmap(&m, 3, 6, 2, 3);
 	n = write_bytes(&m, true, buf);
 
-	wr16(buf + 8, 2);
+	wr16(buf + 8, 3);
 	expect_fail(buf, n, PM_ERR_UNSUPPORTED,
-	    "unknown version 2.0 (this reader knows 1.x)");
+	    "unknown version 3.0 (this reader knows 2.x)");
 	wr16(buf + 8, 0);
 	expect_fail(buf, n, PM_ERR_UNSUPPORTED, "unknown version 0.0");
 	wr16(buf + 8, 1);
+	expect_fail(buf, n, PM_ERR_UNSUPPORTED, "a version 1.0 photon map");
+	wr16(buf + 8, 2);
 
 	/* A newer minor version is read; what it may add is ignored:
 	 * reserved fields, flags, data after the last map. */
@@ -695,6 +816,8 @@ test_versions(void **state)
 	pm_pmap_free(&r);
 	buf[56] = 1;			/* reserved */
 	buf[64 + 88] = 1;		/* reserved in a map entry */
+	buf[64 + 80] = 1;		/* the radius of a global map */
+	buf[64 + 2 * 96 + 84] = 1;	/* reserved in the irradiance entry */
 	buf[64 + 4] |= 0x80;		/* a map flag */
 	buf[16] = 4;			/* a file flag */
 	fix_crc(buf);
@@ -702,7 +825,7 @@ test_versions(void **state)
 	assert_int_equal(pm_pmap_parse("t.pmap", buf, n + 4, &r, &err), PM_OK);
 	assert_same(&m, &r);
 	pm_pmap_free(&r);
-	/* ... which version 1.0 forbids. */
+	/* ... which version 2.0 forbids. */
 	wr16(buf + 10, 0);
 	fix_crc(buf);
 	expect_fail(buf, n, PM_ERR_FORMAT, "unknown file flags");
@@ -722,6 +845,23 @@ test_versions(void **state)
 	s.entry_size = 96;
 	n2 = spec_build(&s, b2);
 	expect_fail(b2, n2, PM_ERR_FORMAT, "a header of");
+	/* Records whose reserved bytes are set: an error in 2.0, a meaning
+	 * to ignore in a newer minor version, compressed or not. */
+	m.maps[1].photons[1].reserved[1] = 0x20;
+	for (c = 0; c < 2; c++) {
+		spec_of(&s, &m, (uint32_t)c);
+		n2 = spec_build(&s, b2);
+		expect_fail(b2, n2, PM_ERR_FORMAT, c ? "nonzero reserved bytes "
+		    "in record 1 of the caustic map (bytes 22-23 of the "
+		    "record, decompressed)" : "nonzero reserved bytes in "
+		    "record 1 of the caustic map (byte");
+		s.minor = 1;
+		n2 = spec_build(&s, b2);
+		assert_int_equal(pm_pmap_parse("t.pmap", b2, n2, &r, &err),
+		    PM_OK);
+		assert_int_equal(r.maps[1].photons[1].reserved[1], 0x20);
+		pm_pmap_free(&r);
+	}
 	pm_pmap_free(&m);
 }
 
@@ -740,8 +880,8 @@ test_truncated(void **state)
 
 	(void)state;
 	tpath(p, "cut.pmap");
-	for (i = 0; i < 3; i++) {
-		make_pmap(&m, i, 5, 3);
+	for (i = 0; i < 4; i++) {
+		make_pmap(&m, i, 5, 3, 4);
 		for (c = 0; c < 2; c++) {
 			n = write_bytes(&m, c, buf);
 			for (len = 0; len < n; len++) {
@@ -767,7 +907,7 @@ test_truncated(void **state)
 	unlink(p);
 	/* The part that is cut is named: 64 fixed bytes, 96 per map, the
 	 * 22 bytes of "tool=pm-shoot\nseed=42\n", a crc32. */
-	make_pmap(&m, 1, 5, 0);
+	make_pmap(&m, 1, 5, 0, 0);
 	n = write_bytes(&m, false, buf);
 	expect_fail(buf, 40, PM_ERR_TRUNCATED,
 	    "truncated header (byte 64, file is 40 bytes)");
@@ -778,7 +918,7 @@ test_truncated(void **state)
 	expect_fail(buf, 183, PM_ERR_TRUNCATED,
 	    "truncated header (byte 186, file is 183 bytes)");
 	expect_fail(buf, 200, PM_ERR_TRUNCATED,
-	    "truncated global map (bytes 192 to 292, file is 200 bytes)");
+	    "truncated global map (bytes 192 to 312, file is 200 bytes)");
 	pm_pmap_free(&m);
 }
 
@@ -790,13 +930,13 @@ test_bitflips(void **state)
 	static unsigned char buf[BUFCAP];
 	struct pm_pmap m, r;
 	struct pm_error err;
-	size_t n, i, hs, g0, g1, s0;
+	size_t n, i, hs, g0, g1, g2, s0;
 	char p[PATHCAP];
 	int c, b, mm;
 
 	(void)state;
 	tpath(p, "flip.pmap");
-	make_pmap(&m, 2, 5, 3);
+	make_pmap(&m, 3, 5, 3, 4);
 	for (c = 0; c < 2; c++) {
 		n = write_bytes(&m, c, buf);
 		for (i = 0; i < n; i++)
@@ -809,6 +949,7 @@ test_bitflips(void **state)
 		hs = rd32(buf + 12);
 		g0 = (size_t)(buf[64 + 40] | buf[64 + 41] << 8);
 		g1 = (size_t)(buf[160 + 40] | buf[160 + 41] << 8);
+		g2 = (size_t)(buf[256 + 40] | buf[256 + 41] << 8);
 		/* Named: a header field, the global and the caustic map. */
 		buf[33] ^= 4;
 		expect_fail(buf, n, PM_ERR_FORMAT, "header checksum mismatch");
@@ -833,6 +974,12 @@ test_bitflips(void **state)
 		expect_fail(buf, n, PM_ERR_FORMAT,
 		    "checksum mismatch in the caustic map");
 		buf[g1 + 2] ^= 0x10;
+		/* A flipped reserved record byte is damage, not a forgery. */
+		buf[n - 1] ^= 0x01;
+		expect_fail(buf, n, PM_ERR_FORMAT,
+		    "checksum mismatch in the irradiance map");
+		buf[n - 1] ^= 0x01;
+		assert_true(g2 > g1);
 		s0 = (size_t)(buf[64 + 48] | buf[64 + 49] << 8);
 		if (g0 + s0 < g1) {	/* padding before the caustic map */
 			buf[g1 - 1] = 1;
@@ -850,16 +997,17 @@ test_forged(void **state)
 {
 	static unsigned char orig[BUFCAP], buf[BUFCAP];
 	struct pm_pmap m;
-	size_t n, e0 = 64, e1 = 160;
-	uint64_t g0, g1;
+	size_t n, e0 = 64, e1 = 160, e2 = 256;
+	uint64_t g0, g1, g2;
 	uint32_t hs;
 
 	(void)state;
-	make_pmap(&m, 2, 5, 3);
+	make_pmap(&m, 3, 5, 3, 4);
 	n = write_bytes(&m, false, orig);
 	hs = rd32(orig + 12);
 	g0 = orig[e0 + 40] | (uint64_t)orig[e0 + 41] << 8;
 	g1 = orig[e1 + 40] | (uint64_t)orig[e1 + 41] << 8;
+	g2 = orig[e2 + 40] | (uint64_t)orig[e2 + 41] << 8;
 #define FORGE(stmt, code, want) do {					\
 	memcpy(buf, orig, n);						\
 	stmt;								\
@@ -877,12 +1025,22 @@ test_forged(void **state)
 	FORGE(wr64(buf + e0 + 40, g0 + 4), PM_ERR_FORMAT,
 	    "not a multiple of 64");
 	FORGE(wr64(buf + e1 + 40, g0), PM_ERR_FORMAT, "overlaps");
+	/* Three payloads: each against the next in order of offset. */
+	assert_true(g1 + 5 * 24 < g2);
+	FORGE(wr64(buf + e2 + 40, g1), PM_ERR_FORMAT,
+	    "the caustic map (bytes");
+	FORGE(wr64(buf + e2 + 40, g1), PM_ERR_FORMAT,
+	    "overlaps the irradiance map");
+	FORGE(wr64(buf + e0 + 40, g1), PM_ERR_FORMAT,
+	    "the caustic map (bytes");
+	FORGE(wr64(buf + e0 + 40, g1), PM_ERR_FORMAT,
+	    "overlaps the global map");
 	FORGE(wr64(buf + e0 + 48, 99), PM_ERR_FORMAT,
-	    "stores 99 bytes, but 5 photons take 100");
-	/* count * 20 that overflows, here to exactly 0 bytes. */
+	    "stores 99 bytes, but 5 photons take 120");
+	/* count * 24 that overflows, here to exactly 0 bytes. */
 	FORGE((wr64(buf + e0 + 16, 1ull << 62), wr64(buf + e0 + 48, 0)),
 	    PM_ERR_FORMAT, "overflows 64-bit");
-	FORGE(wr64(buf + e0 + 16, UINT64_MAX / 20 + 1), PM_ERR_FORMAT,
+	FORGE(wr64(buf + e0 + 16, UINT64_MAX / 24 + 1), PM_ERR_FORMAT,
 	    "overflows 64-bit");
 	FORGE(wr64(buf + e0 + 24, 0), PM_ERR_FORMAT, "emitted none");
 	FORGE(wr64(buf + e0 + 32, UINT64_MAX), PM_ERR_FORMAT, "wraps");
@@ -890,24 +1048,50 @@ test_forged(void **state)
 	FORGE(buf[60] = 1, PM_ERR_FORMAT, "nonzero reserved field (byte 56)");
 	FORGE(buf[e1 + 81] = 1, PM_ERR_FORMAT,
 	    "nonzero reserved field in the caustic map (byte 240)");
+	FORGE(wrf(buf + e0 + 80, 0.5f), PM_ERR_FORMAT,
+	    "nonzero reserved field in the global map (byte 144)");
+	FORGE(buf[e2 + 87] = 1, PM_ERR_FORMAT,
+	    "nonzero reserved field in the irradiance map (byte 340)");
+	FORGE(buf[e2 + 95] = 1, PM_ERR_FORMAT,
+	    "nonzero reserved field in the irradiance map (byte 348)");
+	/* Irradiance maps: no paths emitted, a radius that is a length. */
+	FORGE(wr64(buf + e2 + 24, 4), PM_ERR_FORMAT,
+	    "the irradiance map is corrupt: an irradiance map's emitted and "
+	    "first_index must be 0");
+	FORGE(wr64(buf + e2 + 32, 1), PM_ERR_FORMAT, "must be 0");
+	FORGE(wrf(buf + e2 + 80, -0.5f), PM_ERR_FORMAT,
+	    "the irradiance map's radius is not a finite number >= 0 "
+	    "(byte 336)");
+	FORGE(wrf(buf + e2 + 80, NAN), PM_ERR_FORMAT, "radius");
+	FORGE(wrf(buf + e2 + 80, INFINITY), PM_ERR_FORMAT, "radius");
+	/* Reserved record bytes, behind a valid payload checksum. */
+	FORGE((buf[g2 + 3 * 24 + 23] = 1, wr32(buf + e2 + 12,
+	    (uint32_t)crc32(0, buf + g2, 4 * 24))), PM_ERR_FORMAT,
+	    "nonzero reserved bytes in record 3 of the irradiance map");
+	FORGE((buf[g0 + 22] = 0x80, wr32(buf + e0 + 12,
+	    (uint32_t)crc32(0, buf + g0, 5 * 24))), PM_ERR_FORMAT,
+	    "nonzero reserved bytes in record 0 of the global map");
 	FORGE(buf[e0 + 4] = 2, PM_ERR_FORMAT, "unknown flags");
 	FORGE(buf[20] = 8, PM_ERR_FORMAT, "unknown effects");
 	FORGE(buf[e1] = 7, PM_ERR_FORMAT, "unknown map kind 7 (byte 160");
+	FORGE(buf[e1] = 4, PM_ERR_FORMAT, "unknown map kind 4 (byte 160");
 	FORGE(buf[e1] = 1, PM_ERR_FORMAT, "two global maps");
+	FORGE((buf[e1] = 3, memset(buf + e1 + 24, 0, 16)), PM_ERR_FORMAT,
+	    "two irradiance maps (bytes 160 and 256)");
 	FORGE(buf[e0 + 8] = 2, PM_ERR_UNSUPPORTED, "compression method 2");
 	FORGE(wrf(buf + e0 + 56, NAN), PM_ERR_FORMAT, "bounds");
 	FORGE(wrf(buf + e0 + 68, -1e30f), PM_ERR_FORMAT, "bounds");
 	/* The header's own sizes. */
-	FORGE(buf[44] = 3, PM_ERR_FORMAT, "3 maps");
+	FORGE(buf[44] = 4, PM_ERR_FORMAT, "4 maps (byte 44; at most 3");
+	FORGE(buf[44] = 2, PM_ERR_FORMAT, "a header of");
 	FORGE(buf[52]++, PM_ERR_FORMAT, "a header of");
 	FORGE(wr32(buf + 48, 95), PM_ERR_FORMAT, "map entries of 95 bytes");
 	/* The provenance text. */
 	FORGE(buf[hs - 6] = 0, PM_ERR_FORMAT, "a NUL byte");
 	FORGE(buf[hs - 5] = 'x', PM_ERR_FORMAT, "without a newline");
 	FORGE(buf[hs - 5 - 3] = 0xff, PM_ERR_FORMAT, "invalid UTF-8");
-	FORGE(memcpy(buf + e1 + 96, "=x", 2), PM_ERR_FORMAT, "empty key");
-	FORGE(memcpy(buf + e1 + 96 + 4, "~", 1), PM_ERR_FORMAT, "without '='");
-	(void)g1;
+	FORGE(memcpy(buf + e2 + 96, "=x", 2), PM_ERR_FORMAT, "empty key");
+	FORGE(memcpy(buf + e2 + 96 + 4, "~", 1), PM_ERR_FORMAT, "without '='");
 #undef FORGE
 	/* A header size below the fixed part, or past the end. */
 	memcpy(buf, orig, n);
@@ -915,6 +1099,80 @@ test_forged(void **state)
 	expect_fail(buf, n, PM_ERR_FORMAT, "header size 20");
 	wr32(buf + 12, (uint32_t)n + 1);
 	expect_fail(buf, n, PM_ERR_TRUNCATED, "truncated header");
+	pm_pmap_free(&m);
+}
+
+/* The records' reserved bytes are checked in every way of reading, and
+ * past the first block of records checked at a time; the writer refuses
+ * them before writing anything. */
+static void
+test_reserved_records(void **state)
+{
+	static unsigned char buf[BUFCAP];
+	struct pm_pmap m, r;
+	struct pm_error err;
+	char p[PATHCAP], want[128];
+	size_t n, k = 9000;
+	uint64_t g0;
+	int mm;
+
+	(void)state;
+	tpath(p, "res.pmap");
+	make_pmap(&m, 1, 10000, 0, 0);
+	n = write_bytes(&m, false, buf);
+	g0 = rd32(buf + 64 + 40);
+	buf[g0 + k * 24 + 22] = 0x01;
+	wr32(buf + 64 + 12, (uint32_t)crc32(0, buf + g0, 10000 * 24));
+	fix_crc(buf);
+	snprintf(want, sizeof(want), "nonzero reserved bytes in record %zu of "
+	    "the global map (byte %llu)", k,
+	    (unsigned long long)(g0 + k * 24 + 22));
+	expect_fail(buf, n, PM_ERR_FORMAT, want);
+	spit(p, buf, n);
+	for (mm = 0; mm < 2; mm++) {
+		assert_int_equal(pm_pmap_read(p, &r, mm, &err), PM_ERR_FORMAT);
+		if (strstr(err.msg, want) == NULL)
+			fail_msg("\"%s\" lacks \"%s\"", err.msg, want);
+	}
+	unlink(p);
+	m.maps[0].photons[k].reserved[0] = 1;
+	assert_int_equal(pm_pmap_write(p, &m, true, &err), PM_ERR_INVALID);
+	assert_non_null(strstr(err.msg, "photon 9000 of the global map has "
+	    "nonzero reserved bytes"));
+	assert_int_equal(access(p, F_OK), -1);
+	pm_pmap_free(&m);
+}
+
+/* An empty payload may share its offset with the next payload, whatever
+ * the order of their entries. */
+static void
+test_empty_payload_order(void **state)
+{
+	static unsigned char buf[BUFCAP];
+	struct pm_pmap m, r;
+	struct pm_error err;
+	uint64_t g1;
+	size_t n;
+
+	(void)state;
+	make_pmap(&m, 3, 5, 3, 0);
+	n = write_bytes(&m, false, buf);
+	g1 = rd32(buf + 160 + 40);
+	/* The empty irradiance map, last in the table, where the caustic
+	 * map starts; the file then ends with the caustic map. */
+	wr64(buf + 256 + 40, g1);
+	fix_crc(buf);
+	assert_true(g1 + 3 * 24 < n);
+	if (pm_pmap_parse("t.pmap", buf, (size_t)g1 + 3 * 24, &r, &err) !=
+	    PM_OK)
+		fail_msg("%s", err.msg);
+	assert_same(&m, &r);
+	pm_pmap_free(&r);
+	/* Inside it, it is an overlap. */
+	wr64(buf + 256 + 40, g1 + 64);
+	fix_crc(buf);
+	expect_fail(buf, (size_t)g1 + 3 * 24, PM_ERR_FORMAT,
+	    "the caustic map (bytes");
 	pm_pmap_free(&m);
 }
 
@@ -930,7 +1188,7 @@ test_forged_zlib(void **state)
 	int i;
 
 	(void)state;
-	make_pmap(&m, 1, 5, 0);
+	make_pmap(&m, 1, 5, 0, 0);
 	n = write_bytes(&m, true, orig);
 	g0 = orig[e0 + 40] | (uint64_t)orig[e0 + 41] << 8;
 	s0 = orig[e0 + 48] | (uint64_t)orig[e0 + 49] << 8;
@@ -939,7 +1197,7 @@ test_forged_zlib(void **state)
 	memcpy(buf, orig, n);
 	wr64(buf + e0 + 16, 6);
 	fix_crc(buf);
-	expect_fail(buf, n, PM_ERR_FORMAT, "inflates to 100 bytes, not 6");
+	expect_fail(buf, n, PM_ERR_FORMAT, "inflates to 120 bytes, not 6");
 	wr64(buf + e0 + 16, 4);
 	fix_crc(buf);
 	expect_fail(buf, n, PM_ERR_FORMAT, "more than 4 photons");
@@ -1014,7 +1272,7 @@ test_pipes(void **state)
 	(void)state;
 	tpath(fifo, "fifo");
 	/* 400 kB: more than a pipe holds, so reads come in pieces. */
-	make_pmap(&m, 2, 20000, 1500);
+	make_pmap(&m, 3, 20000, 1500, 700);
 	assert_int_equal(mkfifo(fifo, 0600), 0);
 	for (c = 0; c < 2; c++) {
 		n = write_bytes(&m, c, buf);
@@ -1030,7 +1288,7 @@ test_pipes(void **state)
 		assert_int_equal(pm_pmap_read(fifo, &r, false, &err),
 		    PM_ERR_TRUNCATED);
 		reap(pid);
-		assert_non_null(strstr(err.msg, "truncated caustic map"));
+		assert_non_null(strstr(err.msg, "truncated irradiance map"));
 		assert_non_null(strstr(err.msg, "bytes)"));
 
 		/* Standard input. */
@@ -1062,7 +1320,7 @@ test_stdout(void **state)
 
 	(void)state;
 	tpath(p, "out.pmap");
-	make_pmap(&m, 2, 300, 20);
+	make_pmap(&m, 3, 300, 20, 30);
 	fflush(stdout);
 	saved = dup(STDOUT_FILENO);
 	fd = open(p, O_WRONLY | O_CREAT | O_TRUNC, 0644);
@@ -1115,7 +1373,7 @@ test_write_errors(void **state)
 	(void)state;
 	tpath(p, "keep.pmap");
 	tpath(dir, "adir");
-	make_pmap(&m, 2, 10, 5);
+	make_pmap(&m, 3, 10, 5, 4);
 	assert_int_equal(pm_pmap_write(tpath(q, "no/such/dir.pmap"), &m, false,
 	    &err), PM_ERR_IO);
 	/* A failed rename leaves no temporary file behind. */
@@ -1144,9 +1402,29 @@ test_write_errors(void **state)
 	m.maps[0].emitted = 0;
 	assert_int_equal(pm_pmap_write(p, &m, false, &err), PM_ERR_INVALID);
 	m.maps[0].emitted = 1;
-	m.nmaps = 3;
+	m.nmaps = 4;
 	assert_int_equal(pm_pmap_write(p, &m, false, &err), PM_ERR_INVALID);
-	m.nmaps = 2;
+	m.nmaps = 3;
+	/* Irradiance maps emit nothing and have a radius; others have none. */
+	m.maps[2].emitted = 100;
+	assert_int_equal(pm_pmap_write(p, &m, false, &err), PM_ERR_INVALID);
+	assert_non_null(strstr(err.msg, "the irradiance map: an irradiance "
+	    "map's emitted and first_index must be 0"));
+	m.maps[2].emitted = 0;
+	m.maps[2].radius = -1.0f;
+	assert_int_equal(pm_pmap_write(p, &m, false, &err), PM_ERR_INVALID);
+	m.maps[2].radius = NAN;
+	assert_int_equal(pm_pmap_write(p, &m, false, &err), PM_ERR_INVALID);
+	m.maps[2].radius = 0.0f;
+	m.maps[1].radius = 0.5f;
+	assert_int_equal(pm_pmap_write(p, &m, false, &err), PM_ERR_INVALID);
+	assert_non_null(strstr(err.msg, "the caustic map has radius 0.5"));
+	m.maps[1].radius = 0.0f;
+	m.maps[2].kind = PM_MAP_CAUSTIC;
+	assert_int_equal(pm_pmap_write(p, &m, false, &err), PM_ERR_INVALID);
+	m.maps[2].kind = (enum pm_map_kind)4;
+	assert_int_equal(pm_pmap_write(p, &m, false, &err), PM_ERR_INVALID);
+	m.maps[2].kind = PM_MAP_IRRADIANCE;
 	m.info[0] = '=';
 	assert_int_equal(pm_pmap_write(p, &m, false, &err), PM_ERR_INVALID);
 	m.info[0] = 't';
@@ -1163,7 +1441,7 @@ test_write_errors(void **state)
 
 /*
  * 64-bit sizes and offsets, on sparse files: a map of 300 million
- * photons (6 GB) and one placed beyond 4 GiB, in files one byte short,
+ * photons (7.2 GB) and one placed beyond 4 GiB, in files one byte short,
  * which must be reported with exact 64-bit byte numbers before anything
  * is read or allocated.
  */
@@ -1182,16 +1460,16 @@ test_large_offsets(void **state)
 
 	(void)state;
 	tpath(p, "big.pmap");
-	make_pmap(&m, 2, 1, 1);
+	make_pmap(&m, 2, 1, 1, 0);
 	n = write_bytes(&m, false, buf);
 	assert_int_equal(rd32(buf + 12) <= off0, 1);
-	off1 = (off0 + count * 20 + 63) / 64 * 64;
-	end = off1 + 20;
+	off1 = (off0 + count * 24 + 63) / 64 * 64;
+	end = off1 + 24;
 	assert_true(off1 > (1ull << 32));
 	wr64(buf + 64 + 16, count);
 	wr64(buf + 64 + 24, count);
 	wr64(buf + 64 + 40, off0);
-	wr64(buf + 64 + 48, count * 20);
+	wr64(buf + 64 + 48, count * 24);
 	wr64(buf + 160 + 40, off1);
 	fix_crc(buf);
 	for (mm = 0; mm < 2; mm++) {
@@ -1211,7 +1489,7 @@ test_large_offsets(void **state)
 		if (strstr(err.msg, want) == NULL)
 			fail_msg("\"%s\" lacks \"%s\"", err.msg, want);
 	}
-	/* The global map cut one byte short of its 6 GB. */
+	/* The global map cut one byte short of its 7.2 GB. */
 	wr32(buf + 44, 1);
 	memmove(buf + 160, buf + 256, n - 256);
 	wr32(buf + 12, rd32(buf + 12) - 96);
@@ -1219,11 +1497,11 @@ test_large_offsets(void **state)
 	fd = open(p, O_WRONLY | O_CREAT | O_TRUNC, 0600);
 	assert_true(fd >= 0);
 	assert_true(write(fd, buf, 384) == 384);
-	assert_int_equal(ftruncate(fd, (off_t)(off0 + count * 20 - 1)), 0);
+	assert_int_equal(ftruncate(fd, (off_t)(off0 + count * 24 - 1)), 0);
 	close(fd);
 	assert_int_equal(pm_pmap_read(p, &r, true, &err), PM_ERR_TRUNCATED);
-	assert_non_null(strstr(err.msg, "(bytes 384 to 6000000384, file is "
-	    "6000000383 bytes)"));
+	assert_non_null(strstr(err.msg, "(bytes 384 to 7200000384, file is "
+	    "7200000383 bytes)"));
 	unlink(p);
 	pm_pmap_free(&m);
 }
@@ -1251,6 +1529,7 @@ main(void)
 		cmocka_unit_test(test_mmap_private),
 		cmocka_unit_test(test_spec_bytes),
 		cmocka_unit_test(test_golden),
+		cmocka_unit_test(test_v1_refused),
 		cmocka_unit_test(test_info),
 		cmocka_unit_test(test_find),
 		cmocka_unit_test(test_magic),
@@ -1258,7 +1537,9 @@ main(void)
 		cmocka_unit_test(test_truncated),
 		cmocka_unit_test(test_bitflips),
 		cmocka_unit_test(test_forged),
+		cmocka_unit_test(test_empty_payload_order),
 		cmocka_unit_test(test_forged_zlib),
+		cmocka_unit_test(test_reserved_records),
 		cmocka_unit_test(test_pipes),
 		cmocka_unit_test(test_stdout),
 		cmocka_unit_test(test_write_errors),
