@@ -8,7 +8,10 @@ fail=0
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 SHOOT=${BIN:-bin}/pm-shoot
-BAL=${BIN:-bin}/pm-balance
+# Maps of photons only, unless a check asks for irradiance records: the
+# checks of merging and dumping count photons.
+BAL="${BIN:-bin}/pm-balance --irradiance-stride 0"
+BALI=${BIN:-bin}/pm-balance
 INS=${BIN:-bin}/pm-inspect
 scene=data/cornell-box.xml
 scene2=data/point-lights.xml
@@ -317,6 +320,28 @@ if add_irradiance "$tmp/whole.pmap" "$tmp/irr.pmap" 0.0625; then
 else
 	check "the map with an irradiance map was made" false
 fi
+
+# --- The irradiance records pm-balance makes by default ---
+check "pm-balance makes irradiance records by default" status 0 $BALI -v -o "$tmp/rec.pmap" "$tmp/all.pmap"
+ng=$(key "$tmp/whole.pmap" global.photons)
+check "...one per 4 global photons" test "$(key "$tmp/rec.pmap" irradiance.records)" -eq $((ng / 4))
+check "...saying so with -v" grep -q "irradiance map: $((ng / 4)) records, one per 4 global photons" "$tmp/err"
+check "...in kd-tree order, with a radius" sh -c "$INS --verify $tmp/rec.pmap >$tmp/o3 && grep -q '^irradiance.kdtree	ok\$' $tmp/o3 && awk -F'\t' '\$1 == \"irradiance.radius\" && \$2 > 0 { ok = 1 } END { exit !ok }' $tmp/o3"
+check "...of positive mean irradiance" sh -c "awk -F'\t' '\$1 == \"irradiance.mean_irradiance\" && \$2 > 0 { ok = 1 } END { exit !ok }' $tmp/o3"
+check "...and the same global map as without them" sh -c "$INS $tmp/whole.pmap | grep '^global\.' >$tmp/g1 && $INS $tmp/rec.pmap | grep '^global\.' >$tmp/g2 && cmp -s $tmp/g1 $tmp/g2"
+check "balancing it again gives the same records" sh -c "$BALI -q -o $tmp/rec2.pmap $tmp/rec.pmap && $INS --map irradiance $tmp/rec.pmap | grep -v -e '^file' -e '^info' >$tmp/r1 && $INS --map irradiance $tmp/rec2.pmap | grep -v -e '^file' -e '^info' >$tmp/r2 && cmp -s $tmp/r1 $tmp/r2"
+same_records() { # 1 and 2 threads: the same map contents, records included
+	$BALI -q -t 1 -o "$tmp/rt1.pmap" "$tmp/all.pmap" &&
+	    $BALI -q -t 2 -o "$tmp/rt2.pmap" "$tmp/all.pmap" &&
+	    same_content "$tmp/rt1.pmap" "$tmp/rt2.pmap" &&
+	    grep -q '^irradiance.records_crc32' "$tmp/c1"
+}
+check "1 and 2 threads give the same records" same_records
+check "--irradiance-stride 8 makes half as many" sh -c "$BALI -q --irradiance-stride 8 -o $tmp/r8.pmap $tmp/all.pmap && test \$($INS $tmp/r8.pmap | awk -F'\t' '\$1 == \"irradiance.records\" { print \$2 }') -eq $((ng / 8))"
+r1=$(key "$tmp/rec.pmap" irradiance.radius)
+check "--pass 9 computes them over a smaller fixed radius" sh -c "$BALI -q --pass 9 -o $tmp/p9.pmap $tmp/all.pmap && $BALI -q --pass 1 -o $tmp/p1.pmap $tmp/all.pmap && awk -v a=\$($INS $tmp/p1.pmap | awk -F'\t' '\$1 == \"irradiance.radius\" { print \$2 }') -v b=\$($INS $tmp/p9.pmap | awk -F'\t' '\$1 == \"irradiance.radius\" { print \$2 }') -v c=$r1 'BEGIN { exit !(b < a && a == c) }'"
+check "--irradiance-stride x is a usage error" status 2 $BALI --irradiance-stride x -o "$tmp/x.pmap" "$tmp/all.pmap"
+check "pm-render uses the records" status 0 ${BIN:-bin}/pm-render -q --spp 1 --size 8x8 -o "$tmp/rec.exr" "$scene" "$tmp/rec.pmap"
 
 echo "photon cli: $((n - fail)) passed, $fail failed"
 [ "$fail" -eq 0 ]

@@ -278,6 +278,8 @@ fixed_radius_sum(size_t n)
 	memset(&one, 0, sizeof(one));
 	pm_rgbe_pack(pm_rgb1(1.0f), 0.5f, one.power);
 	pm_dir_pack(pm_v3(0, 0, 1), one.dir);
+	/* On the floor, lit from above: the normal estimates compare with. */
+	pm_dir_pack(pm_v3(0, 0, 1), one.normal);
 	one.flags = PM_KD_LEAF | PM_PHOTON_VIA_DIFFUSE;
 	/* Coincident photons are a valid kd-tree in any order. */
 	p = malloc(n * sizeof(*p));

@@ -1,0 +1,343 @@
+/*
+ * test_irradiance.c: precomputed irradiance records, their grid, and the
+ * final-gathering render built on them (irradiance.h, icache.h).
+ *
+ *  - every record's irradiance equals a brute-force estimate: all photons
+ *    sorted by distance, the k nearest (or all within the fixed radius),
+ *    the compatible ones' power over pi r^2; on a corner, where half the
+ *    neighbours face the other way and must not count;
+ *  - records are the same bytes for 1 and 3 threads;
+ *  - the grid lookup returns a compatible record, the exact one at a
+ *    record's own position, and nothing for a normal no record has;
+ *  - a closed diffuse sphere that emits Le inside and reflects rho renders
+ *    Le / (1 - rho) through photons, records, the irradiance cache and
+ *    final gathering (a white furnace has one answer everywhere).
+ */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "../../common/irradiance.h"
+#include "../../common/kdtree.h"
+#include "../../common/render.h"
+#include "../../common/rng.h"
+#include "../../common/shoot.h"
+
+/* n photons on the corner of the floor z = 0 and the wall x = 0 (unit
+ * squares), normals up and along +x, powers random. */
+static struct pm_photon *
+corner_set(size_t n, uint64_t seed)
+{
+	struct pm_photon *p = calloc(n, sizeof(*p));
+	struct pm_rng rng = pm_rng_seed(seed, 0, 0);
+	size_t i;
+
+	assert_non_null(p);
+	for (i = 0; i < n; i++) {
+		float a = pm_rng_float(&rng), b = pm_rng_float(&rng);
+		bool wall = pm_rng_float(&rng) < 0.5f;
+
+		p[i].pos[0] = wall ? 0.0f : a;
+		p[i].pos[1] = b;
+		p[i].pos[2] = wall ? a : 0.0f;
+		pm_dir_pack(wall ? pm_v3(1, 0, 0) : pm_v3(0, 0, 1), p[i].normal);
+		pm_dir_pack(pm_normalize(pm_v3(0.3f, 0.2f, 1)), p[i].dir);
+		pm_rgbe_pack(pm_rgb(pm_rng_float(&rng), 0.5f,
+		    2.0f * pm_rng_float(&rng)), 0.5f, p[i].power);
+		p[i].flags = PM_KD_LEAF;
+	}
+	return p;
+}
+
+struct by_d2 {
+	float d2;
+	size_t i;
+};
+
+static int
+cmp_d2(const void *a, const void *b)
+{
+	const struct by_d2 *x = a, *y = b;
+
+	if (x->d2 != y->d2)
+		return x->d2 < y->d2 ? -1 : 1;
+	return x->i < y->i ? -1 : x->i > y->i;
+}
+
+/* The brute-force estimate irradiance.h promises. */
+static struct pm_rgb
+brute(const struct pm_photon *p, size_t n, float scale, struct pm_vec3 q,
+    struct pm_vec3 nrm, const struct pm_irradiance_opts *o, struct by_d2 *tmp)
+{
+	double s[3] = {0, 0, 0}, r2;
+	size_t i, m = 0, k = (size_t)o->k;
+
+	for (i = 0; i < n; i++) {
+		float dx = p[i].pos[0] - q.x, dy = p[i].pos[1] - q.y,
+		    dz = p[i].pos[2] - q.z;
+		float d2 = dx * dx + dy * dy + dz * dz;
+
+		if (d2 <= o->max_r2) {
+			tmp[m].d2 = d2;
+			tmp[m].i = i;
+			m++;
+		}
+	}
+	qsort(tmp, m, sizeof(*tmp), cmp_d2);
+	if (!o->fixed_radius && m > k)
+		m = k;
+	for (i = 0; i < m; i++) {
+		const struct pm_photon *x = &p[tmp[i].i];
+		struct pm_rgb c;
+
+		if (pm_dot(pm_dir_unpack(x->normal), nrm) <= PM_IRR_COS)
+			continue;
+		c = pm_rgbe_unpack(x->power);
+		s[0] += c.r;
+		s[1] += c.g;
+		s[2] += c.b;
+	}
+	r2 = o->fixed_radius || m < k ? o->max_r2 : tmp[k - 1].d2;
+	return pm_rgb((float)(s[0] * scale / (M_PI * r2)),
+	    (float)(s[1] * scale / (M_PI * r2)), (float)(s[2] * scale / (M_PI * r2)));
+}
+
+static void
+check_records(bool fixed)
+{
+	const size_t n = 6000;
+	struct pm_photon *p = corner_set(n, 5), *r1, *r3;
+	struct by_d2 *tmp = malloc(n * sizeof(*tmp));
+	struct pm_irradiance_opts o = {7, 40, 0.01f, fixed, 1};
+	struct pm_error err;
+	size_t n1, n3, i, near_wall = 0;
+	float scale = 1.0f / 1000.0f;
+
+	assert_non_null(tmp);
+	assert_int_equal(pm_kdtree_build(p, n, 2, &err), PM_OK);
+	assert_int_equal(pm_irradiance_records(p, n, scale, &o, &r1, &n1, &err),
+	    PM_OK);
+	o.threads = 3;
+	assert_int_equal(pm_irradiance_records(p, n, scale, &o, &r3, &n3, &err),
+	    PM_OK);
+	assert_int_equal(n1, n / 7);
+	assert_int_equal(n3, n1);
+	assert_memory_equal(r1, r3, n1 * sizeof(*r1));
+	for (i = 0; i < n1; i++) {
+		struct pm_vec3 q = pm_photon_pos(&r1[i]);
+		struct pm_vec3 nrm = pm_dir_unpack(r1[i].normal);
+		struct pm_rgb want = brute(p, n, scale, q, nrm, &o, tmp);
+		struct pm_rgb got = pm_rgbe_unpack(r1[i].power);
+		float m = pm_rgb_max(want);
+
+		/* A record sits on one of the photons, keeps its normal and
+		 * stores E in RGBE: within one step of the largest channel. */
+		assert_memory_equal(r1[i].normal, p[i * 7 + 3].normal, 2);
+		assert_true(fabsf(got.r - want.r) <= m / 100.0f);
+		assert_true(fabsf(got.g - want.g) <= m / 100.0f);
+		assert_true(fabsf(got.b - want.b) <= m / 100.0f);
+		if (q.x < 0.05f && q.z < 0.05f)
+			near_wall++;
+	}
+	assert_true(near_wall > 0);
+	free(r1);
+	free(r3);
+	free(tmp);
+	free(p);
+}
+
+static void
+test_records_knn(void **state)
+{
+	(void)state;
+	check_records(false);
+}
+
+static void
+test_records_fixed_radius(void **state)
+{
+	(void)state;
+	check_records(true);
+}
+
+static void
+test_grid_lookup(void **state)
+{
+	const size_t n = 3000;
+	struct pm_photon *p = corner_set(n, 9);
+	struct pm_irr_grid g;
+	struct pm_error err;
+	struct pm_rng rng = pm_rng_seed(4, 4, 4);
+	size_t i;
+	int found = 0;
+
+	(void)state;
+	assert_int_equal(pm_kdtree_build(p, n, 1, &err), PM_OK);
+	assert_int_equal(pm_irr_grid_build(&g, p, n, &err), PM_OK);
+	/* At a record's own position, that record. */
+	for (i = 0; i < n; i += 37) {
+		struct pm_rgb E, want = pm_rgbe_unpack(p[i].power);
+
+		assert_true(pm_irradiance_lookup(&g, pm_photon_pos(&p[i]),
+		    pm_dir_unpack(p[i].normal), &E));
+		/* Coincident records are possible only by chance; then
+		 * another's E is as good an answer. */
+		if (E.r == want.r && E.g == want.g && E.b == want.b)
+			found++;
+	}
+	assert_true(found >= (int)(n / 37) - 1);
+	/* Anywhere near the corner, a record facing the right way. */
+	for (i = 0; i < 2000; i++) {
+		struct pm_vec3 q = pm_v3(pm_rng_float(&rng), pm_rng_float(&rng), 0);
+		struct pm_rgb E = pm_rgb1(-1.0f);
+
+		assert_true(pm_irradiance_lookup(&g, q, pm_v3(0, 0, 1), &E));
+		assert_true(E.r >= 0.0f);
+		/* Nothing faces down. */
+		assert_false(pm_irradiance_lookup(&g, q, pm_v3(0, 0, -1), &E));
+	}
+	pm_irr_grid_free(&g);
+	free(p);
+}
+
+/* Inside a sphere of radius 10 that emits Le inward and reflects rho. */
+static void
+test_furnace_final_gather(void **state)
+{
+	const float rho = 0.5f;
+	const struct pm_rgb Le = pm_rgb(1.0f, 2.0f, 0.5f);
+	struct pm_scene s;
+	struct pm_accel *accel;
+	struct pm_lights lights;
+	struct pm_shooter sh;
+	struct pm_shoot_opts so;
+	struct pm_shoot_stats st;
+	struct pm_photon_buf buf = {NULL, 0, 0};
+	struct pm_photon *rec;
+	struct pm_irradiance_opts io = {4, 64, 4.0f, false, 2};
+	struct pm_irr_grid grid;
+	struct pm_photon_maps maps;
+	struct pm_render_ctx ctx;
+	struct pm_render_opts ro;
+	struct pm_render_stats rs;
+	struct pm_image im;
+	struct pm_error err;
+	double mean[3] = {0, 0, 0};
+	size_t nrec, i, npix;
+	int b, shp, l, c;
+
+	(void)state;
+	pm_scene_init(&s);
+	b = pm_scene_add_bsdf(&s);
+	s.bsdfs[b].type = PM_BSDF_DIFFUSE;
+	s.bsdfs[b].diffuse = pm_rgb1(rho);
+	shp = pm_scene_add_shape(&s);
+	s.shapes[shp].type = PM_SHAPE_SPHERE;
+	s.shapes[shp].center = pm_v3(0, 0, 0);
+	s.shapes[shp].radius = 10.0f;
+	s.shapes[shp].flip_normals = true;
+	s.shapes[shp].bsdf = b;
+	l = pm_scene_add_light(&s);
+	s.lights[l].type = PM_LIGHT_AREA;
+	s.lights[l].radiance = Le;
+	s.lights[l].shape = shp;
+	s.shapes[shp].light = l;
+	s.integrator.max_depth = -1;
+	s.has_camera = true;
+	s.camera.to_world = pm_mat4_lookat(pm_v3(0, 0, 5), pm_v3(0, 0, 0),
+	    pm_v3(0, 1, 0));
+	s.camera.fov = 40.0f;
+	s.camera.fov_axis = PM_FOV_X;
+	s.camera.near_clip = 0.01f;
+	s.camera.far_clip = 1000.0f;
+	s.camera.width = 24;
+	s.camera.height = 24;
+	s.camera.spp = 4;
+	s.camera.rfilter = PM_RFILTER_BOX;
+	assert_int_equal(pm_scene_prepare(&s, &err), PM_OK);
+	assert_int_equal(pm_accel_build(&s, &accel, &err), PM_OK);
+	assert_int_equal(pm_lights_init(&lights, &s, pm_v3(0, 0, 0), 10.0f, &err),
+	    PM_OK);
+	assert_int_equal(pm_shooter_init(&sh, &s, accel, &lights, &err), PM_OK);
+	memset(&so, 0, sizeof(so));
+	so.pass = PM_PASS_GLOBAL;
+	so.seed = 3;
+	so.count = 100000;
+	so.max_depth = -1;
+	so.threads = 2;
+	assert_int_equal(pm_shoot(&sh, &so, &buf, &st, &err), PM_OK);
+	assert_int_equal(pm_kdtree_build(buf.p, buf.n, 2, &err), PM_OK);
+	assert_int_equal(pm_irradiance_records(buf.p, buf.n, 1.0f / 100000.0f,
+	    &io, &rec, &nrec, &err), PM_OK);
+	assert_int_equal(pm_kdtree_build(rec, nrec, 2, &err), PM_OK);
+	assert_int_equal(pm_irr_grid_build(&grid, rec, nrec, &err), PM_OK);
+
+	memset(&maps, 0, sizeof(maps));
+	maps.global = buf.p;
+	maps.nglobal = buf.n;
+	maps.global_scale = 1.0f / 100000.0f;
+	maps.global_r2 = 4.0f;
+	maps.caustic_r2 = 0.25f;
+	maps.lookup_size = 64;
+	maps.direct_samples = 1;
+	maps.final_gather = true;
+	maps.final_gather_samples = 4;
+	maps.irradiance = rec;
+	maps.nirradiance = nrec;
+	maps.irradiance_grid = &grid;
+	maps.icache_step = 4;
+	maps.icache_rays = 64;
+	maps.icache_a = 0.3f;
+	memset(&ctx, 0, sizeof(ctx));
+	ctx.scene = &s;
+	ctx.accel = accel;
+	ctx.lights = &lights;
+	ctx.max_depth = -1;
+	ctx.rr_depth = 5;
+	ctx.maps = &maps;
+	ctx.scene_radius = 10.0f;
+	memset(&ro, 0, sizeof(ro));
+	ro.method = PM_METHOD_PHOTON;
+	ro.spp = s.camera.spp;
+	ro.seed = 1;
+	ro.threads = 2;
+	assert_int_equal(pm_render(&ctx, &s.camera, &ro, &im, &rs, &err), PM_OK);
+	assert_int_equal(rs.dropped, 0);
+	npix = (size_t)im.width * (size_t)im.height;
+	for (i = 0; i < npix; i++)
+		for (c = 0; c < 3; c++)
+			mean[c] += im.rgb[3 * i + c] / (double)npix;
+	print_message("furnace through final gathering: %.4f %.4f %.4f, want "
+	    "%.4f %.4f %.4f\n", mean[0], mean[1], mean[2], Le.r / (1 - rho),
+	    Le.g / (1 - rho), Le.b / (1 - rho));
+	assert_true(fabs(mean[0] / (Le.r / (1 - rho)) - 1.0) < 0.02);
+	assert_true(fabs(mean[1] / (Le.g / (1 - rho)) - 1.0) < 0.02);
+	assert_true(fabs(mean[2] / (Le.b / (1 - rho)) - 1.0) < 0.02);
+	pm_image_free(&im);
+	pm_irr_grid_free(&grid);
+	free(rec);
+	pm_photon_buf_free(&buf);
+	pm_shooter_free(&sh);
+	pm_lights_free(&lights);
+	pm_accel_free(accel);
+	pm_scene_free(&s);
+}
+
+int
+main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_records_knn),
+		cmocka_unit_test(test_records_fixed_radius),
+		cmocka_unit_test(test_grid_lookup),
+		cmocka_unit_test(test_furnace_final_gather),
+	};
+
+	return cmocka_run_group_tests(tests, NULL, NULL);
+}
