@@ -5,12 +5,13 @@
 #   make -j2 progressive               passes in parallel
 #   make progressive PROG_PASSES=64    more passes; the first ones are kept
 #
-#   pass i:  pm-shoot --seed i | pm-balance  --> pass-00i.pmap (deleted after)
+#   pass i:  pm-shoot --seed i | pm-balance --pass i --> pass-00i.pmap (deleted after)
 #            pm-render --pass i --seed i     --> pass-00i.exr
 #   mean i:  pm-downsample pass-001..00i.exr --> mean-00i.exr
 #
-# Every pass has its own photons and its own render seed, and renders with
-# fixed radii that shrink along Knaus and Zwicker's schedule (pm-render(1),
+# Every pass has its own photons and its own render seed, and estimates
+# with fixed radii that shrink along Knaus and Zwicker's schedule (the
+# irradiance records in pm-balance(1), the caustics in pm-render(1), both
 # --pass), so the mean of the passes converges to the right image.  The
 # running mean is written after each pass (mean-NNN.exr, and the latest as
 # $(PROG_DIR).png): stop make at any point and keep the image of the passes
@@ -23,7 +24,7 @@ PROG_CAUSTIC ?= 200000
 PROG_SPP     ?= 4
 PROG_SIZE    ?= 256x256
 PROG_ALPHA   ?= 0.6666667
-PROG_RENDER  ?= --direct-samples 4
+PROG_RENDER  ?=
 PROG_NAME    := $(basename $(notdir $(PROG_SCENE)))
 PROG_DIR     := out/progressive/$(PROG_NAME)
 PROG_IDS     := $(shell i=1; while [ $$i -le $(PROG_PASSES) ]; do \
@@ -41,7 +42,7 @@ $(PROG_DIR)/pass-%.pmap: $(PROG_SCENE) bin/pm-shoot bin/pm-balance
 	@mkdir -p $(PROG_DIR)
 	bin/pm-shoot -q -f --seed $$(expr $* + 0) --photons $(PROG_PHOTONS) \
 		--caustic-photons $(PROG_CAUSTIC) -o $@.shot $(PROG_SCENE)
-	bin/pm-balance -q -f -o $@ $@.shot
+	bin/pm-balance -q -f --pass $$(expr $* + 0) --alpha $(PROG_ALPHA) -o $@ $@.shot
 	@rm -f $@.shot
 
 $(PROG_DIR)/pass-%.exr: $(PROG_DIR)/pass-%.pmap bin/pm-render
