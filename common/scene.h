@@ -89,8 +89,9 @@ enum pm_integrator_type {
  * photon tools use them, the path tracer ignores them.
  */
 struct pm_photon_params {
-	long global_photons;		/* globalPhotons, 250000 */
-	long caustic_photons;		/* causticPhotons, 250000 */
+	long global_photons;		/* globalPhotons, 100000 (Mitsuba 0.6:
+				 * 250000): photon paths emitted */
+	long caustic_photons;		/* causticPhotons, 100000 (250000) */
 	float global_lookup_radius;	/* globalLookupRadius, 0.05: a fraction */
 	float caustic_lookup_radius;	/* causticLookupRadius, 0.0125: of the
 					 * scene's bounding-sphere radius */
@@ -99,7 +100,7 @@ struct pm_photon_params {
 	int glossy_samples;		/* glossySamples, 32 */
 	int granularity;		/* granularity, 0: automatic */
 	bool final_gather;		/* finalGather, true (Mitsuba 0.6: false) */
-	int final_gather_samples;	/* finalGatherSamples, 4 (Mitsuba 0.6: 64):
+	int final_gather_samples;	/* finalGatherSamples, 1 (Mitsuba 0.6: 64):
 				 * per camera sample where the cache
 				 * does not serve */
 };

@@ -37,6 +37,8 @@ static const char usage_line[] =
     "                 [--half] [--global-radius R] [--caustic-radius R]\n"
     "                 [--lookup-size K] [--direct-samples N] [--final-gather]\n"
     "                 [--no-final-gather] [--final-gather-samples N]\n"
+    "                 [--cache-step PIXELS] [--cache-rays N]\n"
+    "                 [--cache-accuracy A]\n"
     "                 [--pass I] [--radius R] [--alpha A]\n"
     "                 -o OUT.exr SCENE.xml [MAP.pmap]\n";
 

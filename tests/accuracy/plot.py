@@ -26,8 +26,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 METHODS = [
-    ("pm", "pm, one photon map", "tab:blue", "o"),
-    ("pm-final-gather", "pm, final gathering", "tab:green", "s"),
+    ("pm-recommended", "pm, documented defaults (spp swept)", "tab:green",
+     "s"),
+    ("pm", "pm, one knob moved", "tab:blue", "o"),
+    ("pm-global-map", "pm, global map shown directly (v1)", "tab:gray", "v"),
     ("pm-progressive", "pm, progressive passes", "tab:orange", "^"),
     ("mitsuba-path", "Mitsuba 3 path tracer", "tab:red", "D"),
 ]

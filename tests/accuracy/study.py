@@ -41,25 +41,48 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(
 BIN = os.path.join(ROOT, "bin")
 RES = 128
 
-# The base setting of each scene and the sweeps around it.  The caustic
-# map is shot only where a scene has specular surfaces (pm-shoot decides),
-# so for the Cornell box its count changes nothing.
-BASE = {"global": 200000, "caustic": 200000, "k": 120, "gr": None,
-        "cr": None, "fg": 0, "spp": 4, "direct": 4}
+# The documented pipeline (README, pm-render(1)): pm-shoot, pm-balance and
+# pm-render with their defaults, only the samples per pixel chosen; this
+# is the line the headline compares with Mitsuba.  The other sweeps move
+# one knob at a time from it (at 16 spp) to show what each costs and buys.
+# A config: photon paths per map (0: pm-shoot's default), spp, and extra
+# pm-render and pm-balance arguments.  The caustic map is shot only where
+# a scene has specular surfaces (pm-shoot decides).
+DEFAULT_PHOTONS = 100000      # pm-shoot's default, each map (pm-scene(5))
+BASE = {"global": DEFAULT_PHOTONS, "caustic": DEFAULT_PHOTONS, "spp": 16,
+        "render": [], "balance": []}
+RECOMMENDED_SPP = [1, 4, 16, 64, 256]
 SWEEPS = [
-    # (name, knob, values, overrides): photon counts at 16 spp, where the
-    # render's own noise is small, show the bias falling with photons.
-    ("photons", "photons", [25000, 50000, 100000, 200000, 400000, 800000,
-                            1600000], {"spp": 16}),
-    ("photons-4spp", "photons", [50000, 200000, 800000], {}),
-    ("lookup", "k", [30, 60, 240, 480], {"global": 400000,
-                                           "caustic": 400000}),
-    ("radius", "radius", [0.5, 2.0], {"global": 400000, "caustic": 400000}),
-    ("final-gather", "fg", [4, 16, 48], {}),
-    ("spp", "spp", [1, 16, 64], {"global": 400000, "caustic": 400000}),
+    # (name, method, [(label, overrides)]): photon counts show the bias
+    # of the records and caustics falling with photons.
+    ("photons", "pm", [("photons=%dk" % (v // 1000),
+                        {"global": v, "caustic": v})
+                       for v in (25000, 400000, 1600000)] +
+                       [("photons=100k", {})]),
+    ("cache", "pm", [("cache-step 2", {"render": ["--cache-step", "2"]}),
+                     ("cache-step 8", {"render": ["--cache-step", "8"]}),
+                     ("cache-rays 64", {"render": ["--cache-rays", "64"]}),
+                     ("cache-rays 1024", {"render": ["--cache-rays",
+                                                     "1024"]}),
+                     ("cache-accuracy 0.15", {"render": [
+                         "--cache-accuracy", "0.15"]}),
+                     ("cache-accuracy 0.6", {"render": [
+                         "--cache-accuracy", "0.6"]})]),
+    ("no-cache", "pm", [("gather per sample, 4 rays",
+                         {"render": ["--cache-step", "0"]})]),
+    ("direct", "pm", [("direct-samples 4", {"render": ["--direct-samples",
+                                                       "4"], "spp": 4})]),
+    # Version 1's default: the global map's photons shown directly at
+    # camera hits (the blotches this version removes), for comparison.
+    ("global-map", "pm-global-map", [
+        ("spp=%d" % v, {"spp": v, "render": ["--no-final-gather",
+                                              "--lookup-size", "120"],
+                        "balance": ["--irradiance-stride", "0"]})
+        for v in (4, 16, 64)]),
 ]
-PROG_PASSES = 32
-PROG = {"global": 100000, "caustic": 100000, "spp": 2, "direct": 2}
+PROG_PASSES = 16
+PROG = {"global": DEFAULT_PHOTONS, "caustic": DEFAULT_PHOTONS, "spp": 4,
+        "render": [], "balance": []}
 MI_SPP = [4, 16, 64, 256, 1024, 2048]
 QUICK_MI_SPP = [4, 16]
 
@@ -140,6 +163,7 @@ class Study:
         self.results = []
         self.quick = args.quick
         self.mi_seed = args.mitsuba_seed
+        self.skip = set(x for x in args.skip.split(",") if x)
 
     def cached(self, key):
         p = os.path.join(self.runs, key + ".json")
@@ -159,30 +183,27 @@ class Study:
             rec["relmse"], "  FLIP %.4f" % rec["flip"] if "flip" in rec
             else ""), flush=True)
 
-    def pm_map(self, scene, seed, nglobal, ncaustic, tag):
+    def pm_map(self, scene, seed, nglobal, ncaustic, tag, balance=()):
         """Shoots and balances one map; returns (path, shoot s, balance s)."""
         shot = os.path.join(self.tmp, tag + "-shot.pmap")
         bal = os.path.join(self.tmp, tag + ".pmap")
+        counts = []
+        if nglobal:
+            counts += ["--photons", str(nglobal)]
+        if ncaustic:
+            counts += ["--caustic-photons", str(ncaustic)]
         t_shoot = sh([os.path.join(BIN, "pm-shoot"), "-q", "-f", "--seed",
-                      str(seed), "--photons", str(nglobal),
-                      "--caustic-photons", str(ncaustic), "-D",
-                      "res=%d" % RES, "-o", shot, scene])
-        t_bal = sh([os.path.join(BIN, "pm-balance"), "-q", "-f", "-o", bal,
-                    shot])
+                      str(seed)] + counts + ["-D", "res=%d" % RES, "-o",
+                                             shot, scene])
+        t_bal = sh([os.path.join(BIN, "pm-balance"), "-q", "-f"] +
+                   list(balance) + ["-o", bal, shot])
         os.remove(shot)
         return bal, t_shoot, t_bal
 
     def pm_render(self, scene, pmap, c, out, seed=0, extra=()):
         cmd = [os.path.join(BIN, "pm-render"), "-q", "--seed", str(seed),
                "--spp", str(c["spp"]), "--size", "%dx%d" % (RES, RES),
-               "-D", "res=%d" % RES, "--direct-samples", str(c["direct"]),
-               "--lookup-size", str(c["k"])]
-        if c.get("gr"):
-            cmd += ["--global-radius", str(c["gr"])]
-        if c.get("cr"):
-            cmd += ["--caustic-radius", str(c["cr"])]
-        if c.get("fg"):
-            cmd += ["--final-gather", "--final-gather-samples", str(c["fg"])]
+               "-D", "res=%d" % RES] + list(c["render"])
         cmd += list(extra) + ["-o", out, scene, pmap]
         return sh(cmd)
 
@@ -198,7 +219,7 @@ class Study:
             return
         tag = name
         pmap, t_shoot, t_bal = self.pm_map(scene, 1, c["global"],
-                                           c["caustic"], tag)
+                                           c["caustic"], tag, c["balance"])
         raw = os.path.join(self.tmp, tag + "-raw.exr")
         final = os.path.join(self.tmp, tag + ".exr")
         t_render = self.pm_render(scene, pmap, c, raw)
@@ -231,8 +252,9 @@ class Study:
                   "downsample_s": 0.0}
         for i in range(1, passes + 1):
             tag = "%s-pass%03d" % (name, i)
-            pmap, t_shoot, t_bal = self.pm_map(scene, i, c["global"],
-                                               c["caustic"], tag)
+            pmap, t_shoot, t_bal = self.pm_map(
+                scene, i, c["global"], c["caustic"], tag,
+                list(c["balance"]) + ["--pass", str(i)])
             raw = os.path.join(self.tmp, tag + ".exr")
             t_render = self.pm_render(scene, pmap, c, raw, seed=i,
                                       extra=("--pass", str(i)))
@@ -302,25 +324,16 @@ class Study:
         print("study: %s: reference noise floor relMSE %.2g" % (
             name, self.img.floor), flush=True)
         shash = file_hash([scene])
-        base = dict(BASE)
-        self.run_pm(name, scene, shash, "base", "base", base, "pm")
-        for sweep, knob, values, over in SWEEPS:
-            if self.quick and sweep not in ("photons-4spp",):
+        for spp in ([4, 16] if self.quick else RECOMMENDED_SPP):
+            c = dict(BASE, spp=spp)
+            self.run_pm(name, scene, shash, "recommended", "spp=%d" % spp, c,
+                        "pm-recommended")
+        for sweep, method, runs in SWEEPS:
+            if self.quick or sweep in self.skip:
                 continue
-            for v in values:
-                c = dict(base)
+            for label, over in runs:
+                c = dict(BASE)
                 c.update(over)
-                if knob == "photons":
-                    c["global"] = c["caustic"] = v
-                    label = "photons=%dk" % (v // 1000)
-                elif knob == "radius":
-                    c["gr"] = 0.05 * v
-                    c["cr"] = 0.0125 * v
-                    label = "radius x%g" % v
-                else:
-                    c[knob] = v
-                    label = "%s=%d" % (knob, v)
-                method = "pm-final-gather" if c.get("fg") else "pm"
                 self.run_pm(name, scene, shash, sweep, label, c, method)
         self.run_progressive(name, scene, shash)
         self.run_mitsuba(name, scene)
@@ -343,7 +356,10 @@ class Study:
 
 def main(argv):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--scenes", default="cornell-box,caustics,bunny-glass")
+    p.add_argument("--scenes",
+                   default="cornell-box,caustics,bunny-glass,bunny")
+    p.add_argument("--skip", default="",
+                   help="sweeps to leave out, comma-separated")
     p.add_argument("--out", default=os.path.join(ROOT, "out", "accuracy"))
     p.add_argument("--mitsuba-seed", type=int, default=7,
                    help="seed of Mitsuba's runs; another one renders them "
