@@ -58,7 +58,11 @@ pm_irradiance_estimate(const struct pm_photon *g, size_t n, float scale,
 		found = pm_kdtree_knn(g, n, q, k, o->max_r2, 0, 0, nb);
 		if (found == 0)
 			return pm_rgb1(0.0f);
-		for (i = 0; i < found; i++) {
+		/* With k found, the k-th (nb[0], the farthest) lies on the
+		 * disc's edge and sets its radius: counting it too would
+		 * overestimate a uniform density by k / (k - 1).  The other
+		 * k - 1 are the unbiased estimate. */
+		for (i = found == k && k > 1 ? 1 : 0; i < found; i++) {
 			struct pm_rgb c;
 
 			if (!compatible(&g[nb[i].idx], nrm))

@@ -3,9 +3,10 @@
  * final-gathering render built on them (irradiance.h, icache.h).
  *
  *  - every record's irradiance equals a brute-force estimate: all photons
- *    sorted by distance, the k nearest (or all within the fixed radius),
- *    the compatible ones' power over pi r^2; on a corner, where half the
- *    neighbours face the other way and must not count;
+ *    sorted by distance, the k - 1 nearest inside the k-th's disc (or all
+ *    within the fixed radius), the compatible ones' power over pi r^2; on
+ *    a corner, where half the neighbours face the other way and must not
+ *    count;
  *  - records are the same bytes for 1 and 3 threads;
  *  - the grid lookup returns a compatible record, the exact one at a
  *    record's own position, and nothing for a normal no record has;
@@ -92,7 +93,8 @@ brute(const struct pm_photon *p, size_t n, float scale, struct pm_vec3 q,
 	qsort(tmp, m, sizeof(*tmp), cmp_d2);
 	if (!o->fixed_radius && m > k)
 		m = k;
-	for (i = 0; i < m; i++) {
+	/* k found: the k-th sets the radius and is left out of the sum. */
+	for (i = 0; i < (!o->fixed_radius && m == k ? k - 1 : m); i++) {
 		const struct pm_photon *x = &p[tmp[i].i];
 		struct pm_rgb c;
 
