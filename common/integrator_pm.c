@@ -72,12 +72,13 @@ side_normal(const struct pm_hit *h, struct pm_vec3 d)
 static inline bool
 photon_term(const struct pm_photon *x, const struct pm_bsdf *b,
     struct pm_frame fr, struct pm_vec3 wi_local, struct pm_vec3 nrm,
-    struct pm_rgb *out)
+    int max_depth, struct pm_rgb *out)
 {
 	struct pm_vec3 wo;
 	struct pm_rgb f;
 
-	if (pm_dot(pm_dir_unpack(x->normal), nrm) <= PM_IRR_COS)
+	if (x->depth > max_depth ||
+	    pm_dot(pm_dir_unpack(x->normal), nrm) <= PM_IRR_COS)
 		return false;
 	wo = pm_to_local(fr, pm_dir_unpack(x->dir));
 	if (fabsf(wo.z) < 1e-4f)
@@ -101,7 +102,7 @@ pm_photon_cacheable(const struct pm_bsdf *b)
 static struct pm_rgb
 estimate_fixed(const struct pm_photon *ph, size_t n, float scale, float r2,
     uint8_t mask, uint8_t want, bool cone, const struct pm_bsdf *b,
-    struct pm_vec3 p, struct pm_vec3 nrm, struct pm_frame fr,
+    struct pm_vec3 p, struct pm_vec3 nrm, int max_depth, struct pm_frame fr,
     struct pm_vec3 wi_local)
 {
 	struct pm_kd_range it;
@@ -117,7 +118,7 @@ estimate_fixed(const struct pm_photon *ph, size_t n, float scale, float r2,
 	r = sqrtf(r2);
 	pm_kdtree_range_init(&it, ph, n, q, r2, mask, want);
 	while (pm_kdtree_range_next(&it, &idx, &d2)) {
-		if (!photon_term(&ph[idx], b, fr, wi_local, nrm, &t))
+		if (!photon_term(&ph[idx], b, fr, wi_local, nrm, max_depth, &t))
 			continue;
 		w = cone ? 1.0f - sqrtf(d2) / (CONE_K * r) : 1.0f;
 		sum[0] += (double)t.r * w;
@@ -131,11 +132,11 @@ estimate_fixed(const struct pm_photon *ph, size_t n, float scale, float r2,
 }
 
 /* Radiance towards wi_local from photons near p on a surface of normal
- * nrm (see the top of the file). */
+ * nrm (see the top of the file), of at most max_depth bounces. */
 static struct pm_rgb
 estimate(const struct pm_photon *ph, size_t n, float scale, float max_r2, int k,
     bool fixed, uint8_t mask, uint8_t want, bool cone, const struct pm_bsdf *b,
-    struct pm_vec3 p, struct pm_vec3 nrm, struct pm_frame fr,
+    struct pm_vec3 p, struct pm_vec3 nrm, int max_depth, struct pm_frame fr,
     struct pm_vec3 wi_local)
 {
 	struct pm_knn nb[PM_MAX_LOOKUP];
@@ -147,7 +148,7 @@ estimate(const struct pm_photon *ph, size_t n, float scale, float max_r2, int k,
 		return sum;
 	if (fixed)
 		return estimate_fixed(ph, n, scale, max_r2, mask, want, cone, b, p,
-		    nrm, fr, wi_local);
+		    nrm, max_depth, fr, wi_local);
 	found = pm_kdtree_knn(ph, n, q, (size_t)k, max_r2, mask, want, nb);
 	if (found == 0)
 		return sum;
@@ -156,7 +157,8 @@ estimate(const struct pm_photon *ph, size_t n, float scale, float max_r2, int k,
 		return sum;
 	r = sqrtf(r2);
 	for (i = 0; i < found; i++) {
-		if (!photon_term(&ph[nb[i].idx], b, fr, wi_local, nrm, &t))
+		if (!photon_term(&ph[nb[i].idx], b, fr, wi_local, nrm, max_depth,
+		    &t))
 			continue;
 		w = cone ? 1.0f - sqrtf(nb[i].d2) / (CONE_K * r) : 1.0f;
 		sum = pm_rgb_add(sum, pm_rgb_scale(t, w));
@@ -252,7 +254,7 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 		if (has_nonspecular(b) && m->irradiance_grid == NULL)
 			return pm_rgb_mul(beta, estimate(m->global, m->nglobal,
 			    m->global_scale, m->global_r2, m->lookup_size, m->fixed_radius,
-			    0, 0, false, b, h.p, nrm, fr, wi));
+			    0, 0, false, b, h.p, nrm, m->gather_max_depth, fr, wi));
 		u1 = pm_rng_float(rng);
 		u2 = pm_rng_float(rng);
 		u3 = pm_rng_float(rng);
@@ -266,7 +268,8 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 				/* No record near: estimate here (rare: small or
 				 * thin features between records). */
 				struct pm_irradiance_opts io = {1, m->lookup_size,
-				    m->global_r2, m->fixed_radius, 1};
+				    m->global_r2, m->fixed_radius,
+				    m->gather_max_depth, 1};
 
 				E = pm_irradiance_estimate(m->global, m->nglobal,
 				    m->global_scale, h.p, nrm, &io);
@@ -381,19 +384,28 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			    m->direct_samples, false, rng);
 
 			struct pm_vec3 nrm = side_normal(&h, pa.d);
+			/* Photons of d bounces close paths of depth + d + 1
+			 * segments here; max_depth counts segments. */
+			int dcap = ctx->max_depth < 0 ? 255 :
+			    ctx->max_depth - depth - 1;
 
 			E = pm_rgb_add(E, estimate(m->caustic, m->ncaustic,
 			    m->caustic_scale, m->caustic_r2, m->lookup_size,
 			    m->fixed_radius, 0, 0, true,
-			    b, h.p, nrm, fr, wi));
-			if (m->final_gather)
+			    b, h.p, nrm, dcap, fr, wi));
+			/* A gather ray adds a segment and its surface's
+			 * photons at least one more. */
+			if (m->final_gather && ctx->max_depth >= 0 &&
+			    depth + 2 > ctx->max_depth)
+				;
+			else if (m->final_gather)
 				E = pm_rgb_add(E, indirect(ctx, b, &h, fr, wi, nrm,
 				    depth, fx, fy, rng));
 			else
 				E = pm_rgb_add(E, estimate(m->global, m->nglobal,
 				    m->global_scale, m->global_r2, m->lookup_size,
 				    m->fixed_radius, PM_PHOTON_VIA_DIFFUSE, PM_PHOTON_VIA_DIFFUSE, false,
-				    b, h.p, nrm, fr, wi));
+				    b, h.p, nrm, dcap, fr, wi));
 			L = pm_rgb_madd(L, pa.beta, E);
 			if (!(b->lobes & PM_LOBE_DELTA))
 				break;

@@ -19,9 +19,10 @@
 #define IRR_MAX_THREADS	256
 
 static inline bool
-compatible(const struct pm_photon *x, struct pm_vec3 nrm)
+compatible(const struct pm_photon *x, struct pm_vec3 nrm, int max_depth)
 {
-	return pm_dot(pm_dir_unpack(x->normal), nrm) > PM_IRR_COS;
+	return (max_depth < 0 || x->depth <= max_depth) &&
+	    pm_dot(pm_dir_unpack(x->normal), nrm) > PM_IRR_COS;
 }
 
 struct pm_rgb
@@ -42,7 +43,7 @@ pm_irradiance_estimate(const struct pm_photon *g, size_t n, float scale,
 		while (pm_kdtree_range_next(&it, &idx, &d2)) {
 			struct pm_rgb c;
 
-			if (!compatible(&g[idx], nrm))
+			if (!compatible(&g[idx], nrm, o->max_depth))
 				continue;
 			c = pm_rgbe_unpack(g[idx].power);
 			sum[0] += c.r;
@@ -65,7 +66,7 @@ pm_irradiance_estimate(const struct pm_photon *g, size_t n, float scale,
 		for (i = found == k && k > 1 ? 1 : 0; i < found; i++) {
 			struct pm_rgb c;
 
-			if (!compatible(&g[nb[i].idx], nrm))
+			if (!compatible(&g[nb[i].idx], nrm, o->max_depth))
 				continue;
 			c = pm_rgbe_unpack(g[nb[i].idx].power);
 			sum[0] += c.r;

@@ -38,6 +38,8 @@ struct pm_irradiance_opts {
 				 * fixed radius */
 	bool fixed_radius;	/* every photon within max_r2 counts (the
 				 * progressive passes); k unused */
+	int max_depth;		/* photons of more bounces do not count
+				 * (the scene's max_depth); -1: all do */
 	int threads;
 };
 
@@ -46,7 +48,8 @@ struct pm_irradiance_opts {
  * the balanced global map g[0..n) whose photons carry scale times their
  * power (scale = 1 / paths emitted): the sum of compatible photons' power
  * over pi r^2, r the distance to the k-th nearest photon of any normal
- * (or max_r2 when fewer are found), or the fixed radius.
+ * (or max_r2 when fewer are found), or the fixed radius.  Photons of
+ * depth above o->max_depth (when it is not negative) count nothing.
  */
 struct pm_rgb pm_irradiance_estimate(const struct pm_photon *g, size_t n,
     float scale, struct pm_vec3 p, struct pm_vec3 nrm,

@@ -36,6 +36,9 @@ struct pm_photon_maps {
 	size_t nirradiance;
 	float irradiance_r2;
 	const struct pm_irr_grid *irradiance_grid;
+	/* Photons a gather ray may count without records: those of at most
+	 * this many bounces (max_depth - 3), or -1 for all. */
+	int gather_max_depth;
 	int lookup_size;		/* k nearest photons per estimate */
 	int direct_samples;		/* light samples per non-specular hit */
 	bool final_gather;

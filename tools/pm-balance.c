@@ -604,6 +604,10 @@ add_irradiance(struct pm_pmap *m, size_t stride, int k, float radius,
 
 		o.max_r2 = (float)(o.max_r2 * f * f);
 	}
+	/* pm-shoot caps photons at max_depth - 2 bounces for a scene's
+	 * max_depth (0: none); a record feeds a gather ray, one segment
+	 * more, so it counts one bounce fewer. */
+	o.max_depth = m->max_depth > 0 ? (int)m->max_depth - 1 : -1;
 	o.threads = threads;
 	r = &m->maps[m->nmaps];
 	memset(r, 0, sizeof(*r));

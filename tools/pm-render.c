@@ -213,6 +213,26 @@ load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
 		    "this scene", (unsigned long long)want);
 		return 0;
 	}
+	{
+		/* pm-shoot caps photons at max_depth - 2 bounces (0: none)
+		 * for a scene's max_depth; records made under another cap
+		 * cannot be corrected here. */
+		int md = scene->integrator.max_depth;
+		uint32_t want_cap = md < 0 ? 0 : (uint32_t)(md > 2 ? md - 2 : 0);
+
+		if (pm->max_depth != want_cap && verbose) {
+			char have[32] = "no limit", want[32] = "no limit";
+
+			if (pm->max_depth)
+				snprintf(have, sizeof(have), "%u", pm->max_depth);
+			if (want_cap)
+				snprintf(want, sizeof(want), "%u", want_cap);
+			fprintf(stderr, PROG ": %s: warning: photon bounces: %s in the "
+			    "map, %s for the scene's max_depth %d; light paths of "
+			    "the wrong length will show: shoot them again\n", path,
+			    have, want, md);
+		}
+	}
 	memset(maps, 0, sizeof(*maps));
 	for (i = 0; i < pm->nmaps; i++) {
 		const struct pm_map *m = &pm->maps[i];
@@ -630,6 +650,7 @@ main(int argc, char **argv)
 	ctx.hide_emitters = scene.integrator.hide_emitters;
 	ctx.scene_radius = radius;
 	ctx.icache = NULL;
+	maps.gather_max_depth = ctx.max_depth < 0 ? -1 : ctx.max_depth - 3;
 	if (map_path != NULL) {
 		if (cache_step >= 0)
 			maps.icache_step = (int)cache_step;

@@ -233,8 +233,12 @@ main(int argc, char **argv)
 		nglobal = scene.integrator.photon.global_photons;
 	if (ncaustic < 0)
 		ncaustic = scene.integrator.photon.caustic_photons;
+	/* The scene's max_depth counts path segments, camera to light; a
+	 * photon of d bounces seen from a camera's first hit makes d + 2. */
 	if (max_depth == -2)
-		max_depth = -1;
+		max_depth = scene.integrator.max_depth < 0 ? -1 :
+		    (scene.integrator.max_depth > 2 ?
+		    scene.integrator.max_depth - 2 : 0);
 	pm_shoot_effects(&scene, &fx);
 	if (pm_accel_build(&scene, &accel, &err) != PM_OK) {
 		fprintf(stderr, PROG ": %s: %s\n", scene_path, err.msg);

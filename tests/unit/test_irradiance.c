@@ -52,6 +52,7 @@ corner_set(size_t n, uint64_t seed)
 		pm_rgbe_pack(pm_rgb(pm_rng_float(&rng), 0.5f,
 		    2.0f * pm_rng_float(&rng)), 0.5f, p[i].power);
 		p[i].flags = PM_KD_LEAF;
+		p[i].depth = (uint8_t)(pm_rng_u32(&rng) % 4);
 	}
 	return p;
 }
@@ -98,7 +99,8 @@ brute(const struct pm_photon *p, size_t n, float scale, struct pm_vec3 q,
 		const struct pm_photon *x = &p[tmp[i].i];
 		struct pm_rgb c;
 
-		if (pm_dot(pm_dir_unpack(x->normal), nrm) <= PM_IRR_COS)
+		if (pm_dot(pm_dir_unpack(x->normal), nrm) <= PM_IRR_COS ||
+		    (o->max_depth >= 0 && x->depth > o->max_depth))
 			continue;
 		c = pm_rgbe_unpack(x->power);
 		s[0] += c.r;
@@ -116,7 +118,9 @@ check_records(bool fixed)
 	const size_t n = 6000;
 	struct pm_photon *p = corner_set(n, 5), *r1, *r3;
 	struct by_d2 *tmp = malloc(n * sizeof(*tmp));
-	struct pm_irradiance_opts o = {7, 40, 0.01f, fixed, 1};
+	/* The fixed-radius check also leaves out photons of more than one
+	 * bounce, as a scene's max_depth asks. */
+	struct pm_irradiance_opts o = {7, 40, 0.01f, fixed, fixed ? 1 : -1, 1};
 	struct pm_error err;
 	size_t n1, n3, i, near_wall = 0;
 	float scale = 1.0f / 1000.0f;
@@ -222,7 +226,7 @@ test_furnace_final_gather(void **state)
 	struct pm_shoot_stats st;
 	struct pm_photon_buf buf = {NULL, 0, 0};
 	struct pm_photon *rec;
-	struct pm_irradiance_opts io = {4, 64, 4.0f, false, 2};
+	struct pm_irradiance_opts io = {4, 64, 4.0f, false, -1, 2};
 	struct pm_irr_grid grid;
 	struct pm_photon_maps maps;
 	struct pm_render_ctx ctx;
