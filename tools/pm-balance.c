@@ -97,12 +97,12 @@ help(void)
 	    "      --compress        zlib-compress the photon records\n"
 	    "  -f, --force           overwrite an existing output\n"
 	    "  -h, --help            print this help and exit\n"
-	    "      --irradiance-k k  photons per irradiance record (default 64)\n"
+	    "      --irradiance-k k  photons per irradiance record (default 32)\n"
 	    "      --irradiance-radius r  largest record radius, as a fraction\n"
 	    "                        of the global map's half-diagonal (default"
 	    " 0.05)\n"
 	    "      --irradiance-stride n  one irradiance record per n global\n"
-	    "                        photons (default 4; 0: none)\n"
+	    "                        photons (default 8; 0: none)\n"
 	    "  -o, --output file     the merged map; - is standard output\n"
 	    "      --pass i          progressive pass i: records over a fixed\n"
 	    "                        radius shrinking with i\n"
@@ -645,7 +645,7 @@ main(int argc, char *argv[])
 	char *cmd = NULL;
 	bool force = false, compress = false;
 	long threads = sysconf(_SC_NPROCESSORS_ONLN);
-	long irr_stride = 4, irr_k = 64, pass = 0;
+	long irr_stride = 8, irr_k = 32, pass = 0;
 	float irr_radius = 0.05f, alpha = 2.0f / 3.0f;
 	int ch, i, j, k, n = 0, nstdin = 0, status = 1;
 	int orig_argc = argc;

@@ -324,8 +324,8 @@ fi
 # --- The irradiance records pm-balance makes by default ---
 check "pm-balance makes irradiance records by default" status 0 $BALI -v -o "$tmp/rec.pmap" "$tmp/all.pmap"
 ng=$(key "$tmp/whole.pmap" global.photons)
-check "...one per 4 global photons" test "$(key "$tmp/rec.pmap" irradiance.records)" -eq $((ng / 4))
-check "...saying so with -v" grep -q "irradiance map: $((ng / 4)) records, one per 4 global photons" "$tmp/err"
+check "...one per 8 global photons" test "$(key "$tmp/rec.pmap" irradiance.records)" -eq $((ng / 8))
+check "...saying so with -v" grep -q "irradiance map: $((ng / 8)) records, one per 8 global photons" "$tmp/err"
 check "...in kd-tree order, with a radius" sh -c "$INS --verify $tmp/rec.pmap >$tmp/o3 && grep -q '^irradiance.kdtree	ok\$' $tmp/o3 && awk -F'\t' '\$1 == \"irradiance.radius\" && \$2 > 0 { ok = 1 } END { exit !ok }' $tmp/o3"
 check "...of positive mean irradiance" sh -c "awk -F'\t' '\$1 == \"irradiance.mean_irradiance\" && \$2 > 0 { ok = 1 } END { exit !ok }' $tmp/o3"
 check "...and the same global map as without them" sh -c "$INS $tmp/whole.pmap | grep '^global\.' >$tmp/g1 && $INS $tmp/rec.pmap | grep '^global\.' >$tmp/g2 && cmp -s $tmp/g1 $tmp/g2"
@@ -337,7 +337,7 @@ same_records() { # 1 and 2 threads: the same map contents, records included
 	    grep -q '^irradiance.records_crc32' "$tmp/c1"
 }
 check "1 and 2 threads give the same records" same_records
-check "--irradiance-stride 8 makes half as many" sh -c "$BALI -q --irradiance-stride 8 -o $tmp/r8.pmap $tmp/all.pmap && test \$($INS $tmp/r8.pmap | awk -F'\t' '\$1 == \"irradiance.records\" { print \$2 }') -eq $((ng / 8))"
+check "--irradiance-stride 16 makes half as many" sh -c "$BALI -q --irradiance-stride 16 -o $tmp/r16.pmap $tmp/all.pmap && test \$($INS $tmp/r16.pmap | awk -F'\t' '\$1 == \"irradiance.records\" { print \$2 }') -eq $((ng / 16))"
 r1=$(key "$tmp/rec.pmap" irradiance.radius)
 check "--pass 9 computes them over a smaller fixed radius" sh -c "$BALI -q --pass 9 -o $tmp/p9.pmap $tmp/all.pmap && $BALI -q --pass 1 -o $tmp/p1.pmap $tmp/all.pmap && awk -v a=\$($INS $tmp/p1.pmap | awk -F'\t' '\$1 == \"irradiance.radius\" { print \$2 }') -v b=\$($INS $tmp/p9.pmap | awk -F'\t' '\$1 == \"irradiance.radius\" { print \$2 }') -v c=$r1 'BEGIN { exit !(b < a && a == c) }'"
 check "--irradiance-stride x is a usage error" status 2 $BALI --irradiance-stride x -o "$tmp/x.pmap" "$tmp/all.pmap"
