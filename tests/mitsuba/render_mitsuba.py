@@ -218,8 +218,28 @@ def render(args, defines, variant, out):
     if args.integrator is not None:
         kw["integrator"] = mi.load_dict({"type": args.integrator,
                                          "max_depth": -1})
-    img = mi.render(scene, **kw)
-    arr = np.array(img, dtype=np.float32)
+    # Dr.Jit holds a wavefront of pixels x spp; past about 2^27 samples
+    # that outgrows a small machine's memory, so long references are
+    # rendered in passes of independent seeds and averaged.
+    npix = 1
+    for v in scene.sensors()[0].film().crop_size():
+        npix *= int(v)
+    spp = args.spp if args.spp is not None else \
+        scene.sensors()[0].sampler().sample_count()
+    per = max(1, min(spp, (1 << 27) // max(npix, 1)))
+    if spp <= per:
+        arr = np.array(mi.render(scene, **kw), dtype=np.float64)
+    else:
+        arr, done, i = None, 0, 0
+        while done < spp:
+            n = min(per, spp - done)
+            kw2 = dict(kw, spp=n, seed=args.seed * 100003 + i)
+            part = np.array(mi.render(scene, **kw2), dtype=np.float64) * n
+            arr = part if arr is None else arr + part
+            done += n
+            i += 1
+        arr = arr / spp
+    arr = arr.astype(np.float32)
     seconds = time.time() - t0
     if arr.ndim != 3 or arr.shape[2] < 3:
         sys.exit("render_mitsuba: expected an RGB film, got shape %s"
