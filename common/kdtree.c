@@ -389,19 +389,19 @@ heap_push(struct pm_knn *h, size_t cnt, float d2, uint32_t idx)
 	h[i].idx = idx;
 }
 
-/* Replaces the top of the max-heap h[0..cnt) with (d2, idx). */
+/*
+ * Replaces the top of the max-heap h[0..cnt) with (d2, idx).  The choice
+ * of the larger child is arithmetic rather than a branch: it is a coin
+ * toss to the branch predictor, and replacements are most of a query.
+ */
 static inline void
 heap_replace(struct pm_knn *h, size_t cnt, float d2, uint32_t idx)
 {
-	size_t i = 0;
+	size_t i = 0, c;
 
-	for (;;) {
-		size_t c = 2 * i + 1;
-
-		if (c >= cnt)
-			break;
-		if (c + 1 < cnt && h[c + 1].d2 > h[c].d2)
-			c++;
+	while ((c = 2 * i + 1) < cnt) {
+		if (c + 1 < cnt)
+			c += h[c + 1].d2 > h[c].d2;
 		if (!(h[c].d2 > d2))
 			break;
 		h[i] = h[c];
@@ -430,9 +430,9 @@ struct kd_iframe {
 
 /* The k-nearest search state, kept in registers by inlining. */
 struct knn_state {
-	struct pm_knn *out;
+	struct pm_knn *out;	/* the max-heap */
 	size_t k, cnt;
-	float lim;
+	float lim;		/* only d2 <= lim can still be a neighbour */
 };
 
 static inline void
@@ -448,25 +448,63 @@ knn_offer(struct knn_state *s, float d2, uint32_t idx)
 	}
 }
 
-/* The k nearest photons to q within max_d2 passing the flag filter. */
-size_t
-pm_kdtree_knn(const struct pm_photon *p, size_t n, const float q[3],
-    size_t k, float max_d2, uint8_t mask, uint8_t want, struct pm_knn *out)
+#if defined(__GNUC__) || defined(__clang__)
+#define kd_prefetch_line(a)	__builtin_prefetch(a)
+#else
+#define kd_prefetch_line(a)	((void)(a))
+#endif
+
+/*
+ * Offers the bucket [lo, hi) in two passes: distances and the filter
+ * first, into a list of the photons that pass the current bound, without
+ * a branch per photon (most fail, and a branch on each would be
+ * mispredicted about as often as not, and would stall the loads behind
+ * it); then the offers, which re-check the bound as it tightens.
+ */
+static inline void
+knn_scan(struct knn_state *s, const struct pm_photon *p, uint32_t lo,
+    uint32_t hi, const float q[3], uint8_t mask, uint8_t want)
+{
+	float dd[KD_BUCKET];
+	uint32_t ci[KD_BUCKET];
+	uint32_t i, c = 0, nb = hi - lo;
+	float lim = s->lim;
+
+	for (i = 0; i < nb; i++) {
+		const struct pm_photon *ph = &p[lo + i];
+		float d2 = kd_dist2(ph->pos, q);
+
+		dd[i] = d2;
+		ci[c] = i;
+		c += (d2 <= lim) & ((ph->flags & mask) == want);
+	}
+	for (i = 0; i < c; i++) {
+		float d2 = dd[ci[i]];
+
+		if (d2 <= s->lim)
+			knn_offer(s, d2, lo + ci[i]);
+	}
+}
+
+/*
+ * The k-nearest walk: descend to the bucket of q, deferring far children
+ * with their cell distances, then resume from the nearest deferred child
+ * whose cell is still within the bound.  Returns how many were found.
+ */
+static inline size_t
+knn_walk(const struct pm_photon *p, uint32_t n, const float q[3], size_t k,
+    float max_d2, uint8_t mask, uint8_t want, struct pm_knn *out)
 {
 	struct kd_iframe st[KD_STACK];
 	struct knn_state s;
 	size_t sp = 0;
-	uint32_t lo, hi, i;
+	uint32_t lo = 0, hi = n;
 	float off[3] = { 0.0f, 0.0f, 0.0f };
 
-	if (n == 0 || k == 0 || (uint64_t)n > UINT32_MAX || !(max_d2 >= 0.0f))
-		return 0;
 	s.out = out;
 	s.k = k;
 	s.cnt = 0;
 	s.lim = max_d2;
-	lo = 0;
-	hi = (uint32_t)n;
 	for (;;) {
 		while (hi - lo > KD_BUCKET) {
 			uint32_t m = lo + (hi - lo) / 2;
@@ -474,6 +512,25 @@ pm_kdtree_knn(const struct pm_photon *p, size_t n, const float q[3],
 			int ax = ph->flags & PM_KD_AXIS_MASK;
 			float d2 = kd_dist2(ph->pos, q), diff, dd, o[3];
 
+			/*
+			 * Ask the memory for what comes next: the roots of
+			 * both children, or every line of both when they are
+			 * buckets.  On a tree larger than the caches a query
+			 * waits on memory one node after the other; this
+			 * fetches the next while the node itself is decided,
+			 * and the far child is often visited later.  (Written
+			 * here: GCC drops a function made of prefetches.)
+			 */
+			if (m - lo > KD_BUCKET) {
+				kd_prefetch_line(&p[lo + (m - lo) / 2]);
+				kd_prefetch_line(&p[m + 1 + (hi - m - 1) / 2]);
+			} else {
+				const char *x = (const char *)&p[lo];
+				const char *e = (const char *)&p[hi];
+
+				for (; x < e; x += 64)
+					kd_prefetch_line(x);
+			}
 			if (d2 <= s.lim && (ph->flags & mask) == want)
 				knn_offer(&s, d2, m);
 			/* A leaf mark here means a corrupt tree: stay in
@@ -499,12 +556,7 @@ pm_kdtree_knn(const struct pm_photon *p, size_t n, const float q[3],
 			else
 				lo = m + 1;
 		}
-		for (i = lo; i < hi; i++) {
-			float d2 = kd_dist2(p[i].pos, q);
-
-			if (d2 <= s.lim && (p[i].flags & mask) == want)
-				knn_offer(&s, d2, i);
-		}
+		knn_scan(&s, p, lo, hi, q, mask, want);
 		for (;;) {
 			if (sp == 0)
 				return s.cnt;
@@ -518,6 +570,16 @@ pm_kdtree_knn(const struct pm_photon *p, size_t n, const float q[3],
 		off[1] = st[sp].off[1];
 		off[2] = st[sp].off[2];
 	}
+}
+
+/* The k nearest photons to q within max_d2 passing the flag filter. */
+size_t
+pm_kdtree_knn(const struct pm_photon *p, size_t n, const float q[3],
+    size_t k, float max_d2, uint8_t mask, uint8_t want, struct pm_knn *out)
+{
+	if (n == 0 || k == 0 || (uint64_t)n > UINT32_MAX || !(max_d2 >= 0.0f))
+		return 0;
+	return knn_walk(p, (uint32_t)n, q, k, max_d2, mask, want, out);
 }
 
 static inline int
