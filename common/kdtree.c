@@ -692,6 +692,11 @@ _Static_assert(sizeof(((struct pm_kd_range *)0)->st) /
     sizeof(((struct pm_kd_range *)0)->st[0]) == KD_STACK,
     "struct pm_kd_range's stack must hold KD_STACK subtrees");
 
+/* A descent of the range walk finds at most one match per level (the
+ * tree is at most 33 deep) and then a bucket. */
+_Static_assert(33 + KD_BUCKET <= PM_KD_RANGE_BUF,
+    "struct pm_kd_range's buffer must hold one descent's matches");
+
 /* Starts a radius query that yields photons one at a time. */
 void
 pm_kdtree_range_init(struct pm_kd_range *r, const struct pm_photon *p,
@@ -704,78 +709,85 @@ pm_kdtree_range_init(struct pm_kd_range *r, const struct pm_photon *p,
 	r->max_d2 = max_d2;
 	r->mask = mask;
 	r->want = want;
-	r->lo = 0;
-	/* An empty range for trees a query cannot index, as pm_kdtree_radius. */
-	r->hi = n == 0 || (uint64_t)n > UINT32_MAX || !(max_d2 >= 0.0f) ?
-	    0 : (uint32_t)n;
-	r->leaf = r->leaf_end = 0;
-	r->sp = 0;
+	r->nbuf = r->ibuf = 0;
+	/* Nothing to walk in trees a query cannot index, as
+	 * pm_kdtree_radius. */
+	r->sp = n == 0 || (uint64_t)n > UINT32_MAX || !(max_d2 >= 0.0f) ?
+	    0 : 1;
+	r->st[0][0] = 0;
+	r->st[0][1] = (uint32_t)n;
 }
 
 /*
- * The traversal of pm_kdtree_radius, turned inside out: the same descent
- * and the same pruning, but each match is returned as soon as it is found
- * and the walk resumes from the saved state on the next call.
+ * The traversal of pm_kdtree_radius, in steps: each step takes a deferred
+ * subtree, descends it to a bucket and collects the matches of the way
+ * down into the caller's struct, without a branch per photon (most
+ * photons of a bucket fail the test, unpredictably); the calls then hand
+ * them out one at a time.
  */
 bool
 pm_kdtree_range_next(struct pm_kd_range *r, uint32_t *idx, float *d2)
 {
 	const struct pm_photon *p = r->p;
+	const float *q = r->q;
+	float max_d2 = r->max_d2;
+	uint8_t mask = r->mask, want = r->want;
+	uint32_t lo, hi, c, i, sp;
 
-	for (;;) {
-		/* Scan what is left of the current bucket. */
-		while (r->leaf < r->leaf_end) {
-			uint32_t i = r->leaf++;
-			float d = kd_dist2(p[i].pos, r->q);
-
-			if (d <= r->max_d2 && (p[i].flags & r->mask) == r->want) {
-				*idx = i;
-				*d2 = d;
-				return true;
-			}
-		}
-		if (r->hi - r->lo > KD_BUCKET) {
-			uint32_t m = r->lo + (r->hi - r->lo) / 2;
-			const struct pm_photon *ph = &p[m];
-			int ax = ph->flags & PM_KD_AXIS_MASK;
-			float d = kd_dist2(ph->pos, r->q), diff, dd;
-			bool hit = d <= r->max_d2 && (ph->flags & r->mask) == r->want;
-
-			ax = ax > 2 ? 2 : ax;
-			diff = r->q[ax] - ph->pos[ax];
-			dd = diff * diff;
-			if (diff < 0.0f) {
-				if (dd <= r->max_d2 && r->sp < KD_STACK) {
-					r->st[r->sp][0] = m + 1;
-					r->st[r->sp++][1] = r->hi;
-				}
-				r->hi = m;
-			} else {
-				if (dd <= r->max_d2 && r->sp < KD_STACK) {
-					r->st[r->sp][0] = r->lo;
-					r->st[r->sp++][1] = m;
-				}
-				r->lo = m + 1;
-			}
-			if (hit) {
-				*idx = m;
-				*d2 = d;
-				return true;
-			}
-			continue;
-		}
-		if (r->lo < r->hi) {
-			r->leaf = r->lo;
-			r->leaf_end = r->hi;
-			r->lo = r->hi;
-			continue;
-		}
+	while (r->ibuf == r->nbuf) {
 		if (r->sp == 0)
 			return false;
-		r->sp--;
-		r->lo = r->st[r->sp][0];
-		r->hi = r->st[r->sp][1];
+		sp = --r->sp;
+		lo = r->st[sp][0];
+		hi = r->st[sp][1];
+		c = 0;
+		while (hi - lo > KD_BUCKET) {
+			uint32_t m = lo + (hi - lo) / 2;
+			const struct pm_photon *ph = &p[m];
+			int ax = ph->flags & PM_KD_AXIS_MASK;
+			float d = kd_dist2(ph->pos, q), diff, dd;
+
+			/* As in knn_walk. */
+			if (m - lo > KD_BUCKET) {
+				kd_prefetch_line(&p[lo + (m - lo) / 2]);
+				kd_prefetch_line(&p[m + 1 + (hi - m - 1) / 2]);
+			} else {
+				const char *x = (const char *)&p[lo];
+				const char *e = (const char *)&p[hi];
+
+				for (; x < e; x += 64)
+					kd_prefetch_line(x);
+			}
+			r->bidx[c] = m;
+			r->bd2[c] = d;
+			c += (d <= max_d2) & ((ph->flags & mask) == want);
+			ax = ax > 2 ? 2 : ax;
+			diff = q[ax] - ph->pos[ax];
+			dd = diff * diff;
+			if (dd <= max_d2 && sp < KD_STACK) {
+				r->st[sp][0] = diff < 0.0f ? m + 1 : lo;
+				r->st[sp][1] = diff < 0.0f ? hi : m;
+				sp++;
+			}
+			if (diff < 0.0f)
+				hi = m;
+			else
+				lo = m + 1;
+		}
+		for (i = lo; i < hi; i++) {
+			float d = kd_dist2(p[i].pos, q);
+
+			r->bidx[c] = i;
+			r->bd2[c] = d;
+			c += (d <= max_d2) & ((p[i].flags & mask) == want);
+		}
+		r->sp = sp;
+		r->nbuf = c;
+		r->ibuf = 0;
 	}
+	*idx = r->bidx[r->ibuf];
+	*d2 = r->bd2[r->ibuf++];
+	return true;
 }
 
 /*

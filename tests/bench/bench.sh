@@ -5,6 +5,8 @@
 #   - kd-tree build time and k-nearest queries per second, k = 50 and 200,
 #     on 1M and 10M photons shot in data/cornell-box.xml, against FLANN on
 #     the same photons (pm_knn_check, one thread each), as ratios;
+#   - fixed-radius queries per second (the walk of progressive passes) on
+#     1M photons, with the radii of the 50th and 200th neighbours;
 #   - photon paths and stored photons per second per core (pm-shoot -t 1)
 #     against a plain loop of Embree closest-hit ray casts from the lights
 #     of the same scene on one core (the ceiling for photon tracing);
@@ -43,6 +45,11 @@ for n in 1000000 "$BIG"; do
 	$X knn "$OUT/big.pmap" "$n" 50,200 "$Q" | while read -r line; do
 		emit "{\"what\": \"knn\", ${line#\{}"
 	done
+done
+# Fixed-radius queries (progressive passes), one radius per k: the median
+# distance to the k-th nearest photon.
+$X range "$OUT/big.pmap" 1000000 50,200 "$Q" | while read -r line; do
+	emit "{\"what\": \"range\", ${line#\{}"
 done
 rm -f "$OUT/big.pmap"
 
@@ -108,6 +115,11 @@ for r in rows:
             r["pm_qps"], r["flann_qps"])
         if r["mismatches"]:
             print("  warning: %d queries disagree with FLANN" % r["mismatches"])
+    elif w == "range":
+        print("%-44s %14.4g %14s %8s" % (
+            "radius queries/s, %.3gM, %.0f found (k=%d)" % (
+                r["photons"] / 1e6, r["found_per_query"], r["k"]),
+            r["range_qps"], "-", "-"))
     elif w == "shoot-vs-rays":
         ppath = r["photons_per_path"]
         row("%s: stored photons/s/core (Embree rays/s)" % r["scene"],
