@@ -7,7 +7,8 @@
  * pos[axis] <= the root's, every one in the right subtree >= it, where axis
  * is stored in the root's flags (PM_KD_AXIS_MASK; PM_KD_LEAF for a range of
  * one).  No pointers, no padding: the photons themselves are the tree.
- * The split axis is the one of largest extent, the split the median,
+ * The split axis is the one of largest extent (for ranges of 512 photons
+ * or more, of an evenly spaced sample of them), the split the median,
  * found by selection (expected linear time) rather than sorting.
  *
  * Queries allocate nothing and keep their state on the caller's stack, so

@@ -12,6 +12,8 @@
 #     of the same scene on one core (the ceiling for photon tracing);
 #   - the parallel speed-up from 1 thread to every core of pm-shoot,
 #     pm-balance and pm-render;
+#   - peak resident memory of pm-shoot and pm-balance (one thread,
+#     caustics.xml, 5M paths) against the size of the map they write;
 #   - bytes per photon in memory and on disk, plain and zlib-compressed.
 #
 # One table on stdout, every figure as JSON in out/bench/bench.json.  No
@@ -74,6 +76,18 @@ t=$(now); $B/pm-render -q -t 1 --spp 4 --size 128x128 -o "$OUT/r1.exr" $scene "$
 t=$(now); $B/pm-render -q -t "$NCPU" --spp 4 --size 128x128 -o "$OUT/rN.exr" $scene "$OUT/bN.pmap"; b=$(since "$t")
 emit "{\"what\": \"speedup\", \"tool\": \"pm-render\", \"threads\": $NCPU, \"one_s\": $a, \"all_s\": $b}"
 
+# Peak resident memory of pm-shoot and pm-balance against the map they
+# write (GNU time's %M, in KiB), one thread, caustics.xml.
+if /usr/bin/time -f %M true >/dev/null 2>&1; then
+	/usr/bin/time -f %M -o "$OUT/rss" $B/pm-shoot -q -f -t 1 --photons 4000000 \
+	    --caustic-photons 1000000 -o "$OUT/m.pmap" data/caustics.xml
+	emit "{\"what\": \"rss\", \"tool\": \"pm-shoot\", \"max_rss_kib\": $(tail -n 1 "$OUT/rss"), \"map_bytes\": $(key $OUT/m.pmap file_bytes)}"
+	/usr/bin/time -f %M -o "$OUT/rss" $B/pm-balance -q -f -t 1 -o "$OUT/mb.pmap" \
+	    "$OUT/m.pmap"
+	emit "{\"what\": \"rss\", \"tool\": \"pm-balance\", \"max_rss_kib\": $(tail -n 1 "$OUT/rss"), \"map_bytes\": $(key $OUT/mb.pmap file_bytes)}"
+	rm -f "$OUT/rss"
+fi
+
 # Bytes per photon.
 $B/pm-balance -q -f --compress -o "$OUT/bz.pmap" "$OUT/s1.pmap"
 emit "{\"what\": \"bytes\", \"photons\": $(key $OUT/bN.pmap photons), \"disk_bytes\": $(key $OUT/bN.pmap file_bytes), \"compressed_bytes\": $(key $OUT/bz.pmap file_bytes), $($X sizes | sed 's/^{//')"
@@ -129,6 +143,9 @@ for r in rows:
     elif w == "speedup":
         row("%s speed-up, 1 -> %d threads" % (r["tool"], r["threads"]),
             r["one_s"] / r["all_s"], r["threads"], "x")
+    elif w == "rss":
+        row("%s peak memory / map, MB" % r["tool"],
+            r["max_rss_kib"] * 1024 / 1e6, r["map_bytes"] / 1e6)
     elif w == "bytes":
         print("%-44s %14d %14s %8s" % ("bytes per photon in memory",
                                         r["photon_bytes_in_memory"], "-", "-"))
