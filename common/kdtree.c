@@ -3,19 +3,24 @@
  * described in kdtree.h.
  *
  * The build splits each index range at its median along the axis of
- * largest extent of the range's bounding box.  The median is found by an
- * iterative introselect: median-of-3 (ninther for large ranges) pivots and
- * a three-way partition, so that ranges full of equal keys (every photon on
- * one point, plane or line) cost one pass instead of degrading to
- * quadratic time, with a heapsort fallback bounding the worst case at
- * O(n log n).  Subtrees are independent once their parent is split, so
- * large ones are handed to idle threads; each range is processed by the
- * same deterministic code whichever thread runs it, so the result does not
- * depend on the thread count.
+ * largest extent of the range's bounding box (of a sample, for large
+ * ranges).  The median of a large range is first bracketed by two keys of
+ * a sample (Floyd and Rivest), which leaves a small middle part after one
+ * pass; the rest is found by an iterative introselect: median-of-3
+ * (ninther for large ranges) pivots and a three-way partition, so that
+ * ranges full of equal keys (every photon on one point, plane or line)
+ * cost one pass instead of degrading to quadratic time, with a heapsort
+ * fallback bounding the worst case at O(n log n).  Subtrees are
+ * independent once their parent is split, so large ones are handed to
+ * idle threads; each range is processed by the same deterministic code
+ * whichever thread runs it, so the result does not depend on the thread
+ * count.
  *
  * Queries descend iteratively with a small stack of deferred far children
  * and scan small ranges (contiguous records) linearly, which is faster than
- * branching on the last few levels.  k-nearest queries prune a far child
+ * branching on the last few levels; both children of each node are
+ * prefetched while the node is decided, and buckets are scanned without a
+ * branch per photon.  k-nearest queries prune a far child
  * by the squared distance from q to its cell, kept incrementally per axis
  * (Arya and Mount 1993), radius queries by the distance to the splitting
  * plane.  Squared distances are computed everywhere as dx*dx + dy*dy +
@@ -196,14 +201,12 @@ floor_log2(size_t x)
 #define FR_SAMPLE	256
 #define FR_GAP		20	/* sample ranks either side: 2.5 sigma */
 
+/* Shell sort (gaps 121, 40, 13, 4, 1): short, and fast enough here. */
 static void
 sort_floats(float *a, size_t n)
 {
-	size_t i, j;
-
-	/* Shell sort, gaps 1, 4, 13, 40, 121: short and fast enough here. */
 	static const size_t gaps[] = { 121, 40, 13, 4, 1 };
-	size_t g;
+	size_t i, j, g;
 
 	for (g = 0; g < sizeof(gaps) / sizeof(gaps[0]); g++) {
 		size_t h = gaps[g];
