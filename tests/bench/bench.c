@@ -306,6 +306,7 @@ main(int argc, char **argv)
 		return 0;
 	}
 	fprintf(stderr, "usage: bench knn SHOT.pmap N K[,K...] QUERIES | "
-	    "bench range SHOT.pmap N K[,K...] QUERIES | bench rays SCENE.xml SECONDS | bench sizes\n");
+	    "bench range SHOT.pmap N K[,K...] QUERIES | "
+	    "bench rays SCENE.xml SECONDS | bench sizes\n");
 	return 2;
 }
