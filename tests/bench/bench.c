@@ -11,7 +11,7 @@
  *	fixed-radius queries (pm_kdtree_range_init/next, progressive
  *	passes) on the first N global photons, balanced: for each K, one
  *	radius, the median over the queries of the distance to the K-th
- *	nearest photon, and the queries of pm_knn_check; prints one JSON
+ *	nearest photon, and queries made as pm_knn_check's; prints one JSON
  *	object per K with queries per second, one thread.
  *   bench rays SCENE.xml SECONDS
  *	the ceiling for photon tracing: closest-hit Embree ray casts in a
@@ -152,7 +152,9 @@ bench_range(const char *path, size_t n, const char *ks, size_t queries)
 		fprintf(stderr, "bench: %s\n", err.msg);
 		goto out;
 	}
-	/* The queries of pm_knn_check: photons moved by about their spacing. */
+	/* Queries as pm_knn_check's: photons moved by about their spacing,
+	 * but photons taken in the file's order, so that the queries and
+	 * radii do not depend on how the tree is built. */
 	for (a = 0; a < 3; a++)
 		mn[a] = mx[a] = p[0].pos[a];
 	for (i = 1; i < n; i++)
@@ -169,7 +171,8 @@ bench_range(const char *path, size_t n, const char *ks, size_t queries)
 
 		s = s < n ? s : n - 1;
 		for (a = 0; a < 3; a++)
-			qp[3 * j + a] = p[s].pos[a] + (pm_rng_float(&g) - 0.5f) * h;
+			qp[3 * j + a] = m->photons[s].pos[a] +
+			    (pm_rng_float(&g) - 0.5f) * h;
 	}
 	for (kp = ks; *kp != '\0'; kp += kp[len] == ',' ? len + 1 : len) {
 		size_t k = strtoull(kp, NULL, 10), found = 0;
