@@ -7,7 +7,8 @@
  * pos[axis] <= the root's, every one in the right subtree >= it, where axis
  * is stored in the root's flags (PM_KD_AXIS_MASK; PM_KD_LEAF for a range of
  * one).  No pointers, no padding: the photons themselves are the tree.
- * The split axis is the one of largest extent, the split the median,
+ * The split axis is the one of largest extent (for ranges of 512 photons
+ * or more, of an evenly spaced sample of them), the split the median,
  * found by selection (expected linear time) rather than sorting.
  *
  * Queries allocate nothing and keep their state on the caller's stack, so
@@ -65,14 +66,17 @@ size_t pm_kdtree_radius(const struct pm_photon *p, size_t n, const float q[3],
  * Start it with pm_kdtree_range_init, then call pm_kdtree_range_next until
  * it returns false.  The tree must not change meanwhile.
  */
+#define PM_KD_RANGE_BUF	96
 struct pm_kd_range {
 	const struct pm_photon *p;
 	float q[3], max_d2;
 	uint8_t mask, want;
-	uint32_t lo, hi;		/* the subtree being descended */
-	uint32_t leaf, leaf_end;	/* the bucket being scanned */
 	uint32_t sp;			/* deferred subtrees on the stack */
+	uint32_t nbuf, ibuf;		/* matches found, and returned */
 	uint32_t st[64][2];
+	/* The matches of the last descent, returned one at a time. */
+	uint32_t bidx[PM_KD_RANGE_BUF];
+	float bd2[PM_KD_RANGE_BUF];
 };
 
 /* Starts a query for the photons of p[0..n) within squared distance

@@ -359,6 +359,7 @@ emit(const struct pm_shooter *sh, enum pm_map_pass pass, struct pm_rng *rng,
 struct chunk_out {
 	struct pm_photon_buf buf;
 	uint64_t dropped, paths_specular;
+	bool done;
 };
 
 static bool
@@ -444,6 +445,14 @@ trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 	return true;
 }
 
+/*
+ * Chunks are handed out in order from a counter, and each one's photons
+ * are appended to the output as soon as it and every chunk before it are
+ * done: the output is in chunk order whatever the number of threads, no
+ * chunk waits long, and the photons are never held twice (the peak
+ * memory is the map plus a few chunks), nor copied in one serial pass at
+ * the end.
+ */
 struct job {
 	const struct pm_shooter *sh;
 	const struct pm_shoot_opts *opts;
@@ -451,7 +460,47 @@ struct job {
 	size_t nchunks;
 	_Atomic size_t next;
 	_Atomic int failed;
+	pthread_mutex_t lock;	/* guards what follows and chunks' done */
+	size_t committed;	/* chunks appended to out */
+	struct pm_photon_buf *out;
+	bool out_of_memory;
+	uint64_t stored;
 };
+
+/* Appends every done chunk that follows the committed ones; under
+ * j->lock. */
+static void
+commit_chunks(struct job *j)
+{
+	while (j->committed < j->nchunks && j->chunks[j->committed].done) {
+		struct chunk_out *co = &j->chunks[j->committed++];
+		struct pm_photon_buf *out = j->out;
+
+		if (!j->out_of_memory && co->buf.n > out->cap - out->n) {
+			/* Grow by half: realloc moves large blocks by
+			 * remapping, and untouched pages cost nothing. */
+			size_t cap = out->n + co->buf.n;
+			struct pm_photon *np;
+
+			cap = cap < out->cap + out->cap / 2 ?
+			    out->cap + out->cap / 2 : cap;
+			np = realloc(out->p, cap * sizeof(*np));
+			if (np == NULL)
+				j->out_of_memory = true;
+			else {
+				out->p = np;
+				out->cap = cap;
+			}
+		}
+		if (!j->out_of_memory && co->buf.n > 0) {
+			memcpy(out->p + out->n, co->buf.p,
+			    co->buf.n * sizeof(*co->buf.p));
+			out->n += co->buf.n;
+		}
+		j->stored += co->buf.n;
+		pm_photon_buf_free(&co->buf);
+	}
+}
 
 static void *
 worker(void *arg)
@@ -470,6 +519,10 @@ worker(void *arg)
 				atomic_store(&j->failed, 1);
 				return NULL;
 			}
+		pthread_mutex_lock(&j->lock);
+		j->chunks[c].done = true;
+		commit_chunks(j);
+		pthread_mutex_unlock(&j->lock);
 		if (atomic_load(&j->failed))
 			return NULL;
 	}
@@ -483,7 +536,7 @@ pm_shoot(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 	struct job j;
 	pthread_t *tid;
 	int i, started = 0, nthreads = opts->threads < 1 ? 1 : opts->threads;
-	size_t c, total = 0;
+	size_t c;
 	enum pm_err rc = PM_OK;
 
 	memset(stats, 0, sizeof(*stats));
@@ -504,6 +557,15 @@ pm_shoot(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 	}
 	atomic_init(&j.next, 0);
 	atomic_init(&j.failed, 0);
+	if (pthread_mutex_init(&j.lock, NULL) != 0) {
+		free(j.chunks);
+		free(tid);
+		return pm_fail(err, PM_ERR_NOMEM, "no mutex for the photon chunks");
+	}
+	j.committed = 0;
+	j.out = out;
+	j.out_of_memory = false;
+	j.stored = 0;
 	for (i = 1; i < nthreads; i++)
 		if (pthread_create(&tid[started], NULL, worker, &j) == 0)
 			started++;
@@ -512,32 +574,20 @@ pm_shoot(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 		pthread_join(tid[i], NULL);
 	free(tid);
 
+	pthread_mutex_destroy(&j.lock);
 	if (atomic_load(&j.failed))
 		rc = pm_fail(err, PM_ERR_NOMEM, "no memory for the photons");
-	for (c = 0; c < j.nchunks && rc == PM_OK; c++)
-		total += j.chunks[c].buf.n;
-	if (rc == PM_OK && out->cap < out->n + total) {
-		struct pm_photon *np = realloc(out->p, (out->n + total + 1) * sizeof(*np));
-
-		if (np == NULL)
-			rc = pm_fail(err, PM_ERR_NOMEM,
-			    "no memory for %zu photons (%zu bytes)", out->n + total,
-			    (out->n + total) * sizeof(*np));
-		else {
-			out->p = np;
-			out->cap = out->n + total + 1;
-		}
-	}
+	else if (j.out_of_memory)
+		rc = pm_fail(err, PM_ERR_NOMEM, "no memory for %llu photons "
+		    "(%llu bytes)", (unsigned long long)j.stored,
+		    (unsigned long long)(j.stored * sizeof(*out->p)));
+	stats->stored = j.stored;
 	for (c = 0; c < j.nchunks; c++) {
 		struct chunk_out *co = &j.chunks[c];
 
-		if (rc == PM_OK && co->buf.n > 0) {
-			memcpy(out->p + out->n, co->buf.p, co->buf.n * sizeof(*co->buf.p));
-			out->n += co->buf.n;
-		}
-		stats->stored += co->buf.n;
 		stats->dropped += co->dropped;
 		stats->paths_specular += co->paths_specular;
+		/* Chunks left behind by a failure. */
 		pm_photon_buf_free(&co->buf);
 	}
 	free(j.chunks);

@@ -25,6 +25,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
@@ -459,13 +460,37 @@ plan_map(struct piece *pc, int n, struct pm_map *out)
 	return true;
 }
 
+/* Photons copied between two drop_pages (1.5 MB). */
+#define GATHER_STEP	65536
+
+/*
+ * Tells the system that the whole pages inside [p, p + len) are no longer
+ * needed: an input's records, once copied.  Mapped from the file, they
+ * leave this process's memory (the page cache keeps them); read into
+ * memory, their pages are given back.  Either way the input and its copy
+ * are not resident at once, so the peak memory stays near one map's.
+ */
+static void
+drop_pages(const void *p, size_t len)
+{
+	long pg = sysconf(_SC_PAGESIZE);
+	uintptr_t a, e;
+
+	if (pg <= 0)
+		return;
+	a = ((uintptr_t)p + (uintptr_t)pg - 1) & ~((uintptr_t)pg - 1);
+	e = ((uintptr_t)p + len) & ~((uintptr_t)pg - 1);
+	if (e > a)
+		(void)madvise((void *)a, e - a, MADV_DONTNEED);
+}
+
 /* Concatenates the pieces' photons into out (allocated here), in order
- * of first index. */
+ * of first index, dropping each input's pages as they are copied. */
 static bool
 gather(const struct piece *pc, int n, struct pm_map *out)
 {
 	struct pm_photon *p;
-	size_t at = 0, total;
+	size_t at = 0, total, done, step;
 	bool have_bounds = false;
 	int j, a;
 
@@ -485,9 +510,13 @@ gather(const struct piece *pc, int n, struct pm_map *out)
 	for (j = 0; j < n; j++) {
 		const struct pm_map *m = pc[j].map;
 
-		if (m->count > 0)
-			memcpy(p + at, m->photons, (size_t)m->count *
-			    sizeof(*p));
+		for (done = 0; done < (size_t)m->count; done += step) {
+			step = (size_t)m->count - done < GATHER_STEP ?
+			    (size_t)m->count - done : GATHER_STEP;
+			memcpy(p + at + done, m->photons + done,
+			    step * sizeof(*p));
+			drop_pages(m->photons + done, step * sizeof(*p));
+		}
 		at += (size_t)m->count;
 		/* The inputs' bounds, merged; an empty map's say nothing. */
 		if (m->count == 0)

@@ -7,6 +7,12 @@
  *	wrote them, unbalanced): pm_kdtree_build on one thread and on all,
  *	then for each K, pm_knn_check against FLANN on the same photons
  *	with K neighbours; prints one JSON object per K.
+ *   bench range SHOT.pmap N K[,K...] QUERIES
+ *	fixed-radius queries (pm_kdtree_range_init/next, progressive
+ *	passes) on the first N global photons, balanced: for each K, one
+ *	radius, the median over the queries of the distance to the K-th
+ *	nearest photon, and queries made as pm_knn_check's; prints one JSON
+ *	object per K with queries per second, one thread.
  *   bench rays SCENE.xml SECONDS
  *	the ceiling for photon tracing: closest-hit Embree ray casts in a
  *	plain loop on one thread, from points on the scene's lights (or
@@ -104,6 +110,117 @@ fail:
 	return 1;
 }
 
+static int
+cmp_float(const void *a, const void *b)
+{
+	float x = *(const float *)a, y = *(const float *)b;
+
+	return x < y ? -1 : x > y;
+}
+
+static int
+bench_range(const char *path, size_t n, const char *ks, size_t queries)
+{
+	struct pm_error err = {PM_OK, ""};
+	struct pm_pmap pm;
+	struct pm_map *m;
+	struct pm_photon *p = NULL;
+	struct pm_knn *nb = NULL;
+	float *qp = NULL, *kd = NULL, mn[3], mx[3], e = 0.0f, h;
+	const char *kp;
+	size_t len = 0, i, j;
+	int a, rc = 1;
+
+	if (pm_pmap_read(path, &pm, false, &err) != PM_OK) {
+		fprintf(stderr, "bench: %s\n", err.msg);
+		return 1;
+	}
+	m = pm_pmap_find(&pm, PM_MAP_GLOBAL);
+	if (m == NULL || m->count < n || n == 0 || queries == 0) {
+		fprintf(stderr, "bench: %s: fewer than %zu global photons\n", path, n);
+		goto out;
+	}
+	p = malloc(n * sizeof(*p));
+	qp = malloc(queries * 3 * sizeof(*qp));
+	kd = malloc(queries * sizeof(*kd));
+	if (p == NULL || qp == NULL || kd == NULL) {
+		fprintf(stderr, "bench: out of memory\n");
+		goto out;
+	}
+	memcpy(p, m->photons, n * sizeof(*p));
+	if (pm_kdtree_build(p, n, 1, &err) != PM_OK) {
+		fprintf(stderr, "bench: %s\n", err.msg);
+		goto out;
+	}
+	/* Queries as pm_knn_check's: photons moved by about their spacing,
+	 * but photons taken in the file's order, so that the queries and
+	 * radii do not depend on how the tree is built. */
+	for (a = 0; a < 3; a++)
+		mn[a] = mx[a] = p[0].pos[a];
+	for (i = 1; i < n; i++)
+		for (a = 0; a < 3; a++) {
+			mn[a] = fminf(mn[a], p[i].pos[a]);
+			mx[a] = fmaxf(mx[a], p[i].pos[a]);
+		}
+	for (a = 0; a < 3; a++)
+		e = fmaxf(e, mx[a] - mn[a]);
+	h = e / cbrtf((float)n);
+	for (j = 0; j < queries; j++) {
+		struct pm_rng g = pm_rng_seed(1, j, 0x6b6e6e);
+		size_t s = (size_t)(pm_rng_double(&g) * (double)n);
+
+		s = s < n ? s : n - 1;
+		for (a = 0; a < 3; a++)
+			qp[3 * j + a] = m->photons[s].pos[a] +
+			    (pm_rng_float(&g) - 0.5f) * h;
+	}
+	for (kp = ks; *kp != '\0'; kp += kp[len] == ',' ? len + 1 : len) {
+		size_t k = strtoull(kp, NULL, 10), found = 0;
+		struct pm_knn *t;
+		double t0;
+		float r2;
+
+		len = strcspn(kp, ",");
+		if (k == 0)
+			continue;
+		t = realloc(nb, k * sizeof(*nb));
+		if (t == NULL) {
+			fprintf(stderr, "bench: out of memory\n");
+			goto out;
+		}
+		nb = t;
+		for (j = 0; j < queries; j++)
+			kd[j] = pm_kdtree_knn(p, n, &qp[3 * j], k, INFINITY, 0, 0,
+			    nb) > 0 ? nb[0].d2 : 0.0f;
+		qsort(kd, queries, sizeof(*kd), cmp_float);
+		r2 = kd[queries / 2];
+		t0 = now();
+		for (j = 0; j < queries; j++) {
+			struct pm_kd_range it;
+			uint32_t idx;
+			float d2;
+
+			pm_kdtree_range_init(&it, p, n, &qp[3 * j], r2, 0, 0);
+			while (pm_kdtree_range_next(&it, &idx, &d2))
+				found++;
+		}
+		t0 = now() - t0;
+		printf("{\"photons\": %zu, \"k\": %zu, \"queries\": %zu, "
+		    "\"r2\": %.9g, \"found_per_query\": %.2f, "
+		    "\"range_qps\": %.1f}\n", n, k, queries, r2,
+		    (double)found / (double)queries, (double)queries / t0);
+		fflush(stdout);
+	}
+	rc = 0;
+out:
+	free(p);
+	free(qp);
+	free(kd);
+	free(nb);
+	pm_pmap_free(&pm);
+	return rc;
+}
+
 /* A point on one of the scene's emitting shapes: a ray cast from the
  * scene's centre towards a random direction finds the surfaces, and we
  * keep hits on emitters; fallback, points inside the bounds. */
@@ -181,6 +298,9 @@ main(int argc, char **argv)
 	if (argc == 6 && strcmp(argv[1], "knn") == 0)
 		return bench_knn(argv[2], strtoull(argv[3], NULL, 10), argv[4],
 		    strtoull(argv[5], NULL, 10));
+	if (argc == 6 && strcmp(argv[1], "range") == 0)
+		return bench_range(argv[2], strtoull(argv[3], NULL, 10), argv[4],
+		    strtoull(argv[5], NULL, 10));
 	if (argc == 4 && strcmp(argv[1], "rays") == 0)
 		return bench_rays(argv[2], strtod(argv[3], NULL));
 	if (argc == 2 && strcmp(argv[1], "sizes") == 0) {
@@ -189,6 +309,7 @@ main(int argc, char **argv)
 		return 0;
 	}
 	fprintf(stderr, "usage: bench knn SHOT.pmap N K[,K...] QUERIES | "
+	    "bench range SHOT.pmap N K[,K...] QUERIES | "
 	    "bench rays SCENE.xml SECONDS | bench sizes\n");
 	return 2;
 }

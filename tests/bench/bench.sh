@@ -5,11 +5,15 @@
 #   - kd-tree build time and k-nearest queries per second, k = 50 and 200,
 #     on 1M and 10M photons shot in data/cornell-box.xml, against FLANN on
 #     the same photons (pm_knn_check, one thread each), as ratios;
+#   - fixed-radius queries per second (the walk of progressive passes) on
+#     1M photons, with the radii of the 50th and 200th neighbours;
 #   - photon paths and stored photons per second per core (pm-shoot -t 1)
 #     against a plain loop of Embree closest-hit ray casts from the lights
 #     of the same scene on one core (the ceiling for photon tracing);
 #   - the parallel speed-up from 1 thread to every core of pm-shoot,
 #     pm-balance and pm-render;
+#   - peak resident memory of pm-shoot and pm-balance (one thread,
+#     caustics.xml, 5M paths) against the size of the map they write;
 #   - bytes per photon in memory and on disk, plain and zlib-compressed.
 #
 # One table on stdout, every figure as JSON in out/bench/bench.json.  No
@@ -44,6 +48,11 @@ for n in 1000000 "$BIG"; do
 		emit "{\"what\": \"knn\", ${line#\{}"
 	done
 done
+# Fixed-radius queries (progressive passes), one radius per k: the median
+# distance to the k-th nearest photon.
+$X range "$OUT/big.pmap" 1000000 50,200 "$Q" | while read -r line; do
+	emit "{\"what\": \"range\", ${line#\{}"
+done
 rm -f "$OUT/big.pmap"
 
 # Photon tracing against the ray-cast ceiling, one core each.
@@ -66,6 +75,18 @@ emit "{\"what\": \"speedup\", \"tool\": \"pm-balance\", \"threads\": $NCPU, \"on
 t=$(now); $B/pm-render -q -t 1 --spp 4 --size 128x128 -o "$OUT/r1.exr" $scene "$OUT/bN.pmap"; a=$(since "$t")
 t=$(now); $B/pm-render -q -t "$NCPU" --spp 4 --size 128x128 -o "$OUT/rN.exr" $scene "$OUT/bN.pmap"; b=$(since "$t")
 emit "{\"what\": \"speedup\", \"tool\": \"pm-render\", \"threads\": $NCPU, \"one_s\": $a, \"all_s\": $b}"
+
+# Peak resident memory of pm-shoot and pm-balance against the map they
+# write (GNU time's %M, in KiB), one thread, caustics.xml.
+if /usr/bin/time -f %M true >/dev/null 2>&1; then
+	/usr/bin/time -f %M -o "$OUT/rss" $B/pm-shoot -q -f -t 1 --photons 4000000 \
+	    --caustic-photons 1000000 -o "$OUT/m.pmap" data/caustics.xml
+	emit "{\"what\": \"rss\", \"tool\": \"pm-shoot\", \"max_rss_kib\": $(tail -n 1 "$OUT/rss"), \"map_bytes\": $(key $OUT/m.pmap file_bytes)}"
+	/usr/bin/time -f %M -o "$OUT/rss" $B/pm-balance -q -f -t 1 -o "$OUT/mb.pmap" \
+	    "$OUT/m.pmap"
+	emit "{\"what\": \"rss\", \"tool\": \"pm-balance\", \"max_rss_kib\": $(tail -n 1 "$OUT/rss"), \"map_bytes\": $(key $OUT/mb.pmap file_bytes)}"
+	rm -f "$OUT/rss"
+fi
 
 # Bytes per photon.
 $B/pm-balance -q -f --compress -o "$OUT/bz.pmap" "$OUT/s1.pmap"
@@ -108,6 +129,11 @@ for r in rows:
             r["pm_qps"], r["flann_qps"])
         if r["mismatches"]:
             print("  warning: %d queries disagree with FLANN" % r["mismatches"])
+    elif w == "range":
+        print("%-44s %14.4g %14s %8s" % (
+            "radius queries/s, %.3gM, %.0f found (k=%d)" % (
+                r["photons"] / 1e6, r["found_per_query"], r["k"]),
+            r["range_qps"], "-", "-"))
     elif w == "shoot-vs-rays":
         ppath = r["photons_per_path"]
         row("%s: stored photons/s/core (Embree rays/s)" % r["scene"],
@@ -117,6 +143,9 @@ for r in rows:
     elif w == "speedup":
         row("%s speed-up, 1 -> %d threads" % (r["tool"], r["threads"]),
             r["one_s"] / r["all_s"], r["threads"], "x")
+    elif w == "rss":
+        row("%s peak memory / map, MB" % r["tool"],
+            r["max_rss_kib"] * 1024 / 1e6, r["map_bytes"] / 1e6)
     elif w == "bytes":
         print("%-44s %14d %14s %8s" % ("bytes per photon in memory",
                                         r["photon_bytes_in_memory"], "-", "-"))
