@@ -96,8 +96,6 @@ struct pm_photon_params {
 					 * scene's bounding-sphere radius */
 	int lookup_size;		/* lookupSize, 120 */
 	int direct_samples;		/* directSamples, 16 */
-	int glossy_samples;		/* glossySamples, 32 */
-	int granularity;		/* granularity, 0: automatic */
 	bool final_gather;		/* finalGather, false */
 	int final_gather_samples;	/* finalGatherSamples, 64 */
 };
