@@ -5,6 +5,7 @@
 #include <errno.h>
 #include <libgen.h>
 #include <pthread.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -19,21 +20,16 @@ static const struct pm_cli *current;
 static char *command;
 
 void
-pm_cli_vusage_error(const char *fmt, va_list ap)
-{
-	fprintf(stderr, "%s: ", current != NULL ? current->prog : "pm");
-	vfprintf(stderr, fmt, ap);
-	fputs(" (see --help)\n", stderr);
-	exit(2);
-}
-
-void
 pm_cli_usage_error(const char *fmt, ...)
 {
 	va_list ap;
 
+	fprintf(stderr, "%s: ", current != NULL ? current->prog : "pm");
 	va_start(ap, fmt);
-	pm_cli_vusage_error(fmt, ap);
+	vfprintf(stderr, fmt, ap);
+	va_end(ap);
+	fputs(" (see --help)\n", stderr);
+	exit(2);
 }
 
 /* Prints to stdout and exits 0, or 1 if stdout could not take it. */

@@ -8,7 +8,6 @@
 #define PM_CLI_H
 
 #include <getopt.h>
-#include <stdarg.h>
 #include <stdatomic.h>
 #include <stddef.h>
 
@@ -42,8 +41,6 @@ int pm_cli_getopt(const struct pm_cli *cli, int argc, char **argv,
 /* Prints "prog: <message> (see --help)" as one line and exits 2. */
 void pm_cli_usage_error(const char *fmt, ...)
     __attribute__((noreturn, format(printf, 1, 2)));
-void pm_cli_vusage_error(const char *fmt, va_list ap)
-    __attribute__((noreturn, format(printf, 1, 0)));
 
 /*
  * Adds a -D NAME=VALUE definition to defs[0..*n) (at most max); arg is

@@ -18,7 +18,6 @@
  */
 #include <errno.h>
 #include <getopt.h>
-#include <stdarg.h>
 #include <stdbool.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -88,14 +87,7 @@ struct piece {
 static int verbosity = 1;	/* 0 with -q, 2 with -v */
 
 /* Reports a usage error in one line and exits 2. */
-static void __attribute__((noreturn, format(printf, 1, 2)))
-usage_error(const char *fmt, ...)
-{
-	va_list ap;
-
-	va_start(ap, fmt);
-	pm_cli_vusage_error(fmt, ap);
-}
+#define usage_error pm_cli_usage_error
 
 static double
 now(void)

@@ -14,7 +14,6 @@
 #include <getopt.h>
 #include <limits.h>
 #include <math.h>
-#include <stdarg.h>
 #include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -82,14 +81,7 @@ static const struct pm_cli cli = { PROG, usage_line, help_text, longopts };
 static int verbosity = 1;	/* 0 with -q, 2 with -v */
 
 /* Reports a usage error in one line and exits 2. */
-static void __attribute__((noreturn, format(printf, 1, 2)))
-usage_error(const char *fmt, ...)
-{
-	va_list ap;
-
-	va_start(ap, fmt);
-	pm_cli_vusage_error(fmt, ap);
-}
+#define usage_error pm_cli_usage_error
 
 /*
  * Parses the whole of s as a number within [min, max]: a decimal integer

@@ -12,7 +12,6 @@
 #include <errno.h>
 #include <getopt.h>
 #include <math.h>
-#include <stdarg.h>
 #include <stdbool.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -120,14 +119,7 @@ static const char help_text[] =
 static const struct pm_cli cli = { PROG, usage_line, help_text, longopts };
 
 /* Reports a usage error in one line and exits 2. */
-static void __attribute__((noreturn, format(printf, 1, 2)))
-usage_error(const char *fmt, ...)
-{
-	va_list ap;
-
-	va_start(ap, fmt);
-	pm_cli_vusage_error(fmt, ap);
-}
+#define usage_error pm_cli_usage_error
 
 static double
 now(void)

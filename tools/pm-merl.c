@@ -40,11 +40,8 @@ static const char help_text[] =
     "  -h, --help                print this help and exit\n"
     "      --version             print the version and exit\n";
 
-static void __attribute__((noreturn))
-usage_error(const char *fmt, const char *arg)
-{
-	pm_cli_usage_error(fmt, arg);
-}
+/* A usage error: one line on stderr, exit 2. */
+#define usage_error pm_cli_usage_error
 
 /* "R,G,B" or a single grey value, each in [0, 1]. */
 static int

@@ -82,11 +82,8 @@ struct cam_override {
 	float fov;			/* 0: keep */
 };
 
-static void __attribute__((noreturn))
-usage_error(const char *fmt, const char *arg)
-{
-	pm_cli_usage_error(fmt, arg);
-}
+/* A usage error: one line on stderr, exit 2. */
+#define usage_error pm_cli_usage_error
 
 /*
  * Reads a camera list: one camera per line, "EYE TARGET UP [FOV]" with
@@ -207,6 +204,8 @@ struct preview {
 	const char *path;
 	struct pm_render_watch *watch;
 	struct pm_image snap;
+	_Atomic long *done;		/* tiles finished */
+	long written;			/* ...when the file was last written */
 	int warned;
 };
 
@@ -226,8 +225,8 @@ preview_write(struct preview *pv, const struct pm_image *im)
 			    pv->path);
 		else {
 			pm_image_to_srgb8(im, 0.0f, rgb);
-			e = pm_png_write(pv->path, rgb, im->width, im->height,
-			    &err);
+			e = pm_png_write_fast(pv->path, rgb, im->width,
+			    im->height, &err);
 			free(rgb);
 		}
 	} else
@@ -238,14 +237,18 @@ preview_write(struct preview *pv, const struct pm_image *im)
 	}
 }
 
-/* The progress thread's tick: the finished tiles so far, the rest black. */
+/* The progress thread's tick: the finished tiles so far, the rest black;
+ * nothing if no tile has finished since the last write. */
 static void
 preview_tick(void *arg)
 {
 	struct preview *pv = arg;
+	long done = atomic_load(pv->done);
 
-	if (pm_render_snapshot(pv->watch, &pv->snap))
+	if (done != pv->written && pm_render_snapshot(pv->watch, &pv->snap)) {
 		preview_write(pv, &pv->snap);
+		pv->written = done;
+	}
 }
 
 /* Loads a balanced map for this scene into maps; prints and returns 0 on
@@ -392,7 +395,7 @@ main(int argc, char **argv)
 	long ncams = 0, ci;
 	int have_eye = 0, have_target = 0, width = 0, height = 0, half = 0;
 	int verbose = 1, c, fg = -1, force = 0;
-	struct preview pv = {NULL, NULL, {0, 0, NULL}, 0};
+	struct preview pv = {NULL, NULL, {0, 0, NULL}, NULL, 0, 0};
 	float preview_every = 1.0f;
 	long spp = 0, threads = sysconf(_SC_NPROCESSORS_ONLN);
 	long lookup = 0, direct = 0, fg_samples = 0;
@@ -717,6 +720,8 @@ main(int argc, char **argv)
 		opts.tiles_done = &done;
 		opts.tiles_total = &total;
 		opts.watch = pv.watch;
+		pv.done = &done;
+		pv.written = 0;
 		prog = pm_cli_progress_start(PROG, ncams > 1 ? name : "",
 		    pm_cli_progress_wanted(!verbose), &done, &total,
 		    pv.path != NULL ? preview_tick : NULL, &pv, preview_every);

@@ -51,11 +51,8 @@ static const char help_text[] =
     "      --version             print the version and exit\n\n"
     "A progress line goes to stderr when it is a terminal.\n";
 
-static void __attribute__((noreturn))
-usage_error(const char *fmt, const char *arg)
-{
-	pm_cli_usage_error(fmt, arg);
-}
+/* A usage error: one line on stderr, exit 2. */
+#define usage_error pm_cli_usage_error
 
 /*
  * Shoots a pass as pm_shoot does; with done set, in pieces of about a
