@@ -5,29 +5,11 @@
 # line recorded shell-quoted, the progress line only on a terminal, and
 # pm-render's --preview.
 # Run from the repository root: sh tests/cli/dialect.sh
-n=0
-fail=0
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
+. tests/harness.sh
 B=${BIN:-bin}
 TOOLS="pm-shoot pm-balance pm-render pm-downsample pm-inspect pm-merl"
 scene=data/cornell-box.xml
 
-check() { # description, then a command whose status decides
-	n=$((n + 1))
-	desc=$1
-	shift
-	if "$@"; then echo "ok $n - $desc"; else echo "not ok $n - $desc"; fail=$((fail + 1)); fi
-}
-status() { # expected-status command...: runs command, compares exit status
-	want=$1
-	shift
-	"$@" >"$tmp/out" 2>"$tmp/err" </dev/null
-	[ $? -eq "$want" ]
-}
-same() { # got want
-	[ "$1" = "$2" ] || { echo "# got  '$1'"; echo "# want '$2'"; false; }
-}
 one_line() { # tool [pattern]: stderr is one line "tool: ...", stdout empty
 	[ "$(wc -l <"$tmp/err")" -eq 1 ] && grep -q "^$1: " "$tmp/err" &&
 	    grep -q -e "${2:-.}" "$tmp/err" && [ ! -s "$tmp/out" ] ||
@@ -172,5 +154,4 @@ check "...in one line" one_line pm-render "preview"
 check "--preview-every 0 is a usage error" status 2 $B/pm-render --preview "$tmp/x.png" --preview-every 0 -o "$tmp/x.exr" $scene
 check "...in one line" one_line pm-render "preview-every"
 
-echo "dialect cli: $((n - fail)) passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish dialect
