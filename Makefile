@@ -39,7 +39,7 @@ TEST_BIN = $(TEST_SRC:tests/unit/%.c=$(BUILD)/tests/%)
 MANS     = $(sort $(wildcard man/*.[1-9]))
 
 .PHONY: all demo test deps install clean check-unit check-cli check-man check-mitsuba \
-	check-sanitize turntable
+	check-sanitize check-tsan turntable
 .PHONY: fuzz fuzz-build check-fuzz
 
 all: $(BINS)
@@ -112,8 +112,9 @@ $(BUILD)/tests/exrutil: tests/cli/exrutil.c $(LIB)
 	@mkdir -p $(dir $@)
 	$(CC) $(PM_CFLAGS) $(CFLAGS) -o $@ tests/cli/exrutil.c $(LIB) $(PM_LIBS)
 
+CLI_TESTS = $(sort $(wildcard tests/cli/*.sh))
 check-cli: $(BINS) $(BUILD)/tests/exrutil
-	@BIN=$(BIN) EXRUTIL=$(BUILD)/tests/exrutil sh tests/run-cli.sh tests/cli/*.sh
+	@BIN=$(BIN) EXRUTIL=$(BUILD)/tests/exrutil sh tests/run-cli.sh $(CLI_TESTS)
 
 # The unit and CLI tests again, built with AddressSanitizer and UBSan.
 SAN_FLAGS = -O1 -g -fsanitize=address,undefined -fno-omit-frame-pointer \
@@ -122,6 +123,21 @@ check-sanitize:
 	$(MAKE) BUILD=build/san BIN=build/san/bin CFLAGS="$(SAN_FLAGS)" \
 		$(TOOLS:%=build/san/bin/%)
 	$(MAKE) BUILD=build/san BIN=build/san/bin CFLAGS="$(SAN_FLAGS)" \
+		check-unit check-cli
+	$(MAKE) check-tsan
+
+# The threaded code under ThreadSanitizer: the unit tests that start
+# threads, and the CLI scripts that drive the threaded tools (pm-shoot,
+# pm-balance, pm-render with its progress and preview thread).
+TSAN_FLAGS = -O1 -g -fsanitize=thread -fno-omit-frame-pointer
+TSAN_UNIT  = test_render test_kdtree test_shoot
+TSAN_CLI   = tests/cli/render.sh tests/cli/photon.sh tests/cli/dialect.sh
+check-tsan:
+	$(MAKE) BUILD=build/tsan BIN=build/tsan/bin CFLAGS="$(TSAN_FLAGS)" \
+		$(TOOLS:%=build/tsan/bin/%) $(TSAN_UNIT:%=build/tsan/tests/%)
+	TSAN_OPTIONS="halt_on_error=1 exitcode=66 suppressions=$(CURDIR)/tests/tsan.supp $(TSAN_OPTIONS)" \
+		$(MAKE) BUILD=build/tsan BIN=build/tsan/bin CFLAGS="$(TSAN_FLAGS)" \
+		TEST_BIN="$(TSAN_UNIT:%=build/tsan/tests/%)" CLI_TESTS="$(TSAN_CLI)" \
 		check-unit check-cli
 
 # libFuzzer targets (tests/fuzz/fuzz_*.c), built with clang, ASan and UBSan
@@ -164,5 +180,5 @@ install: all
 		install -m 644 $$m $(DESTDIR)$(PREFIX)/share/man/man$$s; done
 
 clean:
-	rm -rf $(BUILD)/*.a $(BUILD)/common $(BUILD)/formats $(BUILD)/tools $(BUILD)/san \
+	rm -rf $(BUILD)/*.a $(BUILD)/common $(BUILD)/formats $(BUILD)/tools $(BUILD)/san $(BUILD)/tsan \
 		$(BUILD)/tests $(BUILD)/fuzz bin out

@@ -8,10 +8,25 @@
 #include <math.h>
 #include <pthread.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "render.h"
 
 #define TILE 16
+
+/*
+ * What a watcher sees of the running render: the image and one flag per
+ * tile, set (release) by the worker that finished it, so that a watcher
+ * that reads a set flag (acquire) also sees the tile's pixels.  The lock
+ * only keeps the render from starting or ending under a snapshot; the
+ * workers never take it.
+ */
+struct pm_render_watch {
+	pthread_mutex_t lock;
+	const struct pm_image *film;	/* NULL: no render running */
+	_Atomic unsigned char *done;	/* one flag per tile */
+	int tiles_x, ntiles;
+};
 
 struct job {
 	const struct pm_render_ctx *ctx;
@@ -115,6 +130,103 @@ render_tile(struct job *j, int tile)
 		atomic_fetch_add(&j->dropped, dropped);
 }
 
+struct pm_render_watch *
+pm_render_watch_new(void)
+{
+	struct pm_render_watch *w = calloc(1, sizeof(*w));
+
+	if (w != NULL && pthread_mutex_init(&w->lock, NULL) != 0) {
+		free(w);
+		w = NULL;
+	}
+	return w;
+}
+
+void
+pm_render_watch_free(struct pm_render_watch *w)
+{
+	if (w == NULL)
+		return;
+	pthread_mutex_destroy(&w->lock);
+	free(w);
+}
+
+/* Shows film to the watcher, every tile unfinished; false when out of
+ * memory. */
+static bool
+watch_begin(struct pm_render_watch *w, const struct pm_image *film,
+    int tiles_x, int ntiles)
+{
+	_Atomic unsigned char *done = calloc((size_t)ntiles, sizeof(*done));
+	int i;
+
+	if (done == NULL)
+		return false;
+	for (i = 0; i < ntiles; i++)
+		atomic_init(&done[i], 0);
+	pthread_mutex_lock(&w->lock);
+	w->film = film;
+	w->done = done;
+	w->tiles_x = tiles_x;
+	w->ntiles = ntiles;
+	pthread_mutex_unlock(&w->lock);
+	return true;
+}
+
+static void
+watch_end(struct pm_render_watch *w)
+{
+	pthread_mutex_lock(&w->lock);
+	free(w->done);
+	w->done = NULL;
+	w->film = NULL;
+	pthread_mutex_unlock(&w->lock);
+}
+
+bool
+pm_render_snapshot(struct pm_render_watch *w, struct pm_image *im)
+{
+	const struct pm_image *f;
+	int t, y, x0, x1, y0, y1;
+	bool ok = false;
+
+	pthread_mutex_lock(&w->lock);
+	f = w->film;
+	if (f == NULL)
+		goto out;
+	if (im->rgb == NULL || im->width != f->width ||
+	    im->height != f->height) {
+		struct pm_error err;
+
+		pm_image_free(im);
+		if (pm_image_alloc(im, f->width, f->height, &err) != PM_OK)
+			goto out;
+	}
+	for (t = 0; t < w->ntiles; t++) {
+		bool done = atomic_load_explicit(&w->done[t],
+		    memory_order_acquire) != 0;
+
+		x0 = (t % w->tiles_x) * TILE;
+		y0 = (t / w->tiles_x) * TILE;
+		x1 = x0 + TILE < f->width ? x0 + TILE : f->width;
+		y1 = y0 + TILE < f->height ? y0 + TILE : f->height;
+		for (y = y0; y < y1; y++) {
+			size_t off = 3 * ((size_t)y * (size_t)f->width +
+			    (size_t)x0), n = 3 * (size_t)(x1 - x0) *
+			    sizeof(float);
+
+			if (done)
+				memcpy(im->rgb + off, f->rgb + off, n);
+			else
+				memset(im->rgb + off, 0, n);
+		}
+	}
+	ok = true;
+out:
+	pthread_mutex_unlock(&w->lock);
+	return ok;
+}
+
 static void *
 worker(void *arg)
 {
@@ -123,6 +235,9 @@ worker(void *arg)
 
 	while ((t = atomic_fetch_add(&j->next, 1)) < j->ntiles) {
 		render_tile(j, t);
+		if (j->opts->watch != NULL)
+			atomic_store_explicit(&j->opts->watch->done[t], 1,
+			    memory_order_release);
 		if (j->opts->tiles_done != NULL)
 			atomic_fetch_add(j->opts->tiles_done, 1);
 	}
@@ -169,13 +284,19 @@ pm_render(const struct pm_render_ctx *ctx, const struct pm_camera *cam,
 		cctx.icache = &cache;
 	}
 	if (opts->tiles_total != NULL)
-		*opts->tiles_total = j.ntiles;
+		atomic_store(opts->tiles_total, j.ntiles);
 
 	tid = calloc((size_t)nthreads, sizeof(*tid));
 	if (tid == NULL) {
 		pm_icache_free(&cache);
 		pm_image_free(out);
 		return pm_fail(err, PM_ERR_NOMEM, "no memory for threads");
+	}
+	if (opts->watch != NULL && !watch_begin(opts->watch, out, j.tiles_x,
+	    j.ntiles)) {
+		free(tid);
+		pm_image_free(out);
+		return pm_fail(err, PM_ERR_NOMEM, "no memory for the watch");
 	}
 	/* The calling thread works too; if a thread cannot be started the
 	 * others simply take more tiles. */
@@ -187,6 +308,8 @@ pm_render(const struct pm_render_ctx *ctx, const struct pm_camera *cam,
 		pthread_join(tid[i], NULL);
 	free(tid);
 	pm_icache_free(&cache);
+	if (opts->watch != NULL)
+		watch_end(opts->watch);
 	if (stats != NULL) {
 		stats->samples = (uint64_t)cam->width * (uint64_t)cam->height *
 		    (uint64_t)opts->spp;

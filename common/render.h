@@ -89,10 +89,31 @@ struct pm_render_opts {
 	int spp;
 	uint64_t seed;
 	int threads;			/* >= 1 */
-	/* Optional progress: tiles done so far, updated as tiles finish. */
+	/* Optional progress: tiles done so far, updated as tiles finish,
+	 * and their total, set when the render starts; both may be read by
+	 * another thread while the render runs. */
 	_Atomic long *tiles_done;
-	long *tiles_total;
+	_Atomic long *tiles_total;
+	/* Optional: lets another thread copy the finished tiles while the
+	 * render runs (pm_render_snapshot). */
+	struct pm_render_watch *watch;
 };
+
+/*
+ * A window on a running render for another thread (a preview): which
+ * tiles are finished, and a copy of them.  One watch serves one render at
+ * a time; it owns only its own bookkeeping, never the image.
+ */
+struct pm_render_watch *pm_render_watch_new(void);
+void pm_render_watch_free(struct pm_render_watch *w);
+
+/*
+ * Copies the image of the render w watches as it stands: finished tiles as
+ * they will be, the others black.  im is (re)allocated to the image's size
+ * here and owned by the caller.  Safe to call from any thread at any time;
+ * returns false (im untouched) when no render is running.
+ */
+bool pm_render_snapshot(struct pm_render_watch *w, struct pm_image *im);
 
 struct pm_render_stats {
 	uint64_t samples;		/* camera samples taken */

@@ -46,8 +46,6 @@ pm_scene_init(struct pm_scene *s)
 	s->integrator.photon.caustic_lookup_radius = 0.0125f;
 	s->integrator.photon.lookup_size = 120;
 	s->integrator.photon.direct_samples = 1;
-	s->integrator.photon.glossy_samples = 32;
-	s->integrator.photon.granularity = 0;
 	s->integrator.photon.final_gather = true;
 	s->integrator.photon.final_gather_samples = 1;
 }

@@ -97,8 +97,6 @@ struct pm_photon_params {
 					 * scene's bounding-sphere radius */
 	int lookup_size;		/* lookupSize, 120 */
 	int direct_samples;		/* directSamples, 1 (Mitsuba 0.6: 16) */
-	int glossy_samples;		/* glossySamples, 32 */
-	int granularity;		/* granularity, 0: automatic */
 	bool final_gather;		/* finalGather, true (Mitsuba 0.6: false) */
 	int final_gather_samples;	/* finalGatherSamples, 1 (Mitsuba 0.6: 64):
 				 * per camera sample where the cache

@@ -9,6 +9,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <setjmp.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -66,7 +67,7 @@ png_open_temp(const char *path, char *tmp, size_t tmpsize)
  * the setjmp here guards no local that changes after it.
  */
 static int
-png_encode(FILE *fp, const uint8_t *rgb, int width, int height,
+png_encode(FILE *fp, const uint8_t *rgb, int width, int height, bool fast,
     struct png_io *io)
 {
 	png_structp png;
@@ -92,6 +93,11 @@ png_encode(FILE *fp, const uint8_t *rgb, int width, int height,
 		return -1;
 	}
 	png_init_io(png, fp);
+	if (fast) {
+		/* A quarter of the time, for a file about a quarter larger. */
+		png_set_compression_level(png, 1);
+		png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_NONE);
+	}
 	png_set_IHDR(png, info, (png_uint_32)width, (png_uint_32)height, 8,
 	    PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
 	    PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
@@ -108,9 +114,9 @@ png_encode(FILE *fp, const uint8_t *rgb, int width, int height,
 
 /* Writes rgb as an 8-bit RGB PNG to path (through a temporary file that
  * is renamed on success), or to stdout when path is "-". */
-enum pm_err
-pm_png_write(const char *path, const uint8_t *rgb, int width, int height,
-    struct pm_error *err)
+static enum pm_err
+write_png(const char *path, const uint8_t *rgb, int width, int height,
+    bool fast, struct pm_error *err)
 {
 	struct png_io io;
 	char tmp[4096];
@@ -124,7 +130,7 @@ pm_png_write(const char *path, const uint8_t *rgb, int width, int height,
 	if (strcmp(path, "-") == 0) {
 		/* The caller owns stdout and closes it; flushing here is how
 		 * a write error on a pipe or a full disk shows up. */
-		if (png_encode(stdout, rgb, width, height, &io) != 0)
+		if (png_encode(stdout, rgb, width, height, fast, &io) != 0)
 			return pm_fail(err, PM_ERR_IO, "stdout: %s", io.msg);
 		if (fflush(stdout) != 0 || ferror(stdout))
 			return pm_fail(err, PM_ERR_IO, "stdout: %s",
@@ -135,7 +141,7 @@ pm_png_write(const char *path, const uint8_t *rgb, int width, int height,
 	if ((fp = png_open_temp(path, tmp, sizeof(tmp))) == NULL)
 		return pm_fail(err, PM_ERR_IO, "%s: cannot create a temporary "
 		    "file beside it: %s", path, strerror(errno));
-	if (png_encode(fp, rgb, width, height, &io) != 0) {
+	if (png_encode(fp, rgb, width, height, fast, &io) != 0) {
 		e = pm_fail(err, PM_ERR_IO, "%s: %s", path, io.msg);
 		fclose(fp);
 		unlink(tmp);
@@ -159,4 +165,18 @@ pm_png_write(const char *path, const uint8_t *rgb, int width, int height,
 		return e;
 	}
 	return PM_OK;
+}
+
+enum pm_err
+pm_png_write(const char *path, const uint8_t *rgb, int width, int height,
+    struct pm_error *err)
+{
+	return write_png(path, rgb, width, height, false, err);
+}
+
+enum pm_err
+pm_png_write_fast(const char *path, const uint8_t *rgb, int width,
+    int height, struct pm_error *err)
+{
+	return write_png(path, rgb, width, height, true, err);
 }

@@ -13,4 +13,9 @@
 enum pm_err pm_png_write(const char *path, const uint8_t *rgb, int width,
     int height, struct pm_error *err);
 
+/* The same, encoded for speed (zlib level 1, no row filters) rather than
+ * size: for an image rewritten every second, such as a preview. */
+enum pm_err pm_png_write_fast(const char *path, const uint8_t *rgb,
+    int width, int height, struct pm_error *err);
+
 #endif

@@ -2495,14 +2495,15 @@ load_integrator(struct ld *ld, struct xnode *n)
 		    != PM_OK)
 			return e;
 		ph->direct_samples = (int)v;
+		/* Mitsuba 0.6's glossySamples and granularity are checked and
+		 * ignored (pm-scene(5)): glossy surfaces are path traced with
+		 * one sample a vertex, and work is split by the tools, so
+		 * neither changes the image a scene converges to. */
 		if ((e = get_int(ld, &pl, "glossySamples", 32, 0, 1 << 20, &v))
+		    != PM_OK ||
+		    (e = get_int(ld, &pl, "granularity", 0, 0, INT_MAX, &v))
 		    != PM_OK)
 			return e;
-		ph->glossy_samples = (int)v;
-		if ((e = get_int(ld, &pl, "granularity", 0, 0, INT_MAX, &v))
-		    != PM_OK)
-			return e;
-		ph->granularity = (int)v;
 		if ((e = get_bool(ld, &pl, "finalGather", false,
 		    &ph->final_gather)) != PM_OK)
 			return e;

@@ -32,19 +32,19 @@ out/bunny.pmap: out/bunny-shot.pmap bin/pm-balance
 	bin/pm-balance -f -v -o $@ out/bunny-shot.pmap
 
 out/bunny-2x.exr: data/bunny.xml out/bunny.pmap bin/pm-render
-	bin/pm-render -v --seed $(BUNNY_SEED) --spp $(BUNNY_SPP) --size $(BUNNY_SIZE) $(BUNNY_RENDER) \
+	bin/pm-render -f -v --seed $(BUNNY_SEED) --spp $(BUNNY_SPP) --size $(BUNNY_SIZE) $(BUNNY_RENDER) \
 		-o $@ data/bunny.xml out/bunny.pmap
 
 out/bunny.exr: out/bunny-2x.exr bin/pm-downsample
-	bin/pm-downsample --factor 2 --filter $(BUNNY_FILTER) -o $@ out/bunny-2x.exr
+	bin/pm-downsample -f --factor 2 --filter $(BUNNY_FILTER) -o $@ out/bunny-2x.exr
 
 out/bunny.png: out/bunny.exr
-	bin/pm-downsample --factor 1 -o $@ out/bunny.exr
+	bin/pm-downsample -f --factor 1 -o $@ out/bunny.exr
 
 # The path-traced reference of the same view, for comparison.
 out/bunny-path-2x.exr: data/bunny.xml bin/pm-render
 	@mkdir -p out
-	bin/pm-render -v --spp 64 --size $(BUNNY_SIZE) -o $@ data/bunny.xml
+	bin/pm-render -f -v --spp 64 --size $(BUNNY_SIZE) -o $@ data/bunny.xml
 
 out/bunny-path.png: out/bunny-path-2x.exr bin/pm-downsample
-	bin/pm-downsample --factor 2 --filter $(BUNNY_FILTER) -o $@ out/bunny-path-2x.exr
+	bin/pm-downsample -f --factor 2 --filter $(BUNNY_FILTER) -o $@ out/bunny-path-2x.exr

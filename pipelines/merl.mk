@@ -28,11 +28,11 @@ out/bunny-merl.pmap: out/bunny-merl-shot.pmap bin/pm-balance
 	bin/pm-balance -f -v -o $@ out/bunny-merl-shot.pmap
 
 out/bunny-merl-2x.exr: data/bunny-merl.xml build/merl/gold.binary out/bunny-merl.pmap bin/pm-render
-	bin/pm-render -v --spp $(BUNNY_MERL_SPP) --size $(BUNNY_MERL_SIZE) \
+	bin/pm-render -f -v --spp $(BUNNY_MERL_SPP) --size $(BUNNY_MERL_SIZE) \
 		$(BUNNY_MERL_RENDER) -o $@ data/bunny-merl.xml out/bunny-merl.pmap
 
 out/bunny-merl.exr: out/bunny-merl-2x.exr bin/pm-downsample
-	bin/pm-downsample --factor 2 --filter mitchell -o $@ out/bunny-merl-2x.exr
+	bin/pm-downsample -f --factor 2 --filter mitchell -o $@ out/bunny-merl-2x.exr
 
 out/bunny-merl.png: out/bunny-merl.exr
-	bin/pm-downsample --factor 1 -o $@ out/bunny-merl.exr
+	bin/pm-downsample -f --factor 1 -o $@ out/bunny-merl.exr

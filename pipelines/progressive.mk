@@ -46,16 +46,16 @@ $(PROG_DIR)/pass-%.pmap: $(PROG_SCENE) bin/pm-shoot bin/pm-balance
 	@rm -f $@.shot
 
 $(PROG_DIR)/pass-%.exr: $(PROG_DIR)/pass-%.pmap bin/pm-render
-	bin/pm-render -q --pass $$(expr $* + 0) --seed $$(expr $* + 0) \
+	bin/pm-render -f -q --pass $$(expr $* + 0) --seed $$(expr $* + 0) \
 		--alpha $(PROG_ALPHA) --spp $(PROG_SPP) --size $(PROG_SIZE) \
 		$(PROG_RENDER) -o $@ $(PROG_SCENE) $<
 
 # mean-NNN.exr averages passes 1 to NNN.
 define PROG_MEAN_RULE
 $(PROG_DIR)/mean-$(1).exr: $(wordlist 1,$(2),$(PROG_IDS:%=$(PROG_DIR)/pass-%.exr)) bin/pm-downsample
-	bin/pm-downsample -q -o $$@ $(wordlist 1,$(2),$(PROG_IDS:%=$(PROG_DIR)/pass-%.exr))
+	bin/pm-downsample -f -q -o $$@ $(wordlist 1,$(2),$(PROG_IDS:%=$(PROG_DIR)/pass-%.exr))
 endef
 $(foreach i,$(PROG_IDS),$(eval $(call PROG_MEAN_RULE,$(i),$(shell expr $(i) + 0))))
 
 $(PROG_DIR).png: $(PROG_MEANS)
-	bin/pm-downsample -q -o $@ $(PROG_LAST)
+	bin/pm-downsample -f -q -o $@ $(PROG_LAST)

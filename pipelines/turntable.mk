@@ -33,10 +33,10 @@ out/turntable/cam-%.txt: FORCE
 	@if cmp -s $@.new $@; then rm -f $@.new; else mv $@.new $@; fi
 
 out/turntable/frame-%.exr: out/turntable/cam-%.txt $(TT_MAP) $(TT_SCENE) bin/pm-render
-	bin/pm-render -q --spp $(TT_SPP) --size $(TT_SIZE) $(TT_RENDER) \
+	bin/pm-render -f -q --spp $(TT_SPP) --size $(TT_SIZE) $(TT_RENDER) \
 		--cameras out/turntable/cam-$*.txt -o $@ $(TT_SCENE) $(TT_MAP)
 
 out/turntable/frame-%.png: out/turntable/frame-%.exr bin/pm-downsample
-	bin/pm-downsample --factor 1 -o $@ $<
+	bin/pm-downsample -f --factor 1 -o $@ $<
 
 FORCE:

@@ -19,7 +19,6 @@
 #include <errno.h>
 #include <getopt.h>
 #include <math.h>
-#include <stdarg.h>
 #include <stdbool.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -37,21 +36,41 @@
 #include "../common/photon.h"
 #include "../common/render.h"
 #include "../formats/pmap.h"
-
-#ifndef PM_VERSION
-#define PM_VERSION "0.1.0"
-#endif
+#include "cli.h"
 
 #define PROG		"pm-balance"
 #define MAX_THREADS	4096
 
 static const char usage_line[] =
-    "usage: pm-balance [-fqv] [-t THREADS] [--compress] [--irradiance-stride N] "
-    "[--irradiance-k K] [--irradiance-radius R] [--pass I [--alpha A]] "
-    "-o OUT.pmap IN.pmap ...";
+    "usage: pm-balance [-fqv] [-t THREADS] [--compress] [--irradiance-stride N]\n"
+    "                  [--irradiance-k K] [--irradiance-radius R]\n"
+    "                  [--pass I [--alpha A]] -o OUT.pmap IN.pmap ...\n";
+
+static const char help_text[] =
+    "Merge photon-map shards of one scene, balance their kd-trees and\n"
+    "precompute irradiance records.  An input of - is standard input.\n\n"
+    "      --alpha a         progressive radius schedule (default 2/3)\n"
+    "      --compress        zlib-compress the photon records\n"
+    "  -f, --force           overwrite an existing output\n"
+    "  -h, --help            print this help and exit\n"
+    "      --irradiance-k k  photons per irradiance record (default 32)\n"
+    "      --irradiance-radius r  largest record radius, as a fraction\n"
+    "                        of the global map's half-diagonal (default"
+    " 0.05)\n"
+    "      --irradiance-stride n  one irradiance record per n global\n"
+    "                        photons (default 8; 0: none)\n"
+    "  -o, --output file     the merged map; - is standard output\n"
+    "      --pass i          progressive pass i: records over a fixed\n"
+    "                        radius shrinking with i\n"
+    "  -q, --quiet           no progress line, no warnings\n"
+    "  -t, --threads n       threads for the kd-tree build (default:"
+    " all cores)\n"
+    "  -v, --verbose         per-map counts and build times\n"
+    "      --version         print the version and exit\n\n"
+    "A progress line goes to stderr when it is a terminal.\n";
 
 enum {
-	OPT_COMPRESS = 256, OPT_VERSION, OPT_IRR_STRIDE, OPT_IRR_K, OPT_IRR_RADIUS,
+	OPT_COMPRESS = 256, OPT_IRR_STRIDE, OPT_IRR_K, OPT_IRR_RADIUS,
 	OPT_PASS, OPT_ALPHA,
 };
 
@@ -68,9 +87,11 @@ static const struct option longopts[] = {
 	{ "quiet",	no_argument,		NULL,	'q' },
 	{ "threads",	required_argument,	NULL,	't' },
 	{ "verbose",	no_argument,		NULL,	'v' },
-	{ "version",	no_argument,		NULL,	OPT_VERSION },
+	{ "version",	no_argument,		NULL,	PM_CLI_VERSION },
 	{ NULL,		0,			NULL,	0 },
 };
+
+static const struct pm_cli cli = { PROG, usage_line, help_text, longopts };
 
 /* One input file, read whole. */
 struct input {
@@ -87,65 +108,8 @@ struct piece {
 
 static int verbosity = 1;	/* 0 with -q, 2 with -v */
 
-static void
-help(void)
-{
-	printf("%s\n\n", usage_line);
-	printf(
-	    "Merge photon-map shards of one scene and balance their kd-trees.\n"
-	    "An input of - is standard input.\n\n"
-	    "      --alpha a         progressive radius schedule (default 2/3)\n"
-	    "      --compress        zlib-compress the photon records\n"
-	    "  -f, --force           overwrite an existing output\n"
-	    "  -h, --help            print this help and exit\n"
-	    "      --irradiance-k k  photons per irradiance record (default 32)\n"
-	    "      --irradiance-radius r  largest record radius, as a fraction\n"
-	    "                        of the global map's half-diagonal (default"
-	    " 0.05)\n"
-	    "      --irradiance-stride n  one irradiance record per n global\n"
-	    "                        photons (default 8; 0: none)\n"
-	    "  -o, --output file     the merged map; - is standard output\n"
-	    "      --pass i          progressive pass i: records over a fixed\n"
-	    "                        radius shrinking with i\n"
-	    "  -q, --quiet           no warnings\n"
-	    "  -t, --threads n       threads for the kd-tree build (default:"
-	    " all cores)\n"
-	    "  -v, --verbose         per-map counts and build times\n"
-	    "      --version         print the version and exit\n");
-}
-
 /* Reports a usage error in one line and exits 2. */
-static void __attribute__((noreturn, format(printf, 1, 2)))
-usage_error(const char *fmt, ...)
-{
-	va_list ap;
-
-	fputs(PROG ": ", stderr);
-	va_start(ap, fmt);
-	vfprintf(stderr, fmt, ap);
-	va_end(ap);
-	fputs(" (see --help)\n", stderr);
-	exit(2);
-}
-
-/* Names what getopt_long refused: arg is the word it stopped at. */
-static void __attribute__((noreturn))
-bad_option(const char *arg, int opt)
-{
-	const struct option *o;
-	size_t len;
-
-	if (arg[0] != '-' || arg[1] != '-')
-		usage_error("unknown option -%c", opt > 0 && opt < 256 ? opt :
-		    '?');
-	len = strcspn(arg + 2, "=");
-	for (o = longopts; o->name != NULL; o++)
-		if (strlen(o->name) == len &&
-		    strncmp(o->name, arg + 2, len) == 0 &&
-		    arg[2 + len] == '=' && o->has_arg == no_argument)
-			usage_error("option --%s takes no argument", o->name);
-	usage_error("unknown or ambiguous option --%.*s", (int)len, arg + 2);
-}
+#define usage_error pm_cli_usage_error
 
 static double
 now(void)
@@ -225,58 +189,6 @@ kind_set_name(unsigned set, char *buf, size_t len)
 	    set & (1u << PM_MAP_CAUSTIC) ? "caustic" : "");
 	if (set == 0)
 		snprintf(buf, len, "no maps");
-}
-
-/*
- * Checks an existing output before any input is read: refuses to replace
- * it without -f and refuses what cannot be replaced at all.
- */
-static bool
-output_ok(const char *output, bool force)
-{
-	struct stat st;
-	char dir[4096];
-	const char *slash;
-	size_t len;
-
-	if (strcmp(output, "-") == 0) {
-		if (isatty(STDOUT_FILENO)) {
-			fprintf(stderr, "%s: -: refusing to write a photon map "
-			    "to a terminal\n", PROG);
-			return false;
-		}
-		return true;
-	}
-	if (stat(output, &st) == 0) {
-		if (S_ISDIR(st.st_mode)) {
-			fprintf(stderr, "%s: %s: is a directory\n", PROG,
-			    output);
-			return false;
-		}
-		if (!force) {
-			fprintf(stderr, "%s: %s: already exists; use -f to "
-			    "overwrite it\n", PROG, output);
-			return false;
-		}
-	}
-	slash = strrchr(output, '/');
-	if (slash == NULL)
-		snprintf(dir, sizeof(dir), ".");
-	else {
-		len = slash == output ? 1 : (size_t)(slash - output);
-		if (len >= sizeof(dir)) {
-			fprintf(stderr, "%s: %s: name too long\n", PROG, output);
-			return false;
-		}
-		memcpy(dir, output, len);
-		dir[len] = '\0';
-	}
-	if (access(dir, W_OK | X_OK) != 0) {
-		fprintf(stderr, "%s: %s: cannot create files in %s: %s\n", PROG,
-		    output, dir, strerror(errno));
-		return false;
-	}
-	return true;
 }
 
 /*
@@ -538,48 +450,6 @@ gather(const struct piece *pc, int n, struct pm_map *out)
 	return true;
 }
 
-/*
- * The command line as one shell-readable line: words with anything but
- * safe characters are single-quoted.
- */
-static char *
-command_line(int argc, char **argv)
-{
-	size_t len = 1, i;
-	char *s, *q;
-	int k;
-
-	for (k = 0; k < argc; k++)
-		len += 3 + 4 * strlen(argv[k]);
-	if ((s = malloc(len)) == NULL)
-		return NULL;
-	q = s;
-	for (k = 0; k < argc; k++) {
-		const char *w = argv[k];
-		bool plain = *w != '\0' && strspn(w, "abcdefghijklmnopqrstuvwxyz"
-		    "ABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-+=/.,:@%") ==
-		    strlen(w);
-
-		if (k > 0)
-			*q++ = ' ';
-		if (plain) {
-			q = stpcpy(q, w);
-			continue;
-		}
-		*q++ = '\'';
-		for (i = 0; w[i] != '\0'; i++) {
-			if (w[i] == '\'') {
-				q = stpcpy(q, "'\\''");
-				continue;
-			}
-			*q++ = w[i];
-		}
-		*q++ = '\'';
-	}
-	*q = '\0';
-	return s;
-}
-
 static void
 free_inputs(struct input *in, int n)
 {
@@ -671,15 +541,14 @@ main(int argc, char *argv[])
 	struct pm_pmap out;
 	const struct input *first;
 	const char *output = NULL;
-	char *cmd = NULL;
 	bool force = false, compress = false;
 	long threads = sysconf(_SC_NPROCESSORS_ONLN);
 	long irr_stride = 8, irr_k = 32, pass = 0;
 	float irr_radius = 0.05f, alpha = 2.0f / 3.0f;
 	int ch, i, j, k, n = 0, nstdin = 0, status = 1;
-	int orig_argc = argc;
-	char **orig_argv = argv;
 	double t, t_sort;
+	struct pm_cli_progress *prog = NULL;
+	_Atomic long pdone, ptotal;
 	size_t sz;
 
 	memset(&out, 0, sizeof(out));
@@ -687,16 +556,11 @@ main(int argc, char *argv[])
 		threads = 1;
 	if (threads > MAX_THREADS)
 		threads = MAX_THREADS;
-	opterr = 0;
-	while ((ch = getopt_long(argc, argv, ":fho:qt:v", longopts,
-	    NULL)) != -1) {
+	while ((ch = pm_cli_getopt(&cli, argc, argv, "fho:qt:v")) != -1) {
 		switch (ch) {
 		case 'f':
 			force = true;
 			break;
-		case 'h':
-			help();
-			goto close_stdout;
 		case 'o':
 			output = optarg;
 			break;
@@ -739,19 +603,8 @@ main(int argc, char *argv[])
 				usage_error("--alpha: expected a number in (0, 1), "
 				    "got '%s'", optarg);
 			break;
-		case OPT_VERSION:
-			printf("%s (pm) %s\n", PROG, PM_VERSION);
-			goto close_stdout;
-		case ':':
-			if (optopt > 0 && optopt < 256 &&
-			    argv[optind - 1][1] != '-')
-				usage_error("option -%c needs an argument",
-				    optopt);
-			usage_error("option %s needs an argument",
-			    argv[optind - 1]);
-		case '?':
 		default:
-			bad_option(argv[optind - 1], optopt);
+			usage_error("unhandled option '%s'", argv[optind - 1]);
 		}
 	}
 	argc -= optind;
@@ -775,7 +628,7 @@ main(int argc, char *argv[])
 		return 1;
 	}
 	/* Checked before reading, so that nothing is read in vain. */
-	if (!output_ok(output, force))
+	if (!pm_cli_check_output(PROG, output, force))
 		return 1;
 
 	n = argc;
@@ -844,13 +697,9 @@ main(int argc, char *argv[])
 		fprintf(stderr, "%s: out of memory\n", PROG);
 		goto done;
 	}
-	if ((cmd = command_line(orig_argc, orig_argv)) == NULL) {
-		fprintf(stderr, "%s: out of memory\n", PROG);
-		goto done;
-	}
 	/* "tool" names the version too, as pm-shoot's line does. */
 	if (pm_pmap_info_add(&out, "tool", PROG " " PM_VERSION, &err) !=
-	    PM_OK || pm_pmap_info_add(&out, "command", cmd, &err) != PM_OK) {
+	    PM_OK || pm_pmap_info_add(&out, "command", pm_cli_command(), &err) != PM_OK) {
 		fprintf(stderr, "%s: %s\n", PROG, err.msg);
 		goto done;
 	}
@@ -871,6 +720,14 @@ main(int argc, char *argv[])
 	/* The records are copied; the inputs are no longer needed. */
 	free_inputs(in, n);
 
+	/* Progress in photons: sorting counts once, the kd-tree build twice
+	 * (it sorts along every level) and writing once. */
+	atomic_init(&pdone, 0);
+	atomic_init(&ptotal, 0);
+	for (k = 0; k < out.nmaps; k++)
+		atomic_fetch_add(&ptotal, 4 * (long)out.maps[k].count);
+	prog = pm_cli_progress_start(PROG, "", pm_cli_progress_wanted(
+	    verbosity == 0), &pdone, &ptotal, NULL, NULL, 0.0);
 	for (k = 0; k < out.nmaps; k++) {
 		struct pm_map *m = &out.maps[k];
 
@@ -879,14 +736,18 @@ main(int argc, char *argv[])
 			m->photons[sz].flags &= (uint8_t)~PM_KD_AXIS_MASK;
 		canonical_sort(m->photons, (size_t)m->count, 0);
 		t_sort = now() - t;
+		atomic_fetch_add(&pdone, (long)m->count);
 		t = now();
 		if (pm_kdtree_build(m->photons, (size_t)m->count, (int)threads,
 		    &err) != PM_OK) {
+			pm_cli_progress_hold(prog);
 			fprintf(stderr, "%s: %s: %s map: %s\n", PROG, output,
 			    kind_name(m->kind), err.msg);
 			goto done;
 		}
 		m->balanced = true;
+		atomic_fetch_add(&pdone, 2 * (long)m->count);
+		pm_cli_progress_hold(prog);
 		if (verbosity >= 2)
 			fprintf(stderr, "%s: %s map: %llu photons, %llu paths "
 			    "[%llu, %llu), from %d input%s; sorted in %.3f s, "
@@ -897,6 +758,7 @@ main(int argc, char *argv[])
 			    (unsigned long long)(m->first_index + m->emitted),
 			    n, n == 1 ? "" : "s", t_sort, now() - t, threads,
 			    threads == 1 ? "" : "s");
+		pm_cli_progress_release(prog);
 	}
 
 	if (irr_stride > 0 && !add_irradiance(&out, (size_t)irr_stride,
@@ -905,9 +767,13 @@ main(int argc, char *argv[])
 
 	t = now();
 	if (pm_pmap_write(output, &out, compress, &err) != PM_OK) {
+		pm_cli_progress_hold(prog);
 		fprintf(stderr, "%s: %s\n", PROG, err.msg);
 		goto done;
 	}
+	atomic_store(&pdone, atomic_load(&ptotal));
+	pm_cli_progress_stop(prog);
+	prog = NULL;
 	if (verbosity >= 2)
 		fprintf(stderr, "%s: %s: %d map%s written%s in %.3f s\n", PROG,
 		    output, out.nmaps, out.nmaps == 1 ? "" : "s",
@@ -915,17 +781,20 @@ main(int argc, char *argv[])
 	status = 0;
 
 done:
+	if (prog != NULL) {
+		/* Held: the line was cleared for an error message. */
+		pm_cli_progress_release(prog);
+		pm_cli_progress_stop(prog);
+	}
 	free_inputs(in, n);
 	for (j = 0; j < out.nmaps; j++)
 		free(out.maps[j].photons);
 	free(out.info);
-	free(cmd);
 	free(in);
 	free(pc);
 	if (status != 0)
 		return status;
 
-close_stdout:
 	/* A full disk or a closed pipe shows up only here. */
 	errno = 0;
 	if (fflush(stdout) != 0 || ferror(stdout) || fclose(stdout) != 0) {

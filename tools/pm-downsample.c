@@ -14,7 +14,6 @@
 #include <getopt.h>
 #include <limits.h>
 #include <math.h>
-#include <stdarg.h>
 #include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -26,10 +25,7 @@
 #include "../common/image.h"
 #include "../formats/exr.h"
 #include "../formats/png.h"
-
-#ifndef PM_VERSION
-#define PM_VERSION "0.1"
-#endif
+#include "cli.h"
 
 #define PROG		"pm-downsample"
 #define MAX_FACTOR	32768
@@ -38,66 +34,54 @@
 #define MAX_LEVELS	40
 
 static const char usage_line[] =
-    "usage: pm-downsample [-hqv] [-e ev] [-F filter] [-f factor] [--half] "
-    "-o output input ...";
+    "usage: pm-downsample [-fqv] [-e ev] [-F filter] [--factor n] [--half] "
+    "-o output input ...\n";
+
+static const char help_text[] =
+    "Average OpenEXR passes of equal size, filter them down by an\n"
+    "integer factor and write OpenEXR (linear) or PNG (sRGB).\n\n"
+    "  -e, --exposure ev   scale by 2^ev before the sRGB curve (PNG;"
+    " default 0)\n"
+    "  -F, --filter name   box, tent, gaussian, mitchell or lanczos"
+    " (default box)\n"
+    "  -f, --force         overwrite an existing output\n"
+    "      --factor n      output pixel = n x n input pixels"
+    " (default 1)\n"
+    "      --half          write half floats instead of float32"
+    " (OpenEXR)\n"
+    "  -h, --help          print this help and exit\n"
+    "  -o, --output file   output, .exr or .png; - is PNG on"
+    " standard output\n"
+    "  -q, --quiet         no warnings\n"
+    "  -v, --verbose       describe the inputs and the result\n"
+    "      --version       print the version and exit\n";
 
 static const char *const filter_names[] = {
 	"box", "tent", "gaussian", "mitchell", "lanczos",
 };
 
-enum { OPT_HALF = 256, OPT_VERSION };
+enum { OPT_HALF = 256, OPT_FACTOR };
 
 static const struct option longopts[] = {
 	{ "exposure",	required_argument,	NULL,	'e' },
 	{ "filter",	required_argument,	NULL,	'F' },
-	{ "factor",	required_argument,	NULL,	'f' },
+	{ "factor",	required_argument,	NULL,	OPT_FACTOR },
+	{ "force",	no_argument,		NULL,	'f' },
 	{ "half",	no_argument,		NULL,	OPT_HALF },
 	{ "help",	no_argument,		NULL,	'h' },
 	{ "output",	required_argument,	NULL,	'o' },
 	{ "quiet",	no_argument,		NULL,	'q' },
 	{ "verbose",	no_argument,		NULL,	'v' },
-	{ "version",	no_argument,		NULL,	OPT_VERSION },
+	{ "version",	no_argument,		NULL,	PM_CLI_VERSION },
 	{ NULL,		0,			NULL,	0 },
 };
 
+static const struct pm_cli cli = { PROG, usage_line, help_text, longopts };
+
 static int verbosity = 1;	/* 0 with -q, 2 with -v */
 
-static void
-help(void)
-{
-	printf("%s\n\n", usage_line);
-	printf(
-	    "Average OpenEXR passes of equal size, filter them down by an\n"
-	    "integer factor and write OpenEXR (linear) or PNG (sRGB).\n\n"
-	    "  -e, --exposure ev   scale by 2^ev before the sRGB curve (PNG;"
-	    " default 0)\n"
-	    "  -F, --filter name   box, tent, gaussian, mitchell or lanczos"
-	    " (default box)\n"
-	    "  -f, --factor n      output pixel = n x n input pixels"
-	    " (default 1)\n"
-	    "      --half          write half floats instead of float32"
-	    " (OpenEXR)\n"
-	    "  -h, --help          print this help and exit\n"
-	    "  -o, --output file   output, .exr or .png; - is PNG on"
-	    " standard output\n"
-	    "  -q, --quiet         no warnings\n"
-	    "  -v, --verbose       describe the inputs and the result\n"
-	    "      --version       print the version and exit\n");
-}
-
 /* Reports a usage error in one line and exits 2. */
-static void __attribute__((noreturn, format(printf, 1, 2)))
-usage_error(const char *fmt, ...)
-{
-	va_list ap;
-
-	fputs(PROG ": ", stderr);
-	va_start(ap, fmt);
-	vfprintf(stderr, fmt, ap);
-	va_end(ap);
-	fputs(" (see --help)\n", stderr);
-	exit(2);
-}
+#define usage_error pm_cli_usage_error
 
 /*
  * Parses the whole of s as a number within [min, max]: a decimal integer
@@ -129,25 +113,6 @@ parse_number(const char *opt, const char *s, double min, double max,
 	return v;
 }
 
-/* Names what getopt_long refused: arg is the word it stopped at. */
-static void __attribute__((noreturn))
-bad_option(const char *arg, int opt)
-{
-	const struct option *o;
-	size_t len;
-
-	if (arg[0] != '-' || arg[1] != '-')
-		usage_error("unknown option -%c", opt > 0 && opt < 256 ? opt :
-		    '?');
-	len = strcspn(arg + 2, "=");
-	for (o = longopts; o->name != NULL; o++)
-		if (strlen(o->name) == len &&
-		    strncmp(o->name, arg + 2, len) == 0 &&
-		    arg[2 + len] == '=' && o->has_arg == no_argument)
-			usage_error("option --%s takes no argument", o->name);
-	usage_error("unknown or ambiguous option --%.*s", (int)len, arg + 2);
-}
-
 /* Which writer the output's name asks for. */
 enum out_kind { OUT_EXR, OUT_PNG };
 
@@ -169,36 +134,6 @@ output_kind(const char *path, enum out_kind *kind)
 		*kind = OUT_PNG;
 	else
 		return false;
-	return true;
-}
-
-/*
- * Says whether the directory that will hold output accepts new files, so
- * that a typo in -o fails before the inputs are read rather than after.
- */
-static bool
-output_dir_ok(const char *output)
-{
-	char dir[4096];
-	const char *slash = strrchr(output, '/');
-	size_t len;
-
-	if (slash == NULL)
-		snprintf(dir, sizeof(dir), ".");
-	else {
-		len = slash == output ? 1 : (size_t)(slash - output);
-		if (len >= sizeof(dir)) {
-			fprintf(stderr, "%s: %s: name too long\n", PROG, output);
-			return false;
-		}
-		memcpy(dir, output, len);
-		dir[len] = '\0';
-	}
-	if (access(dir, W_OK | X_OK) != 0) {
-		fprintf(stderr, "%s: %s: cannot create files in %s: %s\n", PROG,
-		    output, dir, strerror(errno));
-		return false;
-	}
 	return true;
 }
 
@@ -244,7 +179,7 @@ main(int argc, char *argv[])
 	enum out_kind kind = OUT_EXR;
 	const char *output = NULL, *first = NULL;
 	double exposure = 0.0;
-	bool half = false, exposure_set = false;
+	bool half = false, exposure_set = false, force = false;
 	int filter = PM_FILTER_BOX, factor = 1;
 	int ch, i, k, ninputs, width = 0, height = 0;
 	uint8_t *srgb = NULL;
@@ -252,9 +187,7 @@ main(int argc, char *argv[])
 	memset(level, 0, sizeof(level));
 	memset(&sum, 0, sizeof(sum));
 	memset(&out, 0, sizeof(out));
-	opterr = 0;
-	while ((ch = getopt_long(argc, argv, ":e:F:f:ho:qv", longopts,
-	    NULL)) != -1) {
+	while ((ch = pm_cli_getopt(&cli, argc, argv, "e:F:fho:qv")) != -1) {
 		switch (ch) {
 		case 'e':
 			exposure = parse_number("--exposure", optarg,
@@ -268,12 +201,12 @@ main(int argc, char *argv[])
 				    "or lanczos", optarg);
 			break;
 		case 'f':
+			force = true;
+			break;
+		case OPT_FACTOR:
 			factor = (int)parse_number("--factor", optarg, 1,
 			    MAX_FACTOR, true);
 			break;
-		case 'h':
-			help();
-			goto close_stdout;
 		case 'o':
 			output = optarg;
 			break;
@@ -286,19 +219,8 @@ main(int argc, char *argv[])
 		case OPT_HALF:
 			half = true;
 			break;
-		case OPT_VERSION:
-			printf("%s (pm) %s\n", PROG, PM_VERSION);
-			goto close_stdout;
-		case ':':
-			if (optopt > 0 && optopt < 256 &&
-			    argv[optind - 1][1] != '-')
-				usage_error("option -%c needs an argument",
-				    optopt);
-			usage_error("option %s needs an argument",
-			    argv[optind - 1]);
-		case '?':
 		default:
-			bad_option(argv[optind - 1], optopt);
+			usage_error("unhandled option '%s'", argv[optind - 1]);
 		}
 	}
 	argc -= optind;
@@ -322,13 +244,7 @@ main(int argc, char *argv[])
 			usage_error("inputs must be files: OpenEXR cannot be "
 			    "read from standard input");
 	/* Checked before any work, so that nothing is read in vain. */
-	if (strcmp(output, "-") == 0 && isatty(STDOUT_FILENO)) {
-		fprintf(stderr, "%s: -: refusing to write PNG data to a "
-		    "terminal\n", PROG);
-		return 1;
-	}
-
-	if (strcmp(output, "-") != 0 && !output_dir_ok(output))
+	if (!pm_cli_check_output(PROG, output, force))
 		return 1;
 
 	/* Sum the passes pairwise: level[k] holds 2^k of them. */
@@ -439,7 +355,6 @@ main(int argc, char *argv[])
 	}
 	pm_image_free(&out);
 
-close_stdout:
 	/* A full disk or a closed pipe shows up only here. */
 	errno = 0;
 	if (fflush(stdout) != 0 || ferror(stdout) || fclose(stdout) != 0) {

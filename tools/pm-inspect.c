@@ -12,7 +12,6 @@
 #include <errno.h>
 #include <getopt.h>
 #include <math.h>
-#include <stdarg.h>
 #include <stdbool.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -30,10 +29,8 @@
 #include "../common/parse.h"
 #include "../common/photon.h"
 #include "../formats/pmap.h"
+#include "cli.h"
 
-#ifndef PM_VERSION
-#define PM_VERSION "0.1.0"
-#endif
 
 #define PROG		"pm-inspect"
 #define MAX_QUERIES	100000000L
@@ -47,11 +44,10 @@
 static const char usage_line[] =
     "usage: pm-inspect [-qv] [--json] [--verify] [--dump xyz|ply|csv] "
     "[--map global|caustic|irradiance] [--knn-check N [-k K]] [--seed S] "
-    "MAP.pmap";
+    "MAP.pmap\n";
 
 enum {
 	OPT_JSON = 256, OPT_VERIFY, OPT_DUMP, OPT_MAP, OPT_KNN, OPT_SEED,
-	OPT_VERSION,
 };
 
 static const struct option longopts[] = {
@@ -64,7 +60,7 @@ static const struct option longopts[] = {
 	{ "seed",	required_argument,	NULL,	OPT_SEED },
 	{ "verbose",	no_argument,		NULL,	'v' },
 	{ "verify",	no_argument,		NULL,	OPT_VERIFY },
-	{ "version",	no_argument,		NULL,	OPT_VERSION },
+	{ "version",	no_argument,		NULL,	PM_CLI_VERSION },
 	{ NULL,		0,			NULL,	0 },
 };
 
@@ -105,63 +101,30 @@ struct report {
 
 static int verbosity = 1;	/* 0 with -q, 2 with -v */
 
-static void
-help(void)
-{
-	printf("%s\n\n", usage_line);
-	printf(
-	    "Describe a photon-map file as TSV (or JSON), check it, or dump\n"
-	    "its photons as a point cloud.  MAP.pmap may be - for standard\n"
-	    "input.\n\n"
-	    "      --dump format     print the photons as xyz, ply or csv"
-	    " instead\n"
-	    "  -h, --help            print this help and exit\n"
-	    "      --json            one JSON object instead of TSV\n"
-	    "  -k K                  neighbours per --knn-check query"
-	    " (default 50)\n"
-	    "      --knn-check N     compare N k-nearest queries with FLANN\n"
-	    "      --map kind        only the global, caustic or irradiance"
-	    " map\n"
-	    "  -q, --quiet           no warnings\n"
-	    "      --seed S          seed of the --knn-check queries"
-	    " (default 1)\n"
-	    "  -v, --verbose         say how long reading and checking took\n"
-	    "      --verify          check the kd-tree order of balanced maps\n"
-	    "      --version         print the version and exit\n");
-}
+static const char help_text[] =
+    "Describe a photon-map file as TSV (or JSON), check it, or dump\n"
+    "its photons as a point cloud.  MAP.pmap may be - for standard\n"
+    "input.\n\n"
+    "      --dump format     print the photons as xyz, ply or csv"
+    " instead\n"
+    "  -h, --help            print this help and exit\n"
+    "      --json            one JSON object instead of TSV\n"
+    "  -k K                  neighbours per --knn-check query"
+    " (default 50)\n"
+    "      --knn-check N     compare N k-nearest queries with FLANN\n"
+    "      --map kind        only the global, caustic or irradiance"
+    " map\n"
+    "  -q, --quiet           no warnings\n"
+    "      --seed S          seed of the --knn-check queries"
+    " (default 1)\n"
+    "  -v, --verbose         say how long reading and checking took\n"
+    "      --verify          check the kd-tree order of balanced maps\n"
+    "      --version         print the version and exit\n";
+
+static const struct pm_cli cli = { PROG, usage_line, help_text, longopts };
 
 /* Reports a usage error in one line and exits 2. */
-static void __attribute__((noreturn, format(printf, 1, 2)))
-usage_error(const char *fmt, ...)
-{
-	va_list ap;
-
-	fputs(PROG ": ", stderr);
-	va_start(ap, fmt);
-	vfprintf(stderr, fmt, ap);
-	va_end(ap);
-	fputs(" (see --help)\n", stderr);
-	exit(2);
-}
-
-/* Names what getopt_long refused: arg is the word it stopped at. */
-static void __attribute__((noreturn))
-bad_option(const char *arg, int opt)
-{
-	const struct option *o;
-	size_t len;
-
-	if (arg[0] != '-' || arg[1] != '-')
-		usage_error("unknown option -%c", opt > 0 && opt < 256 ? opt :
-		    '?');
-	len = strcspn(arg + 2, "=");
-	for (o = longopts; o->name != NULL; o++)
-		if (strlen(o->name) == len &&
-		    strncmp(o->name, arg + 2, len) == 0 &&
-		    arg[2 + len] == '=' && o->has_arg == no_argument)
-			usage_error("option --%s takes no argument", o->name);
-	usage_error("unknown or ambiguous option --%.*s", (int)len, arg + 2);
-}
+#define usage_error pm_cli_usage_error
 
 static double
 now(void)
@@ -916,13 +879,8 @@ main(int argc, char *argv[])
 
 	memset(&pm, 0, sizeof(pm));
 	memset(&r, 0, sizeof(r));
-	opterr = 0;
-	while ((ch = getopt_long(argc, argv, ":hk:qv", longopts,
-	    NULL)) != -1) {
+	while ((ch = pm_cli_getopt(&cli, argc, argv, "hk:qv")) != -1) {
 		switch (ch) {
-		case 'h':
-			help();
-			goto close_stdout;
 		case 'k':
 			if (!pm_parse_long(optarg, 1, MAX_K, &k))
 				usage_error("-k: expected a neighbour count "
@@ -975,19 +933,8 @@ main(int argc, char *argv[])
 		case OPT_VERIFY:
 			verify = true;
 			break;
-		case OPT_VERSION:
-			printf("%s (pm) %s\n", PROG, PM_VERSION);
-			goto close_stdout;
-		case ':':
-			if (optopt > 0 && optopt < 256 &&
-			    argv[optind - 1][1] != '-')
-				usage_error("option -%c needs an argument",
-				    optopt);
-			usage_error("option %s needs an argument",
-			    argv[optind - 1]);
-		case '?':
 		default:
-			bad_option(argv[optind - 1], optopt);
+			usage_error("unhandled option '%s'", argv[optind - 1]);
 		}
 	}
 	argc -= optind;
@@ -1107,7 +1054,6 @@ done:
 	pm_pmap_free(&pm);
 	loaded = false;
 
-close_stdout:
 	/* A full disk or a closed pipe shows up only here. */
 	errno = 0;
 	if (fflush(stdout) != 0 || ferror(stdout) || fclose(stdout) != 0) {

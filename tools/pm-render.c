@@ -13,6 +13,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -22,39 +23,76 @@
 #include "../common/render.h"
 #include "../common/shoot.h"
 #include "../formats/exr.h"
+#include "../formats/png.h"
 #include "../formats/pmap.h"
 #include "../formats/scene_xml.h"
 
 #define PROG "pm-render"
-#define VERSION "0.2.0"
 #define MAX_DEFINES 64
 #define MAX_CAMERAS 100000
 
 static const char usage_line[] =
-    "usage: pm-render [-qv] [--method path|photon] [--spp N] [--size WxH]\n"
+    "usage: pm-render [-fqv] [--method path | photon] [--spp N] [--size WxH]\n"
     "                 [--eye X,Y,Z] [--target X,Y,Z] [--up X,Y,Z] [--fov DEG]\n"
     "                 [--cameras FILE] [-D NAME=VALUE] [--seed N] [-t THREADS]\n"
     "                 [--half] [--global-radius R] [--caustic-radius R]\n"
     "                 [--lookup-size K] [--direct-samples N] [--final-gather]\n"
     "                 [--no-final-gather] [--final-gather-samples N]\n"
     "                 [--cache-step PIXELS] [--cache-rays N]\n"
-    "                 [--cache-accuracy A]\n"
-    "                 [--pass I] [--radius R] [--alpha A]\n"
+    "                 [--cache-accuracy A] [--pass I] [--radius R] [--alpha A]\n"
+    "                 [--preview FILE] [--preview-every SECONDS]\n"
     "                 -o OUT.exr SCENE.xml [MAP.pmap]\n";
+
+static const char help_text[] =
+    "Render a scene's cameras to linear OpenEXR images, by path tracing or,\n"
+    "given a balanced photon map, by photon mapping.\n\n"
+    "  -o, --output OUT.exr        the image; with several cameras a %d\n"
+    "                              pattern or a number before the extension\n"
+    "  -f, --force                 overwrite existing outputs\n"
+    "      --method path|photon    path tracing, or photon mapping (needs MAP)\n"
+    "      --spp N                 samples per pixel (default: the scene's)\n"
+    "      --size WxH              image size (default: the scene's film)\n"
+    "      --eye X,Y,Z, --target X,Y,Z, --up X,Y,Z\n"
+    "                              a camera instead of the scene's\n"
+    "      --fov DEG               field of view\n"
+    "      --cameras FILE          one camera per line: EYE TARGET UP [FOV]\n"
+    "  -D, --define NAME=VALUE     set a scene's $NAME default\n"
+    "      --seed N                random seed (default 0)\n"
+    "  -t, --threads N             threads (default: all cores)\n"
+    "      --half                  write half floats\n"
+    "      --global-radius R, --caustic-radius R\n"
+    "                              lookup radii, fractions of the scene radius\n"
+    "      --lookup-size K         photons per estimate\n"
+    "      --direct-samples N      light samples per camera sample (default 1)\n"
+    "      --final-gather, --no-final-gather\n"
+    "                              gather indirect light (default), or show\n"
+    "                              the global map's photons directly\n"
+    "      --final-gather-samples N  gather rays of a camera sample that the\n"
+    "                              irradiance cache does not serve (default 1)\n"
+    "      --cache-step PIXELS     pixels between irradiance cache points\n"
+    "                              (default 4; 0: no cache)\n"
+    "      --cache-rays N          gather rays per cache point (default 256)\n"
+    "      --cache-accuracy A      Ward's a: larger trusts points farther\n"
+    "                              (default 0.3)\n"
+    "      --pass I                progressive pass I (1, 2, ...): fixed radii\n"
+    "      --radius R              first pass's global radius\n"
+    "      --alpha A               progressive radius shrinkage (default 2/3)\n"
+    "      --preview FILE          write the image so far to FILE (.png or\n"
+    "                              .exr) while rendering, for a viewer\n"
+    "      --preview-every SECONDS how often (default 1)\n"
+    "  -q, --quiet                 no progress line, no warnings\n"
+    "  -v, --verbose               scene, map and timing details\n"
+    "  -h, --help                  print this help and exit\n"
+    "      --version               print the version and exit\n\n"
+    "A progress line goes to stderr when it is a terminal.\n";
 
 struct cam_override {
 	struct pm_vec3 eye, target, up;
 	float fov;			/* 0: keep */
 };
 
-static void
-usage_error(const char *fmt, const char *arg)
-{
-	fprintf(stderr, PROG ": ");
-	fprintf(stderr, fmt, arg);
-	fprintf(stderr, "\n%s", usage_line);
-	exit(2);
-}
+/* A usage error: one line on stderr, exit 2. */
+#define usage_error pm_cli_usage_error
 
 /*
  * Reads a camera list: one camera per line, "EYE TARGET UP [FOV]" with
@@ -161,26 +199,65 @@ pattern_ok(const char *s)
 	return *p == 'd' && strchr(p, '%') == NULL;
 }
 
-struct progress {
-	_Atomic long done;
-	long total;
-	_Atomic int stop;
+/* True if path names a PNG file (else OpenEXR). */
+static int
+is_png(const char *path)
+{
+	size_t n = strlen(path);
+
+	return n >= 4 && strcasecmp(path + n - 4, ".png") == 0;
+}
+
+/* The --preview file and what writing it needs. */
+struct preview {
+	const char *path;
+	struct pm_render_watch *watch;
+	struct pm_image snap;
+	_Atomic long *done;		/* tiles finished */
+	long written;			/* ...when the file was last written */
+	int warned;
 };
 
-static void *
-progress_thread(void *arg)
+/* Writes im to the preview file (through a temporary, renamed); warns
+ * once if it cannot. */
+static void
+preview_write(struct preview *pv, const struct pm_image *im)
 {
-	struct progress *p = arg;
-	struct timespec ts = {0, 250000000};
+	struct pm_error err = {PM_OK, ""};
+	enum pm_err e;
 
-	while (!atomic_load(&p->stop)) {
-		if (p->total > 0)
-			fprintf(stderr, "\r" PROG ": %3ld%%",
-			    100 * atomic_load(&p->done) / p->total);
-		nanosleep(&ts, NULL);
+	if (is_png(pv->path)) {
+		uint8_t *rgb = malloc(3 * (size_t)im->width * (size_t)im->height);
+
+		if (rgb == NULL)
+			e = pm_fail(&err, PM_ERR_NOMEM, "%s: out of memory",
+			    pv->path);
+		else {
+			pm_image_to_srgb8(im, 0.0f, rgb);
+			e = pm_png_write_fast(pv->path, rgb, im->width,
+			    im->height, &err);
+			free(rgb);
+		}
+	} else
+		e = pm_exr_write(pv->path, im, true, &err);
+	if (e != PM_OK && !pv->warned) {
+		fprintf(stderr, PROG ": warning: preview: %s\n", err.msg);
+		pv->warned = 1;
 	}
-	fprintf(stderr, "\r" PROG ": 100%%\n");
-	return NULL;
+}
+
+/* The progress thread's tick: the finished tiles so far, the rest black;
+ * nothing if no tile has finished since the last write. */
+static void
+preview_tick(void *arg)
+{
+	struct preview *pv = arg;
+	long done = atomic_load(pv->done);
+
+	if (done != pv->written && pm_render_snapshot(pv->watch, &pv->snap)) {
+		preview_write(pv, &pv->snap);
+		pv->written = done;
+	}
 }
 
 /* Loads a balanced map for this scene into maps; prints and returns 0 on
@@ -316,10 +393,10 @@ main(int argc, char **argv)
 {
 	enum {
 		OPT_METHOD = 256, OPT_SPP, OPT_SIZE, OPT_EYE, OPT_TARGET, OPT_UP,
-		OPT_FOV, OPT_SEED, OPT_HALF, OPT_HELP, OPT_VERSION, OPT_CAMERAS,
+		OPT_FOV, OPT_SEED, OPT_HALF, OPT_CAMERAS,
 		OPT_GRADIUS, OPT_CRADIUS, OPT_LOOKUP, OPT_DIRECT, OPT_FG, OPT_NOFG,
 		OPT_FGSAMPLES, OPT_PASS, OPT_RADIUS, OPT_ALPHA, OPT_CSTEP,
-		OPT_CRAYS, OPT_CACC,
+		OPT_CRAYS, OPT_CACC, OPT_PREVIEW, OPT_PREVIEW_EVERY,
 	};
 	static const struct option longopts[] = {
 		{"method", required_argument, NULL, OPT_METHOD},
@@ -348,12 +425,16 @@ main(int argc, char **argv)
 		{"pass", required_argument, NULL, OPT_PASS},
 		{"radius", required_argument, NULL, OPT_RADIUS},
 		{"alpha", required_argument, NULL, OPT_ALPHA},
+		{"preview", required_argument, NULL, OPT_PREVIEW},
+		{"preview-every", required_argument, NULL, OPT_PREVIEW_EVERY},
+		{"force", no_argument, NULL, 'f'},
 		{"quiet", no_argument, NULL, 'q'},
 		{"verbose", no_argument, NULL, 'v'},
-		{"help", no_argument, NULL, OPT_HELP},
-		{"version", no_argument, NULL, OPT_VERSION},
+		{"help", no_argument, NULL, 'h'},
+		{"version", no_argument, NULL, PM_CLI_VERSION},
 		{NULL, 0, NULL, 0},
 	};
+	static const struct pm_cli cli = {PROG, usage_line, help_text, longopts};
 	struct pm_define defs[MAX_DEFINES];
 	size_t ndefs = 0;
 	const char *out_path = NULL, *scene_path, *map_path = NULL;
@@ -362,7 +443,9 @@ main(int argc, char **argv)
 	struct cam_override *cams = NULL;
 	long ncams = 0, ci;
 	int have_eye = 0, have_target = 0, width = 0, height = 0, half = 0;
-	int verbose = 1, c, fg = -1;
+	int verbose = 1, c, fg = -1, force = 0;
+	struct preview pv = {NULL, NULL, {0, 0, NULL}, NULL, 0, 0};
+	float preview_every = 1.0f;
 	long spp = 0, threads = sysconf(_SC_NPROCESSORS_ONLN);
 	long lookup = 0, direct = 0, fg_samples = 0;
 	long cache_step = -1, cache_rays = 0;
@@ -387,21 +470,14 @@ main(int argc, char **argv)
 
 	if (threads < 1)
 		threads = 1;
-	while ((c = getopt_long(argc, argv, "D:o:qt:v", longopts, NULL)) != -1) {
+	while ((c = pm_cli_getopt(&cli, argc, argv, "D:fho:qt:v")) != -1) {
 		switch (c) {
-		case 'D': {
-			char *eq = strchr(optarg, '=');
-
-			if (eq == NULL || eq == optarg)
-				usage_error("-D wants NAME=VALUE, not '%s'", optarg);
-			if (ndefs == MAX_DEFINES)
-				usage_error("too many -D definitions (at most %s)", "64");
-			*eq = '\0';
-			defs[ndefs].name = optarg;
-			defs[ndefs].value = eq + 1;
-			ndefs++;
+		case 'D':
+			pm_cli_define(optarg, defs, &ndefs, MAX_DEFINES);
 			break;
-		}
+		case 'f':
+			force = 1;
+			break;
 		case 'o':
 			out_path = optarg;
 			break;
@@ -525,15 +601,16 @@ main(int argc, char **argv)
 				    "and 1, not '%s'", optarg);
 			pg.alpha = alpha;
 			break;
-		case OPT_HELP:
-			fputs(usage_line, stdout);
-			return fclose(stdout) == 0 ? 0 : 1;
-		case OPT_VERSION:
-			puts(PROG " " VERSION);
-			return fclose(stdout) == 0 ? 0 : 1;
+		case OPT_PREVIEW:
+			pv.path = optarg;
+			break;
+		case OPT_PREVIEW_EVERY:
+			if (!pm_parse_float(optarg, 0.01f, 86400.0f, &preview_every))
+				usage_error("--preview-every wants seconds from 0.01 "
+				    "to 86400, not '%s'", optarg);
+			break;
 		default:
-			fputs(usage_line, stderr);
-			return 2;
+			usage_error("unhandled option '%s'", argv[optind - 1]);
 		}
 	}
 	if (optind == argc)
@@ -559,12 +636,25 @@ main(int argc, char **argv)
 		usage_error("%s", "--eye and --target go together");
 	if (have_eye && cameras_path != NULL)
 		usage_error("%s", "--eye and --cameras exclude each other");
+	if (pv.path != NULL && strcmp(pv.path, "-") == 0)
+		usage_error("%s", "--preview wants a file, not standard output");
 	if (cameras_path != NULL) {
 		ncams = read_cameras(cameras_path, &cams);
 		if (ncams < 0)
 			return 1;
 	}
-	if (!pm_cli_check_output(PROG, out_path, 1)) {
+	/* Every output is checked before anything is rendered. */
+	for (ci = 0; ci < (cams != NULL ? ncams : 1); ci++) {
+		char name[4096];
+
+		output_name(out_path, ci, cams != NULL ? ncams : 1, name,
+		    sizeof(name));
+		if (!pm_cli_check_output(PROG, name, force)) {
+			free(cams);
+			return 1;
+		}
+	}
+	if (pv.path != NULL && !pm_cli_check_output(PROG, pv.path, 1)) {
 		free(cams);
 		return 1;
 	}
@@ -642,6 +732,11 @@ main(int argc, char **argv)
 	}
 	t_load = pm_cli_now() - t0;
 
+	if (pv.path != NULL && (pv.watch = pm_render_watch_new()) == NULL) {
+		fprintf(stderr, PROG ": out of memory\n");
+		status = 1;
+		goto out;
+	}
 	ctx.scene = &scene;
 	ctx.accel = accel;
 	ctx.lights = &lights;
@@ -675,10 +770,9 @@ main(int argc, char **argv)
 	for (ci = 0; ci < ncams && status == 0; ci++) {
 		struct pm_camera cam = scene.camera;
 		struct pm_image img = {0, 0, NULL};
-		struct progress prog;
-		pthread_t prog_tid;
+		_Atomic long done, total;
+		struct pm_cli_progress *prog;
 		char name[4096];
-		int show_progress;
 		double t_render;
 
 		if (have_eye || cams != &one) {
@@ -708,25 +802,26 @@ main(int argc, char **argv)
 			    map_path ? "photon map" : "path tracing", ctx.max_depth,
 			    threads, t_load);
 
-		atomic_init(&prog.done, 0);
-		atomic_init(&prog.stop, 0);
-		prog.total = 0;
-		opts.tiles_done = &prog.done;
-		opts.tiles_total = &prog.total;
-		show_progress = verbose && isatty(STDERR_FILENO);
-		if (show_progress &&
-		    pthread_create(&prog_tid, NULL, progress_thread, &prog) != 0)
-			show_progress = 0;
+		atomic_init(&done, 0);
+		atomic_init(&total, 0);
+		opts.tiles_done = &done;
+		opts.tiles_total = &total;
+		opts.watch = pv.watch;
+		pv.done = &done;
+		pv.written = 0;
+		prog = pm_cli_progress_start(PROG, ncams > 1 ? name : "",
+		    pm_cli_progress_wanted(!verbose), &done, &total,
+		    pv.path != NULL ? preview_tick : NULL, &pv, preview_every);
 		t0 = pm_cli_now();
 		if (pm_render(&ctx, &cam, &opts, &img, &stats, &err) != PM_OK) {
 			fprintf(stderr, PROG ": %s\n", err.msg);
 			status = 1;
 		}
 		t_render = pm_cli_now() - t0;
-		if (show_progress) {
-			atomic_store(&prog.stop, 1);
-			pthread_join(prog_tid, NULL);
-		}
+		pm_cli_progress_stop(prog);
+		/* The last preview is the finished image. */
+		if (status == 0 && pv.path != NULL)
+			preview_write(&pv, &img);
 		if (status == 0 && pm_exr_write(name, &img, half, &err) != PM_OK) {
 			fprintf(stderr, PROG ": %s\n", err.msg);
 			status = 1;
@@ -748,6 +843,8 @@ out:
 		pm_pmap_free(&pmap);
 	if (cams != &one)
 		free(cams);
+	pm_image_free(&pv.snap);
+	pm_render_watch_free(pv.watch);
 	pm_lights_free(&lights);
 	pm_accel_free(accel);
 	pm_scene_free(&scene);

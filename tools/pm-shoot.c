@@ -21,7 +21,6 @@
 #include "../formats/scene_xml.h"
 
 #define PROG "pm-shoot"
-#define VERSION "0.2.0"
 #define MAX_DEFINES 64
 
 static const char usage_line[] =
@@ -29,13 +28,64 @@ static const char usage_line[] =
     "                [--first-index I] [--max-depth D] [-t THREADS]\n"
     "                [-D NAME=VALUE] [--compress] -o OUT.pmap SCENE.xml\n";
 
-static void
-usage_error(const char *fmt, const char *arg)
+static const char help_text[] =
+    "Trace photon paths from a scene's lights into an unbalanced photon map:\n"
+    "a global map and, where the scene has specular surfaces, a caustic map.\n"
+    "Each path emitted stores a photon at every non-specular surface it\n"
+    "reaches: --photons counts paths, the map holds a multiple of that.\n\n"
+    "  -o, --output OUT.pmap     the map; - is standard output\n"
+    "  -f, --force               overwrite an existing output\n"
+    "      --photons N           photon paths to emit for the global map\n"
+    "                            (default: the scene's globalPhotons)\n"
+    "      --caustic-photons N   photon paths to emit for the caustic map\n"
+    "                            (default: the scene's causticPhotons)\n"
+    "      --seed S              random seed (default 0)\n"
+    "      --first-index I       index of the first path, for shards\n"
+    "      --max-depth D         bounces a photon may make; -1: unlimited\n"
+    "  -t, --threads N           threads (default: all cores)\n"
+    "  -D, --define NAME=VALUE   set a scene's $NAME default\n"
+    "      --compress            zlib-compress the photon records\n"
+    "  -q, --quiet               no progress line, no warnings\n"
+    "  -v, --verbose             effects simulated, counts and timings\n"
+    "  -h, --help                print this help and exit\n"
+    "      --version             print the version and exit\n\n"
+    "A progress line goes to stderr when it is a terminal.\n";
+
+/* A usage error: one line on stderr, exit 2. */
+#define usage_error pm_cli_usage_error
+
+/*
+ * Shoots a pass as pm_shoot does; with done set, in pieces of about a
+ * hundredth, counting the paths shot in *done for the progress line.  Path
+ * i depends only on (seed, pass, i) and pm_shoot appends in path order, so
+ * the photons are the same either way.
+ */
+static enum pm_err
+shoot_pass(const struct pm_shooter *sh, const struct pm_shoot_opts *so,
+    struct pm_photon_buf *out, struct pm_shoot_stats *st, _Atomic long *done,
+    struct pm_error *err)
 {
-	fprintf(stderr, PROG ": ");
-	fprintf(stderr, fmt, arg);
-	fprintf(stderr, "\n%s", usage_line);
-	exit(2);
+	struct pm_shoot_opts piece = *so;
+	struct pm_shoot_stats ps;
+	uint64_t step = so->count / 100, at;
+	enum pm_err e;
+
+	if (done == NULL)
+		return pm_shoot(sh, so, out, st, err);
+	if (step < 65536)
+		step = 65536;
+	memset(st, 0, sizeof(*st));
+	for (at = 0; at < so->count; at += piece.count) {
+		piece.first = so->first + at;
+		piece.count = so->count - at < step ? so->count - at : step;
+		if ((e = pm_shoot(sh, &piece, out, &ps, err)) != PM_OK)
+			return e;
+		st->stored += ps.stored;
+		st->dropped += ps.dropped;
+		st->paths_specular += ps.paths_specular;
+		atomic_fetch_add(done, (long)piece.count);
+	}
+	return PM_OK;
 }
 
 /* Physical memory in bytes; 0 when the system will not say. */
@@ -95,7 +145,7 @@ main(int argc, char **argv)
 {
 	enum {
 		OPT_PHOTONS = 256, OPT_CAUSTIC, OPT_SEED, OPT_FIRST, OPT_MAXDEPTH,
-		OPT_COMPRESS, OPT_HELP, OPT_VERSION,
+		OPT_COMPRESS,
 	};
 	static const struct option longopts[] = {
 		{"photons", required_argument, NULL, OPT_PHOTONS},
@@ -110,10 +160,14 @@ main(int argc, char **argv)
 		{"force", no_argument, NULL, 'f'},
 		{"quiet", no_argument, NULL, 'q'},
 		{"verbose", no_argument, NULL, 'v'},
-		{"help", no_argument, NULL, OPT_HELP},
-		{"version", no_argument, NULL, OPT_VERSION},
+		{"help", no_argument, NULL, 'h'},
+		{"version", no_argument, NULL, PM_CLI_VERSION},
 		{NULL, 0, NULL, 0},
 	};
+	static const struct pm_cli cli = {PROG, usage_line, help_text, longopts};
+	struct pm_cli_progress *prog;
+	enum pm_err e;
+	_Atomic long done, total;
 	struct pm_define defs[MAX_DEFINES];
 	size_t ndefs = 0;
 	const char *out_path = NULL, *scene_path;
@@ -130,27 +184,17 @@ main(int argc, char **argv)
 	struct pm_pmap out;
 	struct pm_photon_buf bufs[2] = {{NULL, 0, 0}, {NULL, 0, 0}};
 	struct pm_vec3 lo, hi;
-	char tmp[128], *cmdline;
+	char tmp[128];
 	double t0;
 	int pass;
 
 	if (threads < 1)
 		threads = 1;
-	while ((c = getopt_long(argc, argv, "D:fo:qt:v", longopts, NULL)) != -1) {
+	while ((c = pm_cli_getopt(&cli, argc, argv, "D:fho:qt:v")) != -1) {
 		switch (c) {
-		case 'D': {
-			char *eq = strchr(optarg, '=');
-
-			if (eq == NULL || eq == optarg)
-				usage_error("-D wants NAME=VALUE, not '%s'", optarg);
-			if (ndefs == MAX_DEFINES)
-				usage_error("too many -D definitions (at most %s)", "64");
-			*eq = '\0';
-			defs[ndefs].name = optarg;
-			defs[ndefs].value = eq + 1;
-			ndefs++;
+		case 'D':
+			pm_cli_define(optarg, defs, &ndefs, MAX_DEFINES);
 			break;
-		}
 		case 'f':
 			force = 1;
 			break;
@@ -198,15 +242,8 @@ main(int argc, char **argv)
 		case OPT_COMPRESS:
 			compress = 1;
 			break;
-		case OPT_HELP:
-			fputs(usage_line, stdout);
-			return fclose(stdout) == 0 ? 0 : 1;
-		case OPT_VERSION:
-			puts(PROG " " VERSION);
-			return fclose(stdout) == 0 ? 0 : 1;
 		default:
-			fputs(usage_line, stderr);
-			return 2;
+			usage_error("unhandled option '%s'", argv[optind - 1]);
 		}
 	}
 	if (optind + 1 != argc)
@@ -315,10 +352,8 @@ main(int argc, char **argv)
 	out.effects = (fx.global ? PM_EFFECT_GLOBAL : 0) |
 	    (fx.caustic ? PM_EFFECT_CAUSTICS : 0) |
 	    (fx.refraction ? PM_EFFECT_REFRACTION : 0);
-	cmdline = pm_cli_join_args(argc, argv);
-	pm_pmap_info_add(&out, "tool", PROG " " VERSION, NULL);
-	pm_pmap_info_add(&out, "command", cmdline ? cmdline : "?", NULL);
-	free(cmdline);
+	pm_pmap_info_add(&out, "tool", PROG " " PM_VERSION, NULL);
+	pm_pmap_info_add(&out, "command", pm_cli_command(), NULL);
 	pm_pmap_info_add(&out, "scene", scene_path, NULL);
 	snprintf(tmp, sizeof(tmp), "%016llx", (unsigned long long)out.scene_hash);
 	pm_pmap_info_add(&out, "scene_hash", tmp, NULL);
@@ -358,7 +393,16 @@ main(int argc, char **argv)
 		so.max_depth = (int)max_depth;
 		so.threads = (int)threads;
 		t0 = pm_cli_now();
-		if (pm_shoot(&shooter, &so, &bufs[pass], &st, &err) != PM_OK) {
+		/* One progress line a map, ended before -v reports it. */
+		atomic_init(&done, 0);
+		atomic_init(&total, (long)n);
+		prog = pm_cli_progress_start(PROG, pass == 0 ? "global map" :
+		    "caustic map", pm_cli_progress_wanted(!verbose), &done, &total,
+		    NULL, NULL, 0.0);
+		e = shoot_pass(&shooter, &so, &bufs[pass], &st, prog != NULL ?
+		    &done : NULL, &err);
+		pm_cli_progress_stop(prog);
+		if (e != PM_OK) {
 			fprintf(stderr, PROG ": %s: %s\n", scene_path, err.msg);
 			status = 1;
 			break;

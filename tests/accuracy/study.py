@@ -201,7 +201,7 @@ class Study:
         return bal, t_shoot, t_bal
 
     def pm_render(self, scene, pmap, c, out, seed=0, extra=()):
-        cmd = [os.path.join(BIN, "pm-render"), "-q", "--seed", str(seed),
+        cmd = [os.path.join(BIN, "pm-render"), "-q", "-f", "--seed", str(seed),
                "--spp", str(c["spp"]), "--size", "%dx%d" % (RES, RES),
                "-D", "res=%d" % RES] + list(c["render"])
         cmd += list(extra) + ["-o", out, scene, pmap]
@@ -223,7 +223,7 @@ class Study:
         raw = os.path.join(self.tmp, tag + "-raw.exr")
         final = os.path.join(self.tmp, tag + ".exr")
         t_render = self.pm_render(scene, pmap, c, raw)
-        t_down = sh([os.path.join(BIN, "pm-downsample"), "-q", "-o", final,
+        t_down = sh([os.path.join(BIN, "pm-downsample"), "-q", "-f", "-o", final,
                      raw])
         os.remove(pmap)
         rec = {"scene": name, "method": method, "sweep": sweep,
@@ -261,7 +261,7 @@ class Study:
             os.remove(pmap)
             done.append(raw)
             mean = os.path.join(self.tmp, name + "-mean.exr")
-            t_down = sh([os.path.join(BIN, "pm-downsample"), "-q", "-o",
+            t_down = sh([os.path.join(BIN, "pm-downsample"), "-q", "-f", "-o",
                          mean] + done)
             stages["shoot_s"] += t_shoot
             stages["balance_s"] += t_bal

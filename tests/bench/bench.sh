@@ -72,8 +72,8 @@ emit "{\"what\": \"speedup\", \"tool\": \"pm-shoot\", \"threads\": $NCPU, \"one_
 t=$(now); $B/pm-balance -q -f -t 1 -o "$OUT/b1.pmap" "$OUT/s1.pmap"; a=$(since "$t")
 t=$(now); $B/pm-balance -q -f -t "$NCPU" -o "$OUT/bN.pmap" "$OUT/s1.pmap"; b=$(since "$t")
 emit "{\"what\": \"speedup\", \"tool\": \"pm-balance\", \"threads\": $NCPU, \"one_s\": $a, \"all_s\": $b}"
-t=$(now); $B/pm-render -q -t 1 --spp 4 --size 128x128 -o "$OUT/r1.exr" $scene "$OUT/bN.pmap"; a=$(since "$t")
-t=$(now); $B/pm-render -q -t "$NCPU" --spp 4 --size 128x128 -o "$OUT/rN.exr" $scene "$OUT/bN.pmap"; b=$(since "$t")
+t=$(now); $B/pm-render -q -f -t 1 --spp 4 --size 128x128 -o "$OUT/r1.exr" $scene "$OUT/bN.pmap"; a=$(since "$t")
+t=$(now); $B/pm-render -q -f -t "$NCPU" --spp 4 --size 128x128 -o "$OUT/rN.exr" $scene "$OUT/bN.pmap"; b=$(since "$t")
 emit "{\"what\": \"speedup\", \"tool\": \"pm-render\", \"threads\": $NCPU, \"one_s\": $a, \"all_s\": $b}"
 
 # Peak resident memory of pm-shoot and pm-balance against the map they

@@ -56,9 +56,9 @@ agree data/caustics.xml caustics 2048
 for md in 3 4; do
 	if $B/pm-shoot -q -f -D max_depth=$md --seed 5 -o "$tmp/md.shot" data/cornell-box.xml &&
 	    $B/pm-balance -q -f -o "$tmp/md.pmap" "$tmp/md.shot" &&
-	    $B/pm-render -q -D max_depth=$md --spp 64 --size 32x32 -o "$tmp/md-pm.exr" \
+	    $B/pm-render -q -f -D max_depth=$md --spp 64 --size 32x32 -o "$tmp/md-pm.exr" \
 	        data/cornell-box.xml "$tmp/md.pmap" 2>"$tmp/md.err" &&
-	    $B/pm-render -q -D max_depth=$md --spp 1024 --size 32x32 -o "$tmp/md-path.exr" \
+	    $B/pm-render -q -f -D max_depth=$md --spp 1024 --size 32x32 -o "$tmp/md-path.exr" \
 	        data/cornell-box.xml; then
 		set -- $($U relmse "$tmp/md-pm.exr" "$tmp/md-path.exr")
 		echo "# cornell-box, max_depth $md: photon map against path tracing: mean R $2 G $3 B $4"

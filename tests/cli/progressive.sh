@@ -30,7 +30,7 @@ status() { # expected-status command...: runs command, compares exit status
 radii() {
 	_p=$1
 	shift
-	$B/pm-render -v --pass "$_p" "$@" --spp 1 --size 4x4 -o "$tmp/r.exr" \
+	$B/pm-render -f -v --pass "$_p" "$@" --spp 1 --size 4x4 -o "$tmp/r.exr" \
 	    $scene "$tmp/m1.pmap" 2>&1 |
 	    sed -n 's/.*radius scale \([^,]*\), fixed radii \([^ ]*\) (global) and \([^ ]*\) (caustic).*/\1 \2 \3/p'
 }

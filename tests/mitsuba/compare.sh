@@ -89,7 +89,7 @@ pmrender() {
 	_t0=$(now)
 	_seed=$3
 	set -- "$2" -o "$OUT/$1-pm-$3.exr" --spp "$PM_SPP" \
-	    --size "${RES}x${RES}" -D "res=$RES" --seed "$3" -q
+	    --size "${RES}x${RES}" -D "res=$RES" --seed "$3" -q -f
 	[ -n "${PM_THREADS:-}" ] && set -- "$@" -t "$PM_THREADS"
 	"$PM_RENDER" "$@" >"$OUT/log" 2>&1
 	_rc=$?

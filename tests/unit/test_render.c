@@ -5,9 +5,11 @@
  * reflects diffusely with albedo rho, the radiance everywhere is
  * Le / (1 - rho); with max_depth d it is Le (1 + rho + ... + rho^(d-1)).
  * A convex diffuse object of albedo a inside a black emitting sphere
- * reflects a Le exactly.  Also: the image is identical with 1 and 2 threads.
+ * reflects a Le exactly.  Also: the image is identical with 1 and 2 threads,
+ * and a watch sees only finished tiles, exactly as they end up.
  */
 #include <math.h>
+#include <pthread.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -212,6 +214,100 @@ test_threads_give_identical_images(void **state)
 	furnace_free(&f);
 }
 
+#define MAX_SNAPS 64
+
+/* Another thread's view of a render: snapshots taken while it runs. */
+struct watcher {
+	struct pm_render_watch *w;
+	_Atomic int stop;
+	struct pm_image snaps[MAX_SNAPS];
+	int nsnaps;
+};
+
+static void *
+watch_main(void *arg)
+{
+	struct watcher *wa = arg;
+
+	while (!atomic_load(&wa->stop)) {
+		struct pm_image *im = &wa->snaps[wa->nsnaps];
+
+		if (wa->nsnaps < MAX_SNAPS && pm_render_snapshot(wa->w, im))
+			wa->nsnaps++;
+	}
+	return NULL;
+}
+
+static void
+test_watch_sees_finished_tiles_only(void **state)
+{
+	struct furnace f;
+	struct watcher wa;
+	struct pm_render_opts o;
+	struct pm_render_stats st;
+	struct pm_image im = {0, 0, NULL}, none = {0, 0, NULL};
+	struct pm_error err;
+	_Atomic long done, total;
+	pthread_t tid;
+	int i, tx, ty, x, y, w = 72, h = 40;
+
+	(void)state;
+	furnace_build(&f, 0.5f, 0.7f, -1);
+	f.scene.camera.width = w;	/* 5 x 3 tiles, the last ones partial */
+	f.scene.camera.height = h;
+	memset(&wa, 0, sizeof(wa));
+	wa.w = pm_render_watch_new();
+	assert_non_null(wa.w);
+	assert_false(pm_render_snapshot(wa.w, &none));	/* nothing running */
+	atomic_init(&wa.stop, 0);
+	atomic_init(&done, 0);
+	atomic_init(&total, 0);
+	memset(&o, 0, sizeof(o));
+	o.method = PM_METHOD_PATH;
+	o.spp = 64;
+	o.seed = 3;
+	o.threads = 2;
+	o.tiles_done = &done;
+	o.tiles_total = &total;
+	o.watch = wa.w;
+	assert_int_equal(pthread_create(&tid, NULL, watch_main, &wa), 0);
+	assert_int_equal(pm_render(&f.ctx, &f.scene.camera, &o, &im, &st, &err),
+	    PM_OK);
+	atomic_store(&wa.stop, 1);
+	pthread_join(tid, NULL);
+	assert_int_equal(atomic_load(&total), 15);
+	assert_int_equal(atomic_load(&done), 15);
+	assert_false(pm_render_snapshot(wa.w, &none));	/* over */
+	/* Every tile of every snapshot is black or exactly as it ended. */
+	for (i = 0; i < wa.nsnaps; i++) {
+		const struct pm_image *s = &wa.snaps[i];
+
+		assert_int_equal(s->width, w);
+		assert_int_equal(s->height, h);
+		for (ty = 0; ty < h; ty += 16)
+			for (tx = 0; tx < w; tx += 16) {
+				int black = 0, same = 0, n = 0;
+
+				for (y = ty; y < ty + 16 && y < h; y++)
+					for (x = tx; x < tx + 16 && x < w; x++) {
+						const float *a = &s->rgb[3 * (y * w + x)];
+						const float *b = &im.rgb[3 * (y * w + x)];
+
+						n++;
+						black += a[0] == 0 && a[1] == 0 &&
+						    a[2] == 0;
+						same += memcmp(a, b, 3 * sizeof(*a)) == 0;
+					}
+				assert_true(black == n || same == n);
+			}
+	}
+	for (i = 0; i < MAX_SNAPS; i++)
+		pm_image_free(&wa.snaps[i]);
+	pm_image_free(&im);
+	pm_render_watch_free(wa.w);
+	furnace_free(&f);
+}
+
 int
 main(void)
 {
@@ -220,6 +316,7 @@ main(void)
 		cmocka_unit_test(test_closed_furnace_infinite_depth),
 		cmocka_unit_test(test_max_depth_meaning),
 		cmocka_unit_test(test_threads_give_identical_images),
+		cmocka_unit_test(test_watch_sees_finished_tiles_only),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);

@@ -588,8 +588,6 @@ test_integrators(void **state)
 	NEAR(ph->caustic_lookup_radius, 0.01, 1e-8);
 	assert_int_equal(ph->lookup_size, 50);
 	assert_int_equal(ph->direct_samples, 4);
-	assert_int_equal(ph->glossy_samples, 8);
-	assert_int_equal(ph->granularity, 1000);
 	assert_true(ph->final_gather);
 	assert_int_equal(ph->final_gather_samples, 256);
 	pm_scene_free(&s);
@@ -604,10 +602,17 @@ test_integrators(void **state)
 	NEAR(ph->caustic_lookup_radius, 0.0125, 1e-8);
 	assert_int_equal(ph->lookup_size, 120);
 	assert_int_equal(ph->direct_samples, 16);
-	assert_int_equal(ph->glossy_samples, 32);
 	assert_int_equal(s.integrator.max_depth, -1);
 	assert_int_equal(s.integrator.rr_depth, 5);
 	pm_scene_free(&s);
+
+	/* glossySamples and granularity are ignored, but still checked. */
+	load_fails("<scene version=\"3.0.0\">\n<integrator type=\"photonmapper\">"
+	    "<integer name=\"glossySamples\" value=\"-1\"/>"
+	    "</integrator></scene>", 2, "glossySamples");
+	load_fails("<scene version=\"3.0.0\">\n<integrator type=\"photonmapper\">"
+	    "<integer name=\"granularity\" value=\"x\"/>"
+	    "</integrator></scene>", 2, "granularity");
 }
 
 /* ------------------------------------------------------------ parameters */
