@@ -28,6 +28,11 @@
 
 /* Defaults: measured on the study's scenes (docs/accuracy.md). */
 #define PM_ICACHE_STEP		4
+/* Rays per grid point when not given: 16 per sample per pixel, from 64 to
+ * 256, so that the cache costs about what the camera pass does and its
+ * noise stays below the pixels'. */
+#define PM_ICACHE_RAYS_PER_SPP	16
+#define PM_ICACHE_RAYS_MIN	64
 #define PM_ICACHE_RAYS		256
 #define PM_ICACHE_ACCURACY	0.3f
 
