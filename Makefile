@@ -96,7 +96,7 @@ NPROC := $(shell nproc 2>/dev/null || echo 1)
 
 demo: deps
 	$(MAKE) -j$(NPROC) all
-	$(MAKE) out/bunny.png
+	$(MAKE) $(BUNNY).png
 
 test: deps
 	$(MAKE) -j$(NPROC) all $(TEST_BIN)

@@ -13,7 +13,9 @@
 # render (every 4th of the final image) with 512 rays per grid point; 16
 # samples per pixel (4 x 4 strata).  BUNNY_SEED seeds both the photons and
 # the camera samples: two renders with different seeds differ only by the
-# estimate's noise (docs/accuracy.md measures it).
+# estimate's noise (`make demo BUNNY_SEED=11`, then 22, and
+# tests/accuracy/seeds.py out/bunny-seed11.exr out/bunny-seed22.exr;
+# docs/accuracy.md measures it).
 
 BUNNY_SEED     ?= 0
 BUNNY_PHOTONS  ?= 500000
@@ -23,23 +25,28 @@ BUNNY_SIZE     ?= 1024x1024
 BUNNY_FILTER   ?= mitchell
 BUNNY_RENDER   ?= --cache-step 8 --cache-rays 512
 
-out/bunny-shot.pmap: data/bunny.xml bin/pm-shoot
+# BUNNY_SEED 0 writes out/bunny.*; another seed writes out/bunny-seedN.*,
+# so that renders of two seeds stand side by side and make knows which
+# files a seed made.
+BUNNY := out/bunny$(if $(filter-out 0,$(BUNNY_SEED)),-seed$(BUNNY_SEED))
+
+$(BUNNY)-shot.pmap: data/bunny.xml bin/pm-shoot
 	@mkdir -p out
 	bin/pm-shoot -f -v --seed $(BUNNY_SEED) --photons $(BUNNY_PHOTONS) \
 		--caustic-photons $(BUNNY_CAUSTIC) -o $@ data/bunny.xml
 
-out/bunny.pmap: out/bunny-shot.pmap bin/pm-balance
-	bin/pm-balance -f -v -o $@ out/bunny-shot.pmap
+$(BUNNY).pmap: $(BUNNY)-shot.pmap bin/pm-balance
+	bin/pm-balance -f -v -o $@ $(BUNNY)-shot.pmap
 
-out/bunny-2x.exr: data/bunny.xml out/bunny.pmap bin/pm-render
+$(BUNNY)-2x.exr: data/bunny.xml $(BUNNY).pmap bin/pm-render
 	bin/pm-render -f -v --seed $(BUNNY_SEED) --spp $(BUNNY_SPP) --size $(BUNNY_SIZE) $(BUNNY_RENDER) \
-		-o $@ data/bunny.xml out/bunny.pmap
+		-o $@ data/bunny.xml $(BUNNY).pmap
 
-out/bunny.exr: out/bunny-2x.exr bin/pm-downsample
-	bin/pm-downsample -f --factor 2 --filter $(BUNNY_FILTER) -o $@ out/bunny-2x.exr
+$(BUNNY).exr: $(BUNNY)-2x.exr bin/pm-downsample
+	bin/pm-downsample -f --factor 2 --filter $(BUNNY_FILTER) -o $@ $(BUNNY)-2x.exr
 
-out/bunny.png: out/bunny.exr
-	bin/pm-downsample -f --factor 1 -o $@ out/bunny.exr
+$(BUNNY).png: $(BUNNY).exr
+	bin/pm-downsample -f --factor 1 -o $@ $(BUNNY).exr
 
 # The path-traced reference of the same view, for comparison.
 out/bunny-path-2x.exr: data/bunny.xml bin/pm-render

@@ -51,7 +51,7 @@ RES = 128
 DEFAULT_PHOTONS = 100000      # pm-shoot's default, each map (pm-scene(5))
 BASE = {"global": DEFAULT_PHOTONS, "caustic": DEFAULT_PHOTONS, "spp": 16,
         "render": [], "balance": []}
-RECOMMENDED_SPP = [1, 4, 16, 64, 256]
+RECOMMENDED_SPP = [1, 4, 16, 64, 256, 1024]
 SWEEPS = [
     # (name, method, [(label, overrides)]): photon counts show the bias
     # of the records and caustics falling with photons.
