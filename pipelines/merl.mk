@@ -12,9 +12,9 @@
 
 MERL_ALPHA       ?= 0.2
 BUNNY_MERL_PHOTONS ?= 500000
-BUNNY_MERL_SPP   ?= 4
+BUNNY_MERL_SPP   ?= 16
 BUNNY_MERL_SIZE  ?= 1024x1024
-BUNNY_MERL_RENDER ?= --lookup-size 120 --direct-samples 4
+BUNNY_MERL_RENDER ?= --cache-step 8
 
 build/merl/gold.binary: bin/pm-merl
 	@mkdir -p build/merl

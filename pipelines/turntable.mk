@@ -12,9 +12,9 @@
 TT_CAMS   ?= data/turntable.cams
 TT_SCENE  ?= data/bunny.xml
 TT_MAP    ?= out/bunny.pmap
-TT_SPP    ?= 4
+TT_SPP    ?= 16
 TT_SIZE   ?= 512x512
-TT_RENDER ?= --lookup-size 120 --direct-samples 4
+TT_RENDER ?=
 TT_N      := $(shell grep -cv '^[[:space:]]*\(#\|$$\)' $(TT_CAMS) 2>/dev/null || echo 0)
 TT_IDS    := $(shell i=1; while [ $$i -le $(TT_N) ]; do printf '%02d ' $$i; i=$$((i+1)); done)
 TT_PNGS   := $(TT_IDS:%=out/turntable/frame-%.png)
