@@ -17,17 +17,16 @@
  * cells around the sample, so a lookup costs no search.
  */
 #include <math.h>
-#include <pthread.h>
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "camera.h"
 #include "icache.h"
+#include "parallel.h"
 #include "render.h"
 #include "sampling.h"
 
-#define ICACHE_MAX_THREADS 256
 /* Stream index of grid-point random numbers: apart from pixel samples'. */
 #define ICACHE_STREAM	0x1cac4e00000000ull
 
@@ -55,7 +54,7 @@ build_point(struct icache_job *j, int gx, int gy)
 	struct pm_hit h;
 	double sum[3] = {0, 0, 0}, inv_t = 0.0;
 	float tmin, tmax;
-	int a, b, nhit = 0;
+	int a, b, nrays;
 
 	pt->valid = false;
 	if (fx > (float)j->cr->width - 0.5f)
@@ -85,20 +84,18 @@ build_point(struct icache_job *j, int gx, int gy)
 			sum[0] += L.r;
 			sum[1] += L.g;
 			sum[2] += L.b;
-			if (isfinite(t) && t > 0.0f) {
+			if (isfinite(t) && t > 0.0f)
 				inv_t += 1.0 / (double)fmaxf(t, j->r_min);
-				nhit++;
-			}
 		}
 	/* Cosine-distributed rays: E = pi * mean radiance. */
-	a = j->k * j->k;
-	pt->E = pm_rgb((float)(PM_PI * sum[0] / a), (float)(PM_PI * sum[1] / a),
-	    (float)(PM_PI * sum[2] / a));
+	nrays = j->k * j->k;
+	pt->E = pm_rgb((float)(PM_PI * sum[0] / nrays),
+	    (float)(PM_PI * sum[1] / nrays), (float)(PM_PI * sum[2] / nrays));
 	if (!pm_rgb_is_finite(pt->E))
 		return;
 	{
 		/* Rays that escape count as far: the harmonic mean over all. */
-		double R = inv_t > 0.0 ? (double)a / inv_t : j->r_max;
+		double R = inv_t > 0.0 ? (double)nrays / inv_t : j->r_max;
 
 		if (R > j->r_max)
 			R = j->r_max;
@@ -106,7 +103,6 @@ build_point(struct icache_job *j, int gx, int gy)
 			R = j->r_min;
 		pt->inv_r = (float)(1.0 / R);
 	}
-	(void)nhit;
 	pt->p = h.p;
 	pt->n = n;
 	pt->valid = true;
@@ -177,9 +173,6 @@ pm_icache_build(struct pm_icache *c, const struct pm_render_ctx *ctx,
     uint64_t seed, int threads, struct pm_error *err)
 {
 	struct icache_job j;
-	pthread_t tid[ICACHE_MAX_THREADS];
-	int i, started = 0, nthreads = threads < 1 ? 1 :
-	    (threads > ICACHE_MAX_THREADS ? ICACHE_MAX_THREADS : threads);
 	float radius = ctx->scene_radius > 0.0f ? ctx->scene_radius : 1.0f;
 
 	memset(c, 0, sizeof(*c));
@@ -206,12 +199,7 @@ pm_icache_build(struct pm_icache *c, const struct pm_render_ctx *ctx,
 	j.r_min = 1e-3f * radius;
 	j.r_max = 0.5f * radius;
 	atomic_init(&j.next, 0);
-	for (i = 1; i < nthreads; i++)
-		if (pthread_create(&tid[started], NULL, icache_worker, &j) == 0)
-			started++;
-	icache_worker(&j);
-	for (i = 0; i < started; i++)
-		pthread_join(tid[i], NULL);
+	pm_parallel(threads, icache_worker, &j);
 	clamp_neighbours(c);
 	return PM_OK;
 }

@@ -267,9 +267,13 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			if (!pm_irradiance_lookup(m->irradiance_grid, h.p, nrm, &E)) {
 				/* No record near: estimate here (rare: small or
 				 * thin features between records). */
-				struct pm_irradiance_opts io = {1, m->lookup_size,
-				    m->global_r2, m->fixed_radius,
-				    m->gather_max_depth, 1};
+				struct pm_irradiance_opts io = {
+					.stride = 1, .k = m->lookup_size,
+					.max_r2 = m->global_r2,
+					.fixed_radius = m->fixed_radius,
+					.max_depth = m->gather_max_depth,
+					.threads = 1,
+				};
 
 				E = pm_irradiance_estimate(m->global, m->nglobal,
 				    m->global_scale, h.p, nrm, &io);
@@ -395,13 +399,14 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			    b, h.p, nrm, dcap, fr, wi));
 			/* A gather ray adds a segment and its surface's
 			 * photons at least one more. */
-			if (m->final_gather && ctx->max_depth >= 0 &&
-			    depth + 2 > ctx->max_depth)
-				;
-			else if (m->final_gather)
-				E = pm_rgb_add(E, indirect(ctx, b, &h, fr, wi, nrm,
-				    depth, fx, fy, rng));
-			else
+			bool gather_fits = ctx->max_depth < 0 ||
+			    depth + 2 <= ctx->max_depth;
+
+			if (m->final_gather) {
+				if (gather_fits)
+					E = pm_rgb_add(E, indirect(ctx, b, &h, fr,
+					    wi, nrm, depth, fx, fy, rng));
+			} else
 				E = pm_rgb_add(E, estimate(m->global, m->nglobal,
 				    m->global_scale, m->global_r2, m->lookup_size,
 				    m->fixed_radius, PM_PHOTON_VIA_DIFFUSE, PM_PHOTON_VIA_DIFFUSE, false,

@@ -6,17 +6,16 @@
  * bytes for any thread count.
  */
 #include <math.h>
-#include <pthread.h>
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "irradiance.h"
 #include "kdtree.h"
+#include "parallel.h"
 
 /* Records are handed to threads in chunks of this many. */
 #define IRR_CHUNK	1024
-#define IRR_MAX_THREADS	256
 
 static inline bool
 compatible(const struct pm_photon *x, struct pm_vec3 nrm, int max_depth)
@@ -133,10 +132,6 @@ pm_irradiance_records(const struct pm_photon *g, size_t n, float scale,
     struct pm_error *err)
 {
 	struct irr_job j;
-	pthread_t tid[IRR_MAX_THREADS];
-	int i, nthreads = o->threads < 1 ? 1 :
-	    (o->threads > IRR_MAX_THREADS ? IRR_MAX_THREADS : o->threads);
-	int started = 0;
 
 	*out = NULL;
 	*nout = 0;
@@ -155,12 +150,7 @@ pm_irradiance_records(const struct pm_photon *g, size_t n, float scale,
 		return pm_fail(err, PM_ERR_NOMEM, "no memory for %zu irradiance "
 		    "records", j.nout);
 	atomic_init(&j.next, 0);
-	for (i = 1; i < nthreads; i++)
-		if (pthread_create(&tid[started], NULL, irr_worker, &j) == 0)
-			started++;
-	irr_worker(&j);
-	for (i = 0; i < started; i++)
-		pthread_join(tid[i], NULL);
+	pm_parallel(o->threads, irr_worker, &j);
 	*out = j.out;
 	*nout = j.nout;
 	return PM_OK;

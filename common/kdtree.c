@@ -555,6 +555,24 @@ knn_offer(struct knn_state *s, float d2, uint32_t idx)
 #endif
 
 /*
+ * Prefetches what a walk reads after node m of [lo, hi): the roots of
+ * both children, or every line of the range when they are buckets.  A
+ * macro, since GCC drops a function made of prefetches.
+ */
+#define KD_PREFETCH_CHILDREN(p, lo, m, hi) do {				\
+	if ((m) - (lo) > KD_BUCKET) {					\
+		kd_prefetch_line(&(p)[(lo) + ((m) - (lo)) / 2]);	\
+		kd_prefetch_line(&(p)[(m) + 1 + ((hi) - (m) - 1) / 2]);	\
+	} else {							\
+		const char *x_ = (const char *)&(p)[lo];		\
+		const char *e_ = (const char *)&(p)[hi];		\
+									\
+		for (; x_ < e_; x_ += 64)				\
+			kd_prefetch_line(x_);				\
+	}								\
+} while (0)
+
+/*
  * Offers the bucket [lo, hi) in two passes: distances and the filter
  * first, into a list of the photons that pass the current bound, without
  * a branch per photon (most fail, and a branch on each would be
@@ -618,19 +636,9 @@ knn_walk(const struct pm_photon *p, uint32_t n, const float q[3], size_t k,
 			 * buckets.  On a tree larger than the caches a query
 			 * waits on memory one node after the other; this
 			 * fetches the next while the node itself is decided,
-			 * and the far child is often visited later.  (Written
-			 * here: GCC drops a function made of prefetches.)
+			 * and the far child is often visited later.
 			 */
-			if (m - lo > KD_BUCKET) {
-				kd_prefetch_line(&p[lo + (m - lo) / 2]);
-				kd_prefetch_line(&p[m + 1 + (hi - m - 1) / 2]);
-			} else {
-				const char *x = (const char *)&p[lo];
-				const char *e = (const char *)&p[hi];
-
-				for (; x < e; x += 64)
-					kd_prefetch_line(x);
-			}
+			KD_PREFETCH_CHILDREN(p, lo, m, hi);
 			if (d2 <= s.lim && (ph->flags & mask) == want)
 				knn_offer(&s, d2, m);
 			/* A leaf mark here means a corrupt tree: stay in
@@ -848,16 +856,7 @@ pm_kdtree_range_next(struct pm_kd_range *r, uint32_t *idx, float *d2)
 			float d = kd_dist2(ph->pos, q), diff, dd;
 
 			/* As in knn_walk. */
-			if (m - lo > KD_BUCKET) {
-				kd_prefetch_line(&p[lo + (m - lo) / 2]);
-				kd_prefetch_line(&p[m + 1 + (hi - m - 1) / 2]);
-			} else {
-				const char *x = (const char *)&p[lo];
-				const char *e = (const char *)&p[hi];
-
-				for (; x < e; x += 64)
-					kd_prefetch_line(x);
-			}
+			KD_PREFETCH_CHILDREN(p, lo, m, hi);
 			r->bidx[c] = m;
 			r->bd2[c] = d;
 			c += (d <= max_d2) & ((ph->flags & mask) == want);

@@ -128,10 +128,8 @@ compare(const struct pm_photon *p, size_t n, const float q[3],
 	return same_sets(sa, sb, in) ? TIE : MISMATCH;
 }
 
-/* The scale of the query offsets: about the spacing of n points filling
- * a cube of the bounding box's largest extent. */
-static float
-offset_scale(const struct pm_photon *p, size_t n)
+float
+pm_knn_offset_scale(const struct pm_photon *p, size_t n)
 {
 	float mn[3], mx[3], e = 0.0f;
 	size_t i;
@@ -257,7 +255,7 @@ pm_knn_check(const struct pm_photon *p, size_t n, size_t queries, size_t k,
 		    n);
 	}
 
-	h = offset_scale(p, n);
+	h = pm_knn_offset_scale(p, n);
 	for (done = 0; done < queries; done += m) {
 		m = queries - done < batch ? queries - done : batch;
 		for (j = 0; j < m; j++) {

@@ -26,6 +26,10 @@ struct pm_knn_check_result {
 	double flann_build_s;	/* FLANN's index over the same positions */
 };
 
+/* The scale of the check's query offsets: about the spacing of n points
+ * filling a cube of the bounding box's largest extent (n >= 1). */
+float pm_knn_offset_scale(const struct pm_photon *p, size_t n);
+
 /*
  * Queries the balanced tree p[0..n) (as pm_kdtree_build left it; it is
  * queried as it is, so a damaged tree shows up as mismatches) and a FLANN

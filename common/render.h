@@ -29,12 +29,10 @@ struct pm_photon_maps {
 	float caustic_scale;
 	float global_r2, caustic_r2;	/* squared maximum lookup radii */
 	/* Precomputed irradiance records (kd-tree order; power is E in
-	 * W/m^2, undivided), NULL if the map file has none, the square of
-	 * the radius they were computed with (0: unknown), and the grid
+	 * W/m^2, undivided), NULL if the map file has none, and the grid
 	 * gather rays look them up in. */
 	const struct pm_photon *irradiance;
 	size_t nirradiance;
-	float irradiance_r2;
 	const struct pm_irr_grid *irradiance_grid;
 	/* Photons a gather ray may count without records: those of at most
 	 * this many bounces (max_depth - 3), or -1 for all. */

@@ -477,23 +477,17 @@ add_irradiance(struct pm_pmap *m, size_t stride, int k, float radius,
 	struct pm_error err = {PM_OK, ""};
 	struct pm_map *g = pm_pmap_find(m, PM_MAP_GLOBAL), *r;
 	struct pm_irradiance_opts o;
-	float lo[3] = {INFINITY, INFINITY, INFINITY};
-	float hi[3] = {-INFINITY, -INFINITY, -INFINITY};
 	double diag = 0.0, t = now();
-	size_t i, n;
+	size_t n;
 	int a;
 
 	if (g == NULL || g->count == 0 || g->emitted == 0 ||
 	    pm_pmap_find(m, PM_MAP_IRRADIANCE) != NULL ||
 	    m->nmaps >= (int)(sizeof(m->maps) / sizeof(m->maps[0])))
 		return true;
-	for (i = 0; i < (size_t)g->count; i++)
-		for (a = 0; a < 3; a++) {
-			lo[a] = fminf(lo[a], g->photons[i].pos[a]);
-			hi[a] = fmaxf(hi[a], g->photons[i].pos[a]);
-		}
+	/* The merged bounds of the inputs (every reader checks them). */
 	for (a = 0; a < 3; a++)
-		diag += (double)(hi[a] - lo[a]) * (hi[a] - lo[a]);
+		diag += (double)(g->hi[a] - g->lo[a]) * (g->hi[a] - g->lo[a]);
 	o.stride = stride;
 	o.k = k;
 	o.max_r2 = (float)(radius * radius * 0.25 * diag);

@@ -335,7 +335,6 @@ load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
 			kind = "irradiance";
 			maps->irradiance = m->photons;
 			maps->nirradiance = (size_t)m->count;
-			maps->irradiance_r2 = m->radius * m->radius;
 			break;
 		}
 		if (!m->balanced && m->count > 1) {

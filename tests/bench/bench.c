@@ -126,9 +126,9 @@ bench_range(const char *path, size_t n, const char *ks, size_t queries)
 	struct pm_map *m;
 	struct pm_photon *p = NULL;
 	struct pm_knn *nb = NULL;
-	float *qp = NULL, *kd = NULL, mn[3], mx[3], e = 0.0f, h;
+	float *qp = NULL, *kd = NULL, h;
 	const char *kp;
-	size_t len = 0, i, j;
+	size_t len = 0, j;
 	int a, rc = 1;
 
 	if (pm_pmap_read(path, &pm, false, &err) != PM_OK) {
@@ -155,16 +155,7 @@ bench_range(const char *path, size_t n, const char *ks, size_t queries)
 	/* Queries as pm_knn_check's: photons moved by about their spacing,
 	 * but photons taken in the file's order, so that the queries and
 	 * radii do not depend on how the tree is built. */
-	for (a = 0; a < 3; a++)
-		mn[a] = mx[a] = p[0].pos[a];
-	for (i = 1; i < n; i++)
-		for (a = 0; a < 3; a++) {
-			mn[a] = fminf(mn[a], p[i].pos[a]);
-			mx[a] = fmaxf(mx[a], p[i].pos[a]);
-		}
-	for (a = 0; a < 3; a++)
-		e = fmaxf(e, mx[a] - mn[a]);
-	h = e / cbrtf((float)n);
+	h = pm_knn_offset_scale(p, n);
 	for (j = 0; j < queries; j++) {
 		struct pm_rng g = pm_rng_seed(1, j, 0x6b6e6e);
 		size_t s = (size_t)(pm_rng_double(&g) * (double)n);

@@ -120,7 +120,8 @@ check_records(bool fixed)
 	struct by_d2 *tmp = malloc(n * sizeof(*tmp));
 	/* The fixed-radius check also leaves out photons of more than one
 	 * bounce, as a scene's max_depth asks. */
-	struct pm_irradiance_opts o = {7, 40, 0.01f, fixed, fixed ? 1 : -1, 1};
+	struct pm_irradiance_opts o = {.stride = 7, .k = 40, .max_r2 = 0.01f,
+	    .fixed_radius = fixed, .max_depth = fixed ? 1 : -1, .threads = 1};
 	struct pm_error err;
 	size_t n1, n3, i, near_wall = 0;
 	float scale = 1.0f / 1000.0f;
@@ -226,7 +227,8 @@ test_furnace_final_gather(void **state)
 	struct pm_shoot_stats st;
 	struct pm_photon_buf buf = {NULL, 0, 0};
 	struct pm_photon *rec;
-	struct pm_irradiance_opts io = {4, 64, 4.0f, false, -1, 2};
+	struct pm_irradiance_opts io = {.stride = 4, .k = 64, .max_r2 = 4.0f,
+	    .fixed_radius = false, .max_depth = -1, .threads = 2};
 	struct pm_irr_grid grid;
 	struct pm_photon_maps maps;
 	struct pm_render_ctx ctx;
