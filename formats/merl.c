@@ -27,8 +27,8 @@
 #include <zlib.h>
 
 #include "../common/bsdf.h"
+#include "file.h"
 #include "merl.h"
-#include "tmpfile.h"
 
 static const double scale[3] = {PM_MERL_SCALE_R, PM_MERL_SCALE_G,
     PM_MERL_SCALE_B};
@@ -182,9 +182,8 @@ pm_merl_write(const char *path, const struct pm_merl_model *mo,
 	bool to_stdout = strcmp(path, "-") == 0;
 	const char *name = to_stdout ? "standard output" : path;
 	unsigned char *buf;
-	char *tmp = NULL;
+	struct pm_out out;
 	enum pm_err r;
-	int fd = -1;
 
 	if ((buf = malloc(PM_MERL_FILE_SIZE)) == NULL)
 		return pm_fail(err, PM_ERR_NOMEM, "%s: no memory for %zu bytes",
@@ -194,27 +193,14 @@ pm_merl_write(const char *path, const struct pm_merl_model *mo,
 		r = write_all(STDOUT_FILENO, name, buf, PM_MERL_FILE_SIZE, err);
 		goto done;
 	}
-	if ((tmp = malloc(strlen(path) + 32)) == NULL) {
-		r = pm_fail(err, PM_ERR_NOMEM, "%s: out of memory", name);
+	if ((r = pm_out_open(&out, path, err)) != PM_OK)
 		goto done;
-	}
-	fd = pm_open_temp(path, tmp, strlen(path) + 32);
-	if (fd < 0) {
-		r = pm_fail(err, PM_ERR_IO, "%s: cannot create %s: %s", name,
-		    tmp, strerror(errno));
-		goto done;
-	}
-	r = write_all(fd, name, buf, PM_MERL_FILE_SIZE, err);
-	if (close(fd) < 0 && r == PM_OK)
-		r = pm_fail(err, PM_ERR_IO, "%s: write failed: %s", name,
-		    strerror(errno));
-	if (r == PM_OK && rename(tmp, path) < 0)
-		r = pm_fail(err, PM_ERR_IO, "%s: cannot rename %s to it: %s",
-		    name, tmp, strerror(errno));
-	if (r != PM_OK)
-		unlink(tmp);
+	r = write_all(out.fd, name, buf, PM_MERL_FILE_SIZE, err);
+	if (r == PM_OK)
+		r = pm_out_commit(&out, err);
+	else
+		pm_out_abort(&out);
 done:
-	free(tmp);
 	free(buf);
 	return r;
 }

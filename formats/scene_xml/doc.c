@@ -235,49 +235,6 @@ sx_resolve(struct ld *ld, const struct xnode *n, const char *naming_dir,
 	    ld->dirs != NULL ? " and each <path>" : "");
 }
 
-enum pm_err
-sx_read_whole(const char *path, char **buf, size_t *len, struct pm_error *err)
-{
-	FILE *f;
-	char *p = NULL, *q;
-	size_t cap = 0, n = 0, got;
-
-	if ((f = fopen(path, "rb")) == NULL)
-		return pm_fail(err, PM_ERR_IO, "%s: %s", path, strerror(errno));
-	for (;;) {
-		if (cap - n < 65536) {
-			if (cap >= (size_t)MAX_FILE_SIZE) {
-				free(p);
-				fclose(f);
-				return pm_fail(err, PM_ERR_LIMIT,
-				    "%s: larger than %ld bytes", path,
-				    MAX_FILE_SIZE);
-			}
-			cap = cap == 0 ? 65536 : 2 * cap;
-			if ((q = realloc(p, cap)) == NULL) {
-				free(p);
-				fclose(f);
-				return pm_fail(err, PM_ERR_NOMEM,
-				    "%s: out of memory", path);
-			}
-			p = q;
-		}
-		got = fread(p + n, 1, cap - n, f);
-		n += got;
-		if (got == 0)
-			break;
-	}
-	if (ferror(f)) {
-		free(p);
-		fclose(f);
-		return pm_fail(err, PM_ERR_IO, "%s: read error", path);
-	}
-	fclose(f);
-	*buf = p;
-	*len = n;
-	return PM_OK;
-}
-
 /* ---------------------------------------------------------------- pass 1 */
 
 static bool
@@ -431,7 +388,8 @@ do_include(struct ld *ld, struct doc *d, struct xnode *n)
 	if (ld->incl[ld->nincl] == NULL)
 		return sx_nomem(ld);
 	ld->nincl++;
-	if ((e = sx_read_whole(path, &buf, &len, ld->err)) != PM_OK) {
+	e = pm_read_file(path, MAX_FILE_SIZE, &buf, &len, ld->err);
+	if (e != PM_OK) {
 		char msg[sizeof(ld->err->msg)];
 
 		snprintf(msg, sizeof(msg), "%s", ld->err->msg);

@@ -143,7 +143,7 @@ pm_scene_load(const char *path, const struct pm_define *defs, size_t ndefs,
 	enum pm_err e;
 
 	pm_scene_init(s);
-	if ((e = sx_read_whole(path, &buf, &len, err)) != PM_OK)
+	if ((e = pm_read_file(path, MAX_FILE_SIZE, &buf, &len, err)) != PM_OK)
 		return e;
 	if ((dir = sx_dir_of(&a, path)) == NULL) {
 		free(buf);

@@ -25,6 +25,7 @@
 
 #include "../../common/merl.h"
 #include "../../common/parse.h"
+#include "../file.h"
 #include "../merl.h"
 #include "../obj.h"
 #include "../ply.h"
@@ -32,7 +33,7 @@
 
 #define MAX_DEPTH		64	/* element nesting */
 #define MAX_INCLUDE_DEPTH	32
-#define MAX_FILE_SIZE		(256L << 20)
+#define MAX_FILE_SIZE		((size_t)256 << 20)
 #define DISK_SEGMENTS		256
 #define PI_D			3.14159265358979323846
 
@@ -158,8 +159,6 @@ enum pm_err sx_nomem(struct ld *ld);
 enum pm_err sx_param_add(struct ld *ld, const char *name, const char *value);
 enum pm_err sx_parse_doc(struct ld *ld, const char *file, const char *buf,
     size_t len, struct xnode *graft);
-enum pm_err sx_read_whole(const char *path, char **buf, size_t *len,
-    struct pm_error *err);
 enum pm_err sx_resolve(struct ld *ld, const struct xnode *n,
     const char *naming_dir, const char *name, const char **out);
 
