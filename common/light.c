@@ -37,8 +37,7 @@ pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
 
 		w[i] = l->power;
 		if (l->type == PM_LIGHT_CONSTANT)
-			w[i] = M_PI * pm_rgb_mean(l->radiance) * 4.0 * M_PI *
-			    (double)radius * radius;
+			w[i] = l->power * (double)radius * radius;
 	}
 	rc = pm_distrib_init(&ls->pick, w, s->nlights, err);
 	if (rc != PM_OK)

@@ -35,7 +35,8 @@ struct pm_light_sample {
 	int light;
 };
 
-/* Builds the distributions; center and radius bound the scene. */
+/* Builds the distributions; center and radius are the scene's bounding
+ * sphere, as pm_world_init computes it (common/world.h). */
 enum pm_err pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
     struct pm_vec3 center, float radius, struct pm_error *err);
 void pm_lights_free(struct pm_lights *ls);

@@ -140,51 +140,11 @@ pm_scene_add_merl(struct pm_scene *s, struct pm_merl *m)
 	return (int)s->nmerls++;
 }
 
-/* Bounding sphere of the scene's geometry, Mitsuba's way: the sphere
- * around the bounding box; a scene without geometry gets the unit sphere. */
-static double
-scene_bsphere_radius(const struct pm_scene *s)
-{
-	double lo[3] = {INFINITY, INFINITY, INFINITY};
-	double hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-	double d2;
-	size_t i;
-	uint32_t v;
-	int a;
-
-	for (i = 0; i < s->nshapes; i++) {
-		const struct pm_shape *sh = &s->shapes[i];
-
-		if (sh->type == PM_SHAPE_SPHERE) {
-			float c[3] = {sh->center.x, sh->center.y, sh->center.z};
-
-			for (a = 0; a < 3; a++) {
-				lo[a] = fmin(lo[a], c[a] - sh->radius);
-				hi[a] = fmax(hi[a], c[a] + sh->radius);
-			}
-			continue;
-		}
-		for (v = 0; v < sh->mesh.nverts; v++) {
-			for (a = 0; a < 3; a++) {
-				lo[a] = fmin(lo[a], sh->mesh.pos[3 * v + a]);
-				hi[a] = fmax(hi[a], sh->mesh.pos[3 * v + a]);
-			}
-		}
-	}
-	if (!(lo[0] <= hi[0]))
-		return 1.0;
-	d2 = 0.0;
-	for (a = 0; a < 3; a++)
-		d2 += (hi[a] - lo[a]) * (hi[a] - lo[a]);
-	return d2 > 0.0 ? 0.5 * sqrt(d2) : 1.0;
-}
-
 /* Prepares BSDFs, computes light areas and powers, checks indices. */
 enum pm_err
 pm_scene_prepare(struct pm_scene *s, struct pm_error *err)
 {
 	const double pi = 3.14159265358979323846;
-	double radius = -1.0;
 	size_t i;
 
 	for (i = 0; i < s->nbsdfs; i++)
@@ -257,13 +217,11 @@ pm_scene_prepare(struct pm_scene *s, struct pm_error *err)
 				return pm_fail(err, PM_ERR_INVALID,
 				    "constant light %zu is not the scene's "
 				    "environment light", i);
-			if (radius < 0.0)
-				radius = scene_bsphere_radius(s);
 			l->area = 0.0;
 			/* Radiance L arriving over the disk of the bounding
-			 * sphere from every direction: pi L times 4 pi R^2. */
-			l->power = pi * pm_rgb_mean(l->radiance) *
-			    4.0 * pi * radius * radius;
+			 * sphere from every direction: pi L times 4 pi R^2;
+			 * pm_lights_init multiplies in the R^2. */
+			l->power = pi * pm_rgb_mean(l->radiance) * 4.0 * pi;
 			break;
 		default:
 			return pm_fail(err, PM_ERR_INVALID,

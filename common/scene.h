@@ -50,7 +50,10 @@ struct pm_light {
 	float cutoff_angle;		/* spot, degrees (Mitsuba default 20) */
 	float beam_width;		/* spot, degrees (default 3/4 of cutoff) */
 	/* Filled by pm_scene_prepare: */
-	double power;			/* luminous-ish power (mean of RGB), watts */
+	double power;			/* luminous-ish power (mean of RGB), watts;
+					 * constant: per unit squared radius of
+					 * the scene's bounding sphere, which
+					 * the world knows (common/world.h) */
 	double area;			/* area: surface area of the shape */
 };
 
