@@ -184,7 +184,7 @@ main(int argc, char **argv)
 	struct pm_photon_buf bufs[2] = {{NULL, 0, 0}, {NULL, 0, 0}};
 	char tmp[128];
 	double t0;
-	int pass;
+	int pass, i;
 
 	if (threads < 1)
 		threads = 1;
@@ -287,9 +287,13 @@ main(int argc, char **argv)
 		pm_scene_free(&scene);
 		return 1;
 	}
-	if (verbose >= 2)
-		fprintf(stderr, PROG ": %s: loaded in %.3f s; simulating:\n%s",
-		    scene_path, pm_cli_now() - t0, fx.why);
+	if (verbose >= 2) {
+		fprintf(stderr, PROG ": %s: loaded in %.3f s; simulating:\n",
+		    scene_path, pm_cli_now() - t0);
+		for (i = 0; i < PM_EFFECT_NOTES; i++)
+			fprintf(stderr, "%s: %s\n", fx.notes[i].name,
+			    fx.notes[i].text);
+	}
 	if (verbose && scene.dropped_triangles > 0)
 		fprintf(stderr, PROG ": %s: warning: %zu degenerate triangles "
 		    "(zero area or non-finite vertices) dropped\n", scene_path,
@@ -354,22 +358,9 @@ main(int argc, char **argv)
 	pm_pmap_info_add(&out, "scene_hash", tmp, NULL);
 	snprintf(tmp, sizeof(tmp), "%llu", seed);
 	pm_pmap_info_add(&out, "seed", tmp, NULL);
-	{
-		char *line = fx.why, *nl;
-
-		while ((nl = strchr(line, '\n')) != NULL) {
-			char key[32];
-			char *colon = strchr(line, ':');
-
-			*nl = '\0';
-			if (colon != NULL && colon < nl && (size_t)(colon - line) < sizeof(key)) {
-				snprintf(key, sizeof(key), "effect.%.*s",
-				    (int)(colon - line), line);
-				pm_pmap_info_add(&out, key, colon + 2, NULL);
-			}
-			*nl = '\n';
-			line = nl + 1;
-		}
+	for (i = 0; i < PM_EFFECT_NOTES; i++) {
+		snprintf(tmp, sizeof(tmp), "effect.%s", fx.notes[i].name);
+		pm_pmap_info_add(&out, tmp, fx.notes[i].text, NULL);
 	}
 
 	for (pass = 0; pass < 2; pass++) {
