@@ -3,7 +3,7 @@
  * arrays, and the preparation every tool needs after loading (BSDF tables,
  * light areas and powers, index checks).
  *
- * Nothing here knows about files; formats/scene_xml.c fills the arrays.
+ * Nothing here knows about files; formats/scene_xml/ fills the arrays.
  */
 #include <math.h>
 #include <stdint.h>

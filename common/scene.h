@@ -1,7 +1,7 @@
 /*
  * scene.h: the scene model every tool works on, independent of files.
  *
- * formats/scene_xml.c fills it from a Mitsuba 3 XML file; geometry is baked
+ * formats/scene_xml/ fills it from a Mitsuba 3 XML file; geometry is baked
  * into world space at load time.  Shapes, BSDFs and lights live in flat
  * arrays and refer to each other by index.
  */
