@@ -50,10 +50,7 @@ struct pm_light {
 	float cutoff_angle;		/* spot, degrees (Mitsuba default 20) */
 	float beam_width;		/* spot, degrees (default 3/4 of cutoff) */
 	/* Filled by pm_scene_prepare: */
-	double power;			/* luminous-ish power (mean of RGB), watts;
-					 * constant: per unit squared radius of
-					 * the scene's bounding sphere, which
-					 * the world knows (common/world.h) */
+	double power;			/* luminous-ish power (mean of RGB), watts */
 	double area;			/* area: surface area of the shape */
 };
 
@@ -131,6 +128,12 @@ struct pm_scene {
 	 * freed with the scene. */
 	struct pm_merl **merls;
 	size_t nmerls;
+	/* Filled by pm_scene_prepare: the sphere around the geometry's
+	 * bounding box, computed here once for everything that needs the
+	 * scene's extent (the environment's power and its photons' disk,
+	 * lookup radii); radius 0 at the origin without geometry. */
+	struct pm_vec3 center;
+	float radius;
 };
 
 /* Sets the defaults of an empty scene (Mitsuba's where they exist). */
@@ -147,8 +150,9 @@ int pm_scene_add_light(struct pm_scene *s);
 int pm_scene_add_merl(struct pm_scene *s, struct pm_merl *m);
 
 /*
- * After loading: prepares BSDFs, computes light areas and powers, checks
- * that indices are in range.  Geometry and ray casting are built elsewhere.
+ * After loading: prepares BSDFs, computes the bounding sphere, light areas
+ * and powers, checks that indices are in range.  Geometry and ray casting
+ * are built elsewhere.
  */
 enum pm_err pm_scene_prepare(struct pm_scene *s, struct pm_error *err);
 

@@ -332,10 +332,10 @@ emit(const struct pm_shooter *sh, enum pm_map_pass pass, struct pm_rng *rng,
 		 * scene, outside it: every line through the scene is covered. */
 		struct pm_vec3 dir_to_sky = pm_square_to_uniform_sphere(u3, u4);
 		struct pm_frame f = pm_frame_from_normal(dir_to_sky);
-		float dx, dy, r = ls->radius;
+		float dx, dy, r = s->radius;
 
 		pm_square_to_disk(u1, u2, &dx, &dy);
-		p = pm_madd(pm_madd(pm_madd(ls->center, dir_to_sky, r), f.s, dx * r),
+		p = pm_madd(pm_madd(pm_madd(s->center, dir_to_sky, r), f.s, dx * r),
 		    f.t, dy * r);
 		w = pm_neg(dir_to_sky);
 		*flux = pm_rgb_scale(l->radiance, 4.0f * PM_PI * PM_PI * r * r / psel);

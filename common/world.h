@@ -1,7 +1,7 @@
 /*
- * world.h: a scene made ready to trace: its ray caster, its lights and
- * its bounding sphere, set up in one place for every tool and test that
- * shoots photons or renders.
+ * world.h: a scene made ready to trace: its ray caster and its lights,
+ * set up in one place for every tool and test that shoots photons or
+ * renders.
  */
 #ifndef PM_WORLD_H
 #define PM_WORLD_H
@@ -10,17 +10,11 @@
 #include "error.h"
 #include "light.h"
 #include "scene.h"
-#include "vec.h"
 
 struct pm_world {
 	const struct pm_scene *scene;	/* the caller's; outlives the world */
 	struct pm_accel *accel;
 	struct pm_lights lights;
-	/* The sphere around the geometry's bounding box, computed once
-	 * here: lights sample the environment from it, and lookup radii
-	 * are fractions of its radius (0 when the scene has no geometry). */
-	struct pm_vec3 center;
-	float radius;
 };
 
 /*

@@ -699,7 +699,7 @@ main(int argc, char **argv)
 			goto out;
 		}
 		have_pmap = 1;
-		if (!load_maps(map_path, &scene, world.radius, &pg, &pmap, &maps,
+		if (!load_maps(map_path, &scene, scene.radius, &pg, &pmap, &maps,
 		    verbose)) {
 			status = 1;
 			goto out;
@@ -727,7 +727,7 @@ main(int argc, char **argv)
 	ctx.max_depth = scene.integrator.max_depth;
 	ctx.rr_depth = scene.integrator.rr_depth;
 	ctx.hide_emitters = scene.integrator.hide_emitters;
-	ctx.scene_radius = world.radius;
+	ctx.scene_radius = scene.radius;
 	ctx.icache = NULL;
 	maps.gather_max_depth = ctx.max_depth < 0 ? -1 : ctx.max_depth - 3;
 	if (map_path != NULL) {

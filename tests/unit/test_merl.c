@@ -781,7 +781,7 @@ world_photons(struct world *w, long n)
 	w->maps.global = w->photons.p;
 	w->maps.nglobal = w->photons.n;
 	w->maps.global_scale = 1.0f / (float)n;
-	w->maps.global_r2 = 0.05f * w->world.radius;
+	w->maps.global_r2 = 0.05f * w->scene.radius;
 	w->maps.global_r2 *= w->maps.global_r2;
 	w->maps.lookup_size = 100;
 	w->maps.direct_samples = 4;
