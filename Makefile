@@ -32,7 +32,7 @@ TOOLS = pm-shoot pm-balance pm-render pm-downsample pm-inspect pm-merl
 BINS  = $(TOOLS:%=$(BIN)/%)
 LIB   = $(BUILD)/libpm.a
 
-LIB_SRC  = $(sort $(wildcard common/*.c) $(wildcard formats/*.c))
+LIB_SRC  = $(sort $(wildcard common/*.c) $(wildcard formats/*.c) $(wildcard formats/*/*.c))
 LIB_OBJ  = $(LIB_SRC:%.c=$(BUILD)/%.o)
 TEST_SRC = $(sort $(wildcard tests/unit/test_*.c))
 TEST_BIN = $(TEST_SRC:tests/unit/%.c=$(BUILD)/tests/%)

@@ -23,8 +23,8 @@
 
 #include "camera.h"
 #include "icache.h"
+#include "integrator.h"
 #include "parallel.h"
-#include "render.h"
 #include "sampling.h"
 
 /* Stream index of grid-point random numbers: apart from pixel samples'. */

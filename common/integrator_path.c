@@ -10,7 +10,7 @@
  */
 #include <math.h>
 
-#include "render.h"
+#include "integrator.h"
 
 /* Light arriving at the hit point from one light sample, weighted for MIS. */
 static struct pm_rgb

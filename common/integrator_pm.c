@@ -32,10 +32,10 @@
  */
 #include <math.h>
 
+#include "integrator.h"
 #include "irradiance.h"
 #include "kdtree.h"
 #include "merl.h"
-#include "render.h"
 
 #define CONE_K 1.1f
 

@@ -9,15 +9,13 @@
 
 enum pm_err
 pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
-    struct pm_vec3 center, float radius, struct pm_error *err)
+    struct pm_error *err)
 {
 	double *w = NULL;
 	size_t i, j, maxw = s->nlights;
 	enum pm_err rc = PM_OK;
 
 	ls->n = s->nlights;
-	ls->center = center;
-	ls->radius = radius;
 	ls->tris = NULL;
 	ls->pick.cdf = NULL;
 	ls->pick.n = 0;
@@ -36,9 +34,6 @@ pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
 		const struct pm_light *l = &s->lights[i];
 
 		w[i] = l->power;
-		if (l->type == PM_LIGHT_CONSTANT)
-			w[i] = M_PI * pm_rgb_mean(l->radiance) * 4.0 * M_PI *
-			    (double)radius * radius;
 	}
 	rc = pm_distrib_init(&ls->pick, w, s->nlights, err);
 	if (rc != PM_OK)
@@ -135,7 +130,7 @@ pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
 	case PM_LIGHT_CONSTANT:
 		o->wi = pm_square_to_uniform_sphere(u1, u2);
 		o->dist = INFINITY;
-		o->p = pm_madd(ref, o->wi, 2.0f * ls->radius);
+		o->p = pm_madd(ref, o->wi, 2.0f * s->radius);
 		o->n = pm_neg(o->wi);
 		o->value = l->radiance;
 		o->pdf = psel * pm_uniform_sphere_pdf();

@@ -20,8 +20,6 @@ struct pm_lights {
 	struct pm_distrib pick;		/* over scene.lights, by power */
 	struct pm_distrib *tris;	/* per light: over a mesh's triangles */
 	size_t n;
-	struct pm_vec3 center;		/* bounding sphere of the scene */
-	float radius;
 };
 
 struct pm_light_sample {
@@ -35,9 +33,9 @@ struct pm_light_sample {
 	int light;
 };
 
-/* Builds the distributions; center and radius bound the scene. */
+/* Builds the distributions over the lights of s (prepared). */
 enum pm_err pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
-    struct pm_vec3 center, float radius, struct pm_error *err);
+    struct pm_error *err);
 void pm_lights_free(struct pm_lights *ls);
 
 /* Samples a light point as seen from ref; false if nothing can be sampled

@@ -18,11 +18,16 @@
  * (the Jacobian |dwo/dh| = 4 |wo.h| included).  Cosine sampling is mixed
  * in (20%) so that nothing the table missed has zero density.  The same
  * integration gives the directional albedo per channel.
+ *
+ * At the end, the analytic models formats/merl.c's writer tabulates: the
+ * metal and the plastic's coat reuse bsdf.c's GGX rough conductor (with
+ * k = 0 its Fresnel term is the dielectric one).
  */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "bsdf.h"
 #include "merl.h"
 #include "sampling.h"
 
@@ -474,4 +479,73 @@ pm_merl_prepare(struct pm_merl *m, struct pm_error *err)
 	m->glossy = lum_peak > GLOSSY_RATIO * PM_INV_PI *
 	    pm_rgb_mean(m->albedo[0]);
 	return PM_OK;
+}
+
+/* bsdf.c's GGX rough conductor with the given complex IOR. */
+static struct pm_bsdf
+ggx(struct pm_rgb eta, struct pm_rgb k, float alpha)
+{
+	struct pm_bsdf b;
+
+	memset(&b, 0, sizeof(b));
+	b.type = PM_BSDF_ROUGHCONDUCTOR;
+	b.eta = eta;
+	b.k = k;
+	b.specular = pm_rgb1(1.0f);
+	b.alpha = alpha;
+	b.sample_visible = true;
+	pm_bsdf_prepare(&b);
+	return b;
+}
+
+/* f_r of a model, 1/sr; 0 below the horizon. */
+struct pm_rgb
+pm_merl_model_eval(const struct pm_merl_model *mo, struct pm_vec3 wi,
+    struct pm_vec3 wo)
+{
+	struct pm_bsdf b;
+	struct pm_rgb f;
+	float fi, fo;
+
+	if (!(wi.z > 0.0f && wo.z > 0.0f))
+		return pm_rgb1(0.0f);
+	switch (mo->type) {
+	case PM_MERL_LAMBERT:
+		return pm_rgb_scale(mo->albedo, PM_INV_PI);
+	case PM_MERL_METAL:
+		b = ggx(mo->eta, mo->k, mo->alpha);
+		return pm_rgb_scale(pm_bsdf_eval(&b, wi, wo, PM_RADIANCE),
+		    1.0f / wo.z);
+	case PM_MERL_PLASTIC:
+		b = ggx(pm_rgb1(mo->ior), pm_rgb1(0.0f), mo->alpha);
+		f = pm_rgb_scale(pm_bsdf_eval(&b, wi, wo, PM_RADIANCE),
+		    1.0f / wo.z);
+		/* what the coat lets in, and out again */
+		fi = pm_fresnel_dielectric(wi.z, mo->ior, NULL);
+		fo = pm_fresnel_dielectric(wo.z, mo->ior, NULL);
+		return pm_rgb_add(f, pm_rgb_scale(mo->albedo,
+		    (1.0f - fi) * (1.0f - fo) * PM_INV_PI));
+	}
+	return pm_rgb1(0.0f);
+}
+
+void
+pm_merl_model_bin(const struct pm_merl_model *mo, int ith, int itd, int ipd,
+    double v[3])
+{
+	static const double scale[3] = {PM_MERL_SCALE_R, PM_MERL_SCALE_G,
+	    PM_MERL_SCALE_B};
+	double wi[3], wo[3];
+	struct pm_rgb f;
+
+	pm_merl_bin_dirs(ith, itd, ipd, wi, wo);
+	if (wi[2] <= 0.0 || wo[2] <= 0.0) {
+		v[0] = v[1] = v[2] = -1.0;
+		return;
+	}
+	f = pm_merl_model_eval(mo, pm_v3((float)wi[0], (float)wi[1],
+	    (float)wi[2]), pm_v3((float)wo[0], (float)wo[1], (float)wo[2]));
+	v[0] = f.r / scale[0];
+	v[1] = f.g / scale[1];
+	v[2] = f.b / scale[2];
 }

@@ -100,4 +100,33 @@ bool pm_merl_sample(const struct pm_merl *m, struct pm_vec3 wi, float u1,
  * polar angle theta_i, from the prepared table. */
 struct pm_rgb pm_merl_albedo(const struct pm_merl *m, float theta_i);
 
+/*
+ * Analytic BRDFs in MERL's terms, for the writer (formats/merl.c) to
+ * tabulate: what pm tests its reader and renders measured-style
+ * materials with, without the database.
+ */
+enum pm_merl_model_type {
+	PM_MERL_LAMBERT,	/* albedo / pi */
+	PM_MERL_METAL,		/* GGX, Smith masking, conductor Fresnel */
+	PM_MERL_PLASTIC,	/* Lambertian base under a GGX dielectric coat */
+};
+
+struct pm_merl_model {
+	enum pm_merl_model_type type;
+	struct pm_rgb albedo;	/* lambert: albedo; plastic: the base's */
+	struct pm_rgb eta, k;	/* metal: complex index of refraction */
+	float alpha;		/* metal, plastic: GGX roughness */
+	float ior;		/* plastic: the coat's index of refraction */
+};
+
+/* f_r(wi, wo) of a model in 1/sr (no cosine); 0 below the horizon. */
+struct pm_rgb pm_merl_model_eval(const struct pm_merl_model *mo,
+    struct pm_vec3 wi, struct pm_vec3 wo);
+
+/* The values MERL stores for bin (ith, itd, ipd) of a model: f_r at the
+ * bin's centre divided by each channel's scale, or -1 (MERL's mark for
+ * "below the horizon") where wi or wo is at or below it. */
+void pm_merl_model_bin(const struct pm_merl_model *mo, int ith, int itd,
+    int ipd, double v[3]);
+
 #endif

@@ -9,73 +9,10 @@
 #include <stdatomic.h>
 #include <stdint.h>
 
-#include "accel.h"
 #include "camera.h"
 #include "error.h"
-#include "icache.h"
-#include "irradiance.h"
 #include "image.h"
-#include "light.h"
-#include "rng.h"
-#include "scene.h"
-
-/* Balanced photon maps and how to look them up (integrator_pm.c). */
-struct pm_photon_maps {
-	const struct pm_photon *global;	/* kd-tree order */
-	size_t nglobal;
-	float global_scale;		/* 1 / photon paths emitted */
-	const struct pm_photon *caustic;
-	size_t ncaustic;
-	float caustic_scale;
-	float global_r2, caustic_r2;	/* squared maximum lookup radii */
-	/* Precomputed irradiance records (kd-tree order; power is E in
-	 * W/m^2, undivided), NULL if the map file has none, and the grid
-	 * gather rays look them up in. */
-	const struct pm_photon *irradiance;
-	size_t nirradiance;
-	const struct pm_irr_grid *irradiance_grid;
-	/* Photons a gather ray may count without records: those of at most
-	 * this many bounces (max_depth - 3), or -1 for all. */
-	int gather_max_depth;
-	int lookup_size;		/* k nearest photons per estimate */
-	int direct_samples;		/* light samples per non-specular hit */
-	bool final_gather;
-	int final_gather_samples;	/* rays per sample without the cache */
-	/* The image-space irradiance cache (icache.h): grid points every
-	 * icache_step pixels (0: none), icache_rays gather rays each (0: by
-	 * the samples per pixel), Ward's accuracy icache_a. */
-	int icache_step;
-	int icache_rays;
-	float icache_a;
-	/* Progressive photon mapping: every photon within the radii counts
-	 * (no k-nearest), so that passes with shrinking radii average to the
-	 * right answer; lookup_size is then unused. */
-	bool fixed_radius;
-};
-
-/*
- * The radius of pass `pass` (1, 2, ...) of probabilistic progressive photon
- * mapping (Knaus and Zwicker 2011) as a multiple of the first pass's:
- * r_{i+1}^2 = r_i^2 (i + alpha) / (i + 1), alpha in (0, 1).  Returns 0 for
- * pass < 1.
- */
-double pm_pppm_radius_scale(long pass, double alpha);
-
-/* Largest lookupSize: estimates keep their neighbours on the stack. */
-#define PM_MAX_LOOKUP 4096
-
-/* What an integrator needs to look at; read-only while rendering. */
-struct pm_render_ctx {
-	const struct pm_scene *scene;
-	const struct pm_accel *accel;
-	const struct pm_lights *lights;
-	int max_depth;			/* -1: unlimited */
-	int rr_depth;
-	bool hide_emitters;
-	const struct pm_photon_maps *maps;	/* PM_METHOD_PHOTON only */
-	float scene_radius;		/* bounding sphere; 0: unknown */
-	const struct pm_icache *icache;	/* set by pm_render, or NULL */
-};
+#include "integrator.h"
 
 enum pm_method {
 	PM_METHOD_PATH,
@@ -117,60 +54,6 @@ struct pm_render_stats {
 	uint64_t samples;		/* camera samples taken */
 	uint64_t dropped;		/* samples that were NaN or infinite */
 };
-
-/* What a camera path carries from one vertex to the next. */
-struct pm_path {
-	struct pm_vec3 o, d;		/* the next ray */
-	float tmin, tmax;
-	struct pm_rgb beta;		/* throughput */
-	float eta_scale;		/* product of eta^2 over refractions */
-	struct pm_vec3 prev_p;		/* the last vertex, and the density the */
-	float prev_pdf;			/* ray left it with, for MIS; prev_delta: */
-	bool prev_delta;		/* a camera ray or a specular bounce */
-};
-
-/* A path about to trace the camera ray o + t d, t in (tmin, tmax). */
-void pm_path_start(struct pm_path *pa, struct pm_vec3 o, struct pm_vec3 d,
-    float tmin, float tmax);
-
-/*
- * Moves the path on through the BSDF sample bs taken at h (shading frame
- * fr): multiplies the throughput, aims the next ray, records what MIS needs
- * about this bounce, and from depth rr_depth on plays Russian roulette on
- * the throughput with refraction's radiance scaling undone, so that glass
- * does not end paths early.  False when the path ends here.
- */
-bool pm_path_continue(struct pm_path *pa, const struct pm_hit *h,
-    struct pm_frame fr, const struct pm_bsdf_sample *bs, int depth,
-    int rr_depth, struct pm_rng *rng);
-
-/* Radiance along a camera ray by path tracing with next-event estimation
- * and multiple importance sampling (integrator_path.c). */
-struct pm_rgb pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o,
-    struct pm_vec3 d, float tmin, float tmax, struct pm_rng *rng);
-
-/* Radiance along a camera ray from photon maps: exact direct light,
- * specular recursion, caustic and global maps or final gathering
- * (integrator_pm.c). */
-struct pm_rgb pm_photon_li(const struct pm_render_ctx *ctx, struct pm_vec3 o,
-    struct pm_vec3 d, float tmin, float tmax, struct pm_rng *rng);
-
-/* The same for the camera sample at film position (fx, fy), which lets
- * the first surface seen take its indirect light from ctx->icache. */
-struct pm_rgb pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
-    struct pm_vec3 d, float tmin, float tmax, float fx, float fy,
-    struct pm_rng *rng);
-
-/* True where the photon render estimates light at a surface rather than
- * following or path tracing it: where indirect light may be cached. */
-bool pm_photon_cacheable(const struct pm_bsdf *b);
-
-/* Radiance arriving along a final-gathering ray from o in direction d,
- * from the irradiance records (or the global map) at the first
- * non-specular surface; *t (if not NULL) gets the distance to the first
- * surface hit, INFINITY for none. */
-struct pm_rgb pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
-    struct pm_vec3 d, struct pm_rng *rng, float *t);
 
 /*
  * Renders the scene's camera into out (allocated here, cam->width by

@@ -1,9 +1,9 @@
 /*
  * scene.c: the scene model's life cycle: defaults, growth of the flat
  * arrays, and the preparation every tool needs after loading (BSDF tables,
- * light areas and powers, index checks).
+ * the bounding sphere, light areas and powers, index checks).
  *
- * Nothing here knows about files; formats/scene_xml.c fills the arrays.
+ * Nothing here knows about files; formats/scene_xml/ fills the arrays.
  */
 #include <math.h>
 #include <stdint.h>
@@ -140,17 +140,19 @@ pm_scene_add_merl(struct pm_scene *s, struct pm_merl *m)
 	return (int)s->nmerls++;
 }
 
-/* Bounding sphere of the scene's geometry, Mitsuba's way: the sphere
- * around the bounding box; a scene without geometry gets the unit sphere. */
-static double
-scene_bsphere_radius(const struct pm_scene *s)
+/*
+ * The sphere around the bounding box of what the ray caster sees: the
+ * vertices of the meshes' triangles (not unused vertices) and the
+ * spheres.  In float, min and max being exact, so that it is the box
+ * Embree reports (pm_accel_bounds) to the bit.
+ */
+static void
+scene_bsphere(struct pm_scene *s)
 {
-	double lo[3] = {INFINITY, INFINITY, INFINITY};
-	double hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-	double d2;
-	size_t i;
-	uint32_t v;
-	int a;
+	float lo[3] = {INFINITY, INFINITY, INFINITY};
+	float hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+	size_t i, t;
+	int a, k;
 
 	for (i = 0; i < s->nshapes; i++) {
 		const struct pm_shape *sh = &s->shapes[i];
@@ -159,36 +161,44 @@ scene_bsphere_radius(const struct pm_scene *s)
 			float c[3] = {sh->center.x, sh->center.y, sh->center.z};
 
 			for (a = 0; a < 3; a++) {
-				lo[a] = fmin(lo[a], c[a] - sh->radius);
-				hi[a] = fmax(hi[a], c[a] + sh->radius);
+				lo[a] = fminf(lo[a], c[a] - sh->radius);
+				hi[a] = fmaxf(hi[a], c[a] + sh->radius);
 			}
 			continue;
 		}
-		for (v = 0; v < sh->mesh.nverts; v++) {
-			for (a = 0; a < 3; a++) {
-				lo[a] = fmin(lo[a], sh->mesh.pos[3 * v + a]);
-				hi[a] = fmax(hi[a], sh->mesh.pos[3 * v + a]);
+		for (t = 0; t < sh->mesh.ntris; t++)
+			for (k = 0; k < 3; k++) {
+				const float *p = &sh->mesh.pos[3 *
+				    (size_t)sh->mesh.idx[3 * t + (size_t)k]];
+
+				for (a = 0; a < 3; a++) {
+					lo[a] = fminf(lo[a], p[a]);
+					hi[a] = fmaxf(hi[a], p[a]);
+				}
 			}
-		}
 	}
-	if (!(lo[0] <= hi[0]))
-		return 1.0;
-	d2 = 0.0;
-	for (a = 0; a < 3; a++)
-		d2 += (hi[a] - lo[a]) * (hi[a] - lo[a]);
-	return d2 > 0.0 ? 0.5 * sqrt(d2) : 1.0;
+	if (!(lo[0] <= hi[0] && lo[1] <= hi[1] && lo[2] <= hi[2])) {
+		s->center = pm_v3(0, 0, 0);
+		s->radius = 0.0f;
+		return;
+	}
+	s->center = pm_scale(pm_add(pm_v3(lo[0], lo[1], lo[2]),
+	    pm_v3(hi[0], hi[1], hi[2])), 0.5f);
+	s->radius = 0.5f * pm_length(pm_sub(pm_v3(hi[0], hi[1], hi[2]),
+	    pm_v3(lo[0], lo[1], lo[2])));
 }
 
-/* Prepares BSDFs, computes light areas and powers, checks indices. */
+/* Prepares BSDFs, computes the bounding sphere, light areas and powers,
+ * checks indices. */
 enum pm_err
 pm_scene_prepare(struct pm_scene *s, struct pm_error *err)
 {
 	const double pi = 3.14159265358979323846;
-	double radius = -1.0;
 	size_t i;
 
 	for (i = 0; i < s->nbsdfs; i++)
 		pm_bsdf_prepare(&s->bsdfs[i]);
+	scene_bsphere(s);
 
 	for (i = 0; i < s->nshapes; i++) {
 		const struct pm_shape *sh = &s->shapes[i];
@@ -257,13 +267,11 @@ pm_scene_prepare(struct pm_scene *s, struct pm_error *err)
 				return pm_fail(err, PM_ERR_INVALID,
 				    "constant light %zu is not the scene's "
 				    "environment light", i);
-			if (radius < 0.0)
-				radius = scene_bsphere_radius(s);
 			l->area = 0.0;
 			/* Radiance L arriving over the disk of the bounding
 			 * sphere from every direction: pi L times 4 pi R^2. */
-			l->power = pi * pm_rgb_mean(l->radiance) *
-			    4.0 * pi * radius * radius;
+			l->power = pi * pm_rgb_mean(l->radiance) * 4.0 * pi *
+			    (double)s->radius * s->radius;
 			break;
 		default:
 			return pm_fail(err, PM_ERR_INVALID,

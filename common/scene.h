@@ -1,7 +1,7 @@
 /*
  * scene.h: the scene model every tool works on, independent of files.
  *
- * formats/scene_xml.c fills it from a Mitsuba 3 XML file; geometry is baked
+ * formats/scene_xml/ fills it from a Mitsuba 3 XML file; geometry is baked
  * into world space at load time.  Shapes, BSDFs and lights live in flat
  * arrays and refer to each other by index.
  */
@@ -128,6 +128,12 @@ struct pm_scene {
 	 * freed with the scene. */
 	struct pm_merl **merls;
 	size_t nmerls;
+	/* Filled by pm_scene_prepare: the sphere around the geometry's
+	 * bounding box, computed here once for everything that needs the
+	 * scene's extent (the environment's power and its photons' disk,
+	 * lookup radii); radius 0 at the origin without geometry. */
+	struct pm_vec3 center;
+	float radius;
 };
 
 /* Sets the defaults of an empty scene (Mitsuba's where they exist). */
@@ -144,8 +150,9 @@ int pm_scene_add_light(struct pm_scene *s);
 int pm_scene_add_merl(struct pm_scene *s, struct pm_merl *m);
 
 /*
- * After loading: prepares BSDFs, computes light areas and powers, checks
- * that indices are in range.  Geometry and ray casting are built elsewhere.
+ * After loading: prepares BSDFs, computes the bounding sphere, light areas
+ * and powers, checks that indices are in range.  Geometry and ray casting
+ * are built elsewhere.
  */
 enum pm_err pm_scene_prepare(struct pm_scene *s, struct pm_error *err);
 

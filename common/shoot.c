@@ -61,9 +61,7 @@ pm_shoot_effects(const struct pm_scene *s, struct pm_effects *e)
 {
 	size_t i;
 	int nrefl = 0, nspec = 0, nrefr = 0;
-	char *w = e->why;
-	size_t left = sizeof(e->why);
-	int n;
+	struct pm_effect_note *no = e->notes;
 
 	for (i = 0; i < s->nshapes; i++) {
 		const struct pm_bsdf *b = &s->bsdfs[s->shapes[i].bsdf];
@@ -80,24 +78,19 @@ pm_shoot_effects(const struct pm_scene *s, struct pm_effects *e)
 	    (s->integrator.max_depth < 0 || s->integrator.max_depth > 2);
 	e->caustic = nspec > 0 && nrefl > 0 && s->nlights > 0;
 	e->refraction = nrefr > 0;
-	n = snprintf(w, left, "global: %s (%d shape%s reflect%s diffusely or "
-	    "glossily%s)\n", e->global ? "yes" : "no", nrefl, nrefl == 1 ? "" : "s",
-	    nrefl == 1 ? "s" : "",
+	no[0].name = "global";
+	snprintf(no[0].text, sizeof(no[0].text), "%s (%d shape%s reflect%s "
+	    "diffusely or glossily%s)", e->global ? "yes" : "no", nrefl,
+	    nrefl == 1 ? "" : "s", nrefl == 1 ? "s" : "",
 	    s->integrator.max_depth >= 0 && s->integrator.max_depth <= 2 ?
 	    ", but max_depth allows direct light only" : "");
-	if (n > 0 && (size_t)n < left) {
-		w += n;
-		left -= (size_t)n;
-	}
-	n = snprintf(w, left, "caustics: %s (%d shape%s with a specular "
-	    "component%s)\n", e->caustic ? "yes" : "no", nspec,
+	no[1].name = "caustics";
+	snprintf(no[1].text, sizeof(no[1].text), "%s (%d shape%s with a "
+	    "specular component%s)", e->caustic ? "yes" : "no", nspec,
 	    nspec == 1 ? "" : "s",
 	    nspec > 0 && nrefl == 0 ? ", but nothing diffuse to receive them" : "");
-	if (n > 0 && (size_t)n < left) {
-		w += n;
-		left -= (size_t)n;
-	}
-	snprintf(w, left, "refraction: %s (%d dielectric shape%s)\n",
+	no[2].name = "refraction";
+	snprintf(no[2].text, sizeof(no[2].text), "%s (%d dielectric shape%s)",
 	    e->refraction ? "yes" : "no", nrefr, nrefr == 1 ? "" : "s");
 }
 
@@ -339,10 +332,10 @@ emit(const struct pm_shooter *sh, enum pm_map_pass pass, struct pm_rng *rng,
 		 * scene, outside it: every line through the scene is covered. */
 		struct pm_vec3 dir_to_sky = pm_square_to_uniform_sphere(u3, u4);
 		struct pm_frame f = pm_frame_from_normal(dir_to_sky);
-		float dx, dy, r = ls->radius;
+		float dx, dy, r = s->radius;
 
 		pm_square_to_disk(u1, u2, &dx, &dy);
-		p = pm_madd(pm_madd(pm_madd(ls->center, dir_to_sky, r), f.s, dx * r),
+		p = pm_madd(pm_madd(pm_madd(s->center, dir_to_sky, r), f.s, dx * r),
 		    f.t, dy * r);
 		w = pm_neg(dir_to_sky);
 		*flux = pm_rgb_scale(l->radiance, 4.0f * PM_PI * PM_PI * r * r / psel);

@@ -18,13 +18,22 @@
 #include "photon.h"
 #include "scene.h"
 
+/* One effect's verdict, as -v prints it and the map's header keeps it
+ * (effect.NAME=TEXT). */
+struct pm_effect_note {
+	const char *name;	/* "global", "caustics", "refraction" */
+	char text[160];		/* "yes (2 shapes reflect diffusely ...)" */
+};
+
+#define PM_EFFECT_NOTES 3
+
 /* What the scene calls for, and why, decided before any photon is shot. */
 struct pm_effects {
 	bool global;		/* some surface reflects diffusely or glossily */
 	bool caustic;		/* specular surfaces and a diffuse receiver */
 	bool refraction;	/* dielectrics present */
 	int nspecular;		/* shapes with a specular (delta) component */
-	char why[512];		/* one line per effect, for -v and the header */
+	struct pm_effect_note notes[PM_EFFECT_NOTES];	/* in that order */
 };
 
 /* Decides which maps a scene needs (see pm_effects). */

@@ -21,7 +21,7 @@
 #include <openexr.h>
 
 #include "exr.h"
-#include "tmpfile.h"
+#include "file.h"
 
 /* What the callbacks of one context share with the code that made it. */
 struct exr_io {
@@ -225,7 +225,7 @@ pm_exr_write(const char *path, const struct pm_image *im, bool half,
 	exr_pixel_type_t type = half ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT;
 	struct exr_io io;
 	exr_result_t rv;
-	char tmp[4096];
+	struct pm_out out;
 	const char *what;
 	int part, k;
 	enum pm_err e;
@@ -233,10 +233,9 @@ pm_exr_write(const char *path, const struct pm_image *im, bool half,
 	if (im == NULL || im->rgb == NULL || im->width < 1 || im->height < 1)
 		return pm_fail(err, PM_ERR_INVALID, "%s: empty image", path);
 	memset(&io, 0, sizeof(io));
-	io.fd = pm_open_temp(path, tmp, sizeof(tmp));
-	if (io.fd < 0)
-		return pm_fail(err, PM_ERR_IO, "%s: cannot create a temporary "
-		    "file beside it: %s", path, strerror(errno));
+	if ((e = pm_out_open(&out, path, err)) != PM_OK)
+		return e;
+	io.fd = out.fd;
 
 	init.error_handler_fn = exr_on_error;
 	init.user_data = &io;
@@ -269,28 +268,13 @@ pm_exr_write(const char *path, const struct pm_image *im, bool half,
 	ctxt = NULL;
 	if (rv != EXR_ERR_SUCCESS)
 		goto fail;
-	if (close(io.fd) != 0) {
-		io.fd = -1;
-		e = pm_fail(err, PM_ERR_IO, "%s: %s", tmp, strerror(errno));
-		unlink(tmp);
-		return e;
-	}
-	io.fd = -1;
-	if (rename(tmp, path) != 0) {
-		e = pm_fail(err, PM_ERR_IO, "%s: cannot rename %s to it: %s",
-		    path, tmp, strerror(errno));
-		unlink(tmp);
-		return e;
-	}
-	return PM_OK;
+	return pm_out_commit(&out, err);
 
 fail:
 	e = exr_fail(err, exr_code(rv), path, what, rv, &io);
 	if (ctxt != NULL)
 		exr_finish(&ctxt);
-	if (io.fd >= 0)
-		close(io.fd);
-	unlink(tmp);
+	pm_out_abort(&out);
 	return e;
 }
 

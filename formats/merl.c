@@ -9,10 +9,9 @@
  * applied); negative samples (below the horizon) and non-finite ones
  * become 0, the value the renderer would use for them anyway.
  *
- * The writer tabulates an analytic BRDF at the centre of every bin, so a
- * table looked up at those directions gives the model back to float
- * rounding.  The metal and the plastic's coat reuse bsdf.c's GGX rough
- * conductor (with k = 0 the conductor Fresnel term is the dielectric one).
+ * The writer lays out what common/merl.c tabulates of an analytic BRDF at
+ * the centre of every bin, so a table looked up at those directions gives
+ * the model back to float rounding.
  */
 #include <errno.h>
 #include <fcntl.h>
@@ -26,9 +25,8 @@
 
 #include <zlib.h>
 
-#include "../common/bsdf.h"
+#include "file.h"
 #include "merl.h"
-#include "tmpfile.h"
 
 static const double scale[3] = {PM_MERL_SCALE_R, PM_MERL_SCALE_G,
     PM_MERL_SCALE_B};
@@ -69,54 +67,6 @@ get_f64(const unsigned char *p)
 	return d;
 }
 
-/* bsdf.c's GGX rough conductor with the given complex IOR. */
-static struct pm_bsdf
-ggx(struct pm_rgb eta, struct pm_rgb k, float alpha)
-{
-	struct pm_bsdf b;
-
-	memset(&b, 0, sizeof(b));
-	b.type = PM_BSDF_ROUGHCONDUCTOR;
-	b.eta = eta;
-	b.k = k;
-	b.specular = pm_rgb1(1.0f);
-	b.alpha = alpha;
-	b.sample_visible = true;
-	pm_bsdf_prepare(&b);
-	return b;
-}
-
-/* f_r of a model, 1/sr; 0 below the horizon. */
-struct pm_rgb
-pm_merl_model_eval(const struct pm_merl_model *mo, struct pm_vec3 wi,
-    struct pm_vec3 wo)
-{
-	struct pm_bsdf b;
-	struct pm_rgb f;
-	float fi, fo;
-
-	if (!(wi.z > 0.0f && wo.z > 0.0f))
-		return pm_rgb1(0.0f);
-	switch (mo->type) {
-	case PM_MERL_LAMBERT:
-		return pm_rgb_scale(mo->albedo, PM_INV_PI);
-	case PM_MERL_METAL:
-		b = ggx(mo->eta, mo->k, mo->alpha);
-		return pm_rgb_scale(pm_bsdf_eval(&b, wi, wo, PM_RADIANCE),
-		    1.0f / wo.z);
-	case PM_MERL_PLASTIC:
-		b = ggx(pm_rgb1(mo->ior), pm_rgb1(0.0f), mo->alpha);
-		f = pm_rgb_scale(pm_bsdf_eval(&b, wi, wo, PM_RADIANCE),
-		    1.0f / wo.z);
-		/* what the coat lets in, and out again */
-		fi = pm_fresnel_dielectric(wi.z, mo->ior, NULL);
-		fo = pm_fresnel_dielectric(wo.z, mo->ior, NULL);
-		return pm_rgb_add(f, pm_rgb_scale(mo->albedo,
-		    (1.0f - fi) * (1.0f - fo) * PM_INV_PI));
-	}
-	return pm_rgb1(0.0f);
-}
-
 /* Tabulates a model in the file layout into buf (PM_MERL_FILE_SIZE). */
 void
 pm_merl_encode(const struct pm_merl_model *mo, unsigned char *buf)
@@ -131,23 +81,9 @@ pm_merl_encode(const struct pm_merl_model *mo, unsigned char *buf)
 			for (ipd = 0; ipd < PM_MERL_NPD; ipd++) {
 				size_t idx = (size_t)ipd + PM_MERL_NPD *
 				    ((size_t)itd + PM_MERL_NTD * (size_t)ith);
-				double wi[3], wo[3], v[3];
-				struct pm_rgb f;
+				double v[3];
 
-				pm_merl_bin_dirs(ith, itd, ipd, wi, wo);
-				if (wi[2] <= 0.0 || wo[2] <= 0.0) {
-					/* MERL's mark for "below the
-					 * horizon", in stored units */
-					v[0] = v[1] = v[2] = -1.0;
-				} else {
-					f = pm_merl_model_eval(mo, pm_v3(
-					    (float)wi[0], (float)wi[1],
-					    (float)wi[2]), pm_v3((float)wo[0],
-					    (float)wo[1], (float)wo[2]));
-					v[0] = f.r / scale[0];
-					v[1] = f.g / scale[1];
-					v[2] = f.b / scale[2];
-				}
+				pm_merl_model_bin(mo, ith, itd, ipd, v);
 				for (c = 0; c < 3; c++)
 					put_f64(buf + 12 + 8 * ((size_t)c *
 					    PM_MERL_N + idx), v[c]);
@@ -182,9 +118,8 @@ pm_merl_write(const char *path, const struct pm_merl_model *mo,
 	bool to_stdout = strcmp(path, "-") == 0;
 	const char *name = to_stdout ? "standard output" : path;
 	unsigned char *buf;
-	char *tmp = NULL;
+	struct pm_out out;
 	enum pm_err r;
-	int fd = -1;
 
 	if ((buf = malloc(PM_MERL_FILE_SIZE)) == NULL)
 		return pm_fail(err, PM_ERR_NOMEM, "%s: no memory for %zu bytes",
@@ -194,27 +129,14 @@ pm_merl_write(const char *path, const struct pm_merl_model *mo,
 		r = write_all(STDOUT_FILENO, name, buf, PM_MERL_FILE_SIZE, err);
 		goto done;
 	}
-	if ((tmp = malloc(strlen(path) + 32)) == NULL) {
-		r = pm_fail(err, PM_ERR_NOMEM, "%s: out of memory", name);
+	if ((r = pm_out_open(&out, path, err)) != PM_OK)
 		goto done;
-	}
-	fd = pm_open_temp(path, tmp, strlen(path) + 32);
-	if (fd < 0) {
-		r = pm_fail(err, PM_ERR_IO, "%s: cannot create %s: %s", name,
-		    tmp, strerror(errno));
-		goto done;
-	}
-	r = write_all(fd, name, buf, PM_MERL_FILE_SIZE, err);
-	if (close(fd) < 0 && r == PM_OK)
-		r = pm_fail(err, PM_ERR_IO, "%s: write failed: %s", name,
-		    strerror(errno));
-	if (r == PM_OK && rename(tmp, path) < 0)
-		r = pm_fail(err, PM_ERR_IO, "%s: cannot rename %s to it: %s",
-		    name, tmp, strerror(errno));
-	if (r != PM_OK)
-		unlink(tmp);
+	r = write_all(out.fd, name, buf, PM_MERL_FILE_SIZE, err);
+	if (r == PM_OK)
+		r = pm_out_commit(&out, err);
+	else
+		pm_out_abort(&out);
 done:
-	free(tmp);
 	free(buf);
 	return r;
 }

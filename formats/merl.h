@@ -5,9 +5,10 @@
  * little-endian doubles each, 34,992,012 bytes in all.  Values times the
  * channel's scale are f_r; negative values mark samples below the horizon.
  *
- * The writer tabulates analytic BRDFs (Lambertian, a GGX conductor, a
- * GGX-coated plastic) in that layout, so that pm can test its reader and
- * render measured-style materials without the database.
+ * The writer tabulates analytic BRDFs (common/merl.h's struct
+ * pm_merl_model: Lambertian, a GGX conductor, a GGX-coated plastic) in
+ * that layout, so that pm can test its reader and render measured-style
+ * materials without the database.
  */
 #ifndef PM_FORMATS_MERL_H
 #define PM_FORMATS_MERL_H
@@ -17,24 +18,6 @@
 #include "../common/error.h"
 #include "../common/merl.h"
 #include "../common/vec.h"
-
-enum pm_merl_model_type {
-	PM_MERL_LAMBERT,	/* albedo / pi */
-	PM_MERL_METAL,		/* GGX, Smith masking, conductor Fresnel */
-	PM_MERL_PLASTIC,	/* Lambertian base under a GGX dielectric coat */
-};
-
-struct pm_merl_model {
-	enum pm_merl_model_type type;
-	struct pm_rgb albedo;	/* lambert: albedo; plastic: the base's */
-	struct pm_rgb eta, k;	/* metal: complex index of refraction */
-	float alpha;		/* metal, plastic: GGX roughness */
-	float ior;		/* plastic: the coat's index of refraction */
-};
-
-/* f_r(wi, wo) of a model in 1/sr (no cosine); 0 below the horizon. */
-struct pm_rgb pm_merl_model_eval(const struct pm_merl_model *mo,
-    struct pm_vec3 wi, struct pm_vec3 wo);
 
 /* Encodes a model into buf, which holds PM_MERL_FILE_SIZE bytes: f_r at
  * the centre of every bin divided by the channel's scale, -1 where wi or

@@ -19,6 +19,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "file.h"
 #include "obj.h"
 
 #define NONE UINT32_MAX
@@ -545,47 +546,6 @@ pm_obj_parse(const char *name, const char *buf, size_t len,
 	return e;
 }
 
-/* Reads a whole stream into a NUL-terminated buffer. */
-static enum pm_err
-slurp(const char *path, char **out, size_t *outlen, struct pm_error *err)
-{
-	FILE *f;
-	char *buf = NULL, *nb;
-	size_t len = 0, cap = 0, got;
-
-	if ((f = fopen(path, "rb")) == NULL)
-		return pm_fail(err, PM_ERR_IO, "%s: %s", path, strerror(errno));
-	for (;;) {
-		if (cap - len < 2) {
-			size_t ncap = cap == 0 ? 1 << 16 : cap * 2;
-			if (ncap < cap || (nb = realloc(buf, ncap)) == NULL) {
-				free(buf);
-				fclose(f);
-				return pm_fail(err, PM_ERR_NOMEM,
-				    "%s: out of memory reading the file", path);
-			}
-			buf = nb;
-			cap = ncap;
-		}
-		got = fread(buf + len, 1, cap - len - 1, f);
-		len += got;
-		if (got == 0)
-			break;
-	}
-	if (ferror(f)) {
-		int saved = errno;
-		free(buf);
-		fclose(f);
-		return pm_fail(err, PM_ERR_IO, "%s: read error: %s", path,
-		    strerror(saved));
-	}
-	fclose(f);
-	buf[len] = '\0';
-	*out = buf;
-	*outlen = len;
-	return PM_OK;
-}
-
 /* Reads the OBJ file at path into m; see obj.h. */
 enum pm_err
 pm_obj_read(const char *path, struct pm_mesh *m, struct pm_error *err)
@@ -595,7 +555,7 @@ pm_obj_read(const char *path, struct pm_mesh *m, struct pm_error *err)
 	enum pm_err e;
 
 	memset(m, 0, sizeof(*m));
-	if ((e = slurp(path, &text, &len, err)) != PM_OK)
+	if ((e = pm_read_file(path, SIZE_MAX, &text, &len, err)) != PM_OK)
 		return e;
 	e = parse_text(path, text, len, m, err);
 	free(text);

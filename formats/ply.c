@@ -20,6 +20,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "file.h"
 #include "ply.h"
 
 #define PLY_MAX_ELEMS	16
@@ -811,40 +812,14 @@ pm_ply_parse(const char *name, const unsigned char *buf, size_t len,
 enum pm_err
 pm_ply_read(const char *path, struct pm_mesh *m, struct pm_error *err)
 {
-	FILE *f;
-	unsigned char *buf = NULL, *nb;
-	size_t len = 0, cap = 0, got;
+	char *buf;
+	size_t len;
 	enum pm_err e;
 
 	memset(m, 0, sizeof(*m));
-	if ((f = fopen(path, "rb")) == NULL)
-		return pm_fail(err, PM_ERR_IO, "%s: %s", path, strerror(errno));
-	for (;;) {
-		if (cap == len) {
-			size_t ncap = cap == 0 ? 1 << 16 : cap * 2;
-			if (ncap < cap || (nb = realloc(buf, ncap)) == NULL) {
-				free(buf);
-				fclose(f);
-				return pm_fail(err, PM_ERR_NOMEM, "%s: out of "
-				    "memory reading the file", path);
-			}
-			buf = nb;
-			cap = ncap;
-		}
-		got = fread(buf + len, 1, cap - len, f);
-		len += got;
-		if (got == 0)
-			break;
-	}
-	if (ferror(f)) {
-		int saved = errno;
-		free(buf);
-		fclose(f);
-		return pm_fail(err, PM_ERR_IO, "%s: read error: %s", path,
-		    strerror(saved));
-	}
-	fclose(f);
-	e = pm_ply_parse(path, buf, len, m, err);
+	if ((e = pm_read_file(path, SIZE_MAX, &buf, &len, err)) != PM_OK)
+		return e;
+	e = pm_ply_parse(path, (const unsigned char *)buf, len, m, err);
 	free(buf);
 	return e;
 }

@@ -30,7 +30,7 @@
 #include <zlib.h>
 
 #include "pmap.h"
-#include "tmpfile.h"
+#include "file.h"
 
 #define PMAP_FIXED	64		/* fixed part of the header */
 #define PMAP_ENTRY	96		/* a map-table entry, version 2.0 */
@@ -1442,11 +1442,11 @@ pm_pmap_write(const char *path, const struct pm_pmap *m, bool compress,
 	bool to_stdout = strcmp(path, "-") == 0;
 	const char *name = to_stdout ? "standard output" : path;
 	unsigned char *h = NULL, *scratch = NULL;
-	char *tmp = NULL;
+	struct pm_out out;
 	size_t isize = m->info != NULL ? strlen(m->info) : 0, per = 65536;
 	uint64_t hs, end;
 	enum pm_err r;
-	int fd = -1, i;
+	int i;
 
 	memset(o, 0, sizeof(o));
 	if ((r = check_for_write(name, m, err)) != PM_OK)
@@ -1486,30 +1486,18 @@ pm_pmap_write(const char *path, const struct pm_pmap *m, bool compress,
 		    scratch, per, err);
 		goto done;
 	}
-	if ((tmp = malloc(strlen(path) + 32)) == NULL) {
-		r = pm_fail(err, PM_ERR_NOMEM, "%s: out of memory", name);
+	if ((r = pm_out_open(&out, path, err)) != PM_OK)
 		goto done;
-	}
-	fd = pm_open_temp(path, tmp, strlen(path) + 32);
-	if (fd < 0) {
-		r = pm_fail(err, PM_ERR_IO, "%s: cannot create %s: %s", name,
-		    tmp, strerror(errno));
-		goto done;
-	}
-	r = write_body(fd, name, h, (uint32_t)hs, m, o, scratch, per, err);
-	if (close(fd) < 0 && r == PM_OK)
-		r = pm_fail(err, PM_ERR_IO, "%s: write failed: %s", name,
-		    strerror(errno));
-	if (r == PM_OK && rename(tmp, path) < 0)
-		r = pm_fail(err, PM_ERR_IO, "%s: cannot rename %s to it: %s",
-		    name, tmp, strerror(errno));
-	if (r != PM_OK)
-		unlink(tmp);
+	r = write_body(out.fd, name, h, (uint32_t)hs, m, o, scratch, per,
+	    err);
+	if (r == PM_OK)
+		r = pm_out_commit(&out, err);
+	else
+		pm_out_abort(&out);
 done:
 	for (i = 0; i < PMAP_MAXMAPS; i++)
 		free(o[i].z);
 	free(h);
-	free(tmp);
 	free(scratch);
 	return r;
 }

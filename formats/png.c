@@ -17,8 +17,8 @@
 
 #include <png.h>
 
+#include "file.h"
 #include "png.h"
-#include "tmpfile.h"
 
 /* What libpng's callbacks share with pm_png_write. */
 struct png_io {
@@ -40,26 +40,6 @@ png_on_warning(png_structp png, png_const_charp msg)
 {
 	(void)png;
 	(void)msg;
-}
-
-/* Opens a new file beside path with a unique name and permissions 0666
- * less the umask, as a stdio stream; its name goes to tmp. */
-static FILE *
-png_open_temp(const char *path, char *tmp, size_t tmpsize)
-{
-	FILE *fp;
-	int fd = pm_open_temp(path, tmp, tmpsize);
-
-	if (fd < 0)
-		return NULL;
-	if ((fp = fdopen(fd, "wb")) == NULL) {
-		int saved = errno;
-
-		close(fd);
-		unlink(tmp);
-		errno = saved;
-	}
-	return fp;
 }
 
 /*
@@ -119,7 +99,7 @@ write_png(const char *path, const uint8_t *rgb, int width, int height,
     bool fast, struct pm_error *err)
 {
 	struct png_io io;
-	char tmp[4096];
+	struct pm_out out;
 	FILE *fp;
 	enum pm_err e;
 
@@ -138,33 +118,32 @@ write_png(const char *path, const uint8_t *rgb, int width, int height,
 		return PM_OK;
 	}
 
-	if ((fp = png_open_temp(path, tmp, sizeof(tmp))) == NULL)
-		return pm_fail(err, PM_ERR_IO, "%s: cannot create a temporary "
-		    "file beside it: %s", path, strerror(errno));
+	if ((e = pm_out_open(&out, path, err)) != PM_OK)
+		return e;
+	if ((fp = fdopen(out.fd, "wb")) == NULL) {
+		e = pm_fail(err, PM_ERR_IO, "%s: %s", out.tmp, strerror(errno));
+		pm_out_abort(&out);
+		return e;
+	}
+	out.fd = -1;		/* fp owns it now */
 	if (png_encode(fp, rgb, width, height, fast, &io) != 0) {
 		e = pm_fail(err, PM_ERR_IO, "%s: %s", path, io.msg);
 		fclose(fp);
-		unlink(tmp);
+		pm_out_abort(&out);
 		return e;
 	}
 	if (fflush(fp) != 0 || ferror(fp)) {
-		e = pm_fail(err, PM_ERR_IO, "%s: %s", tmp, strerror(errno));
+		e = pm_fail(err, PM_ERR_IO, "%s: %s", out.tmp, strerror(errno));
 		fclose(fp);
-		unlink(tmp);
+		pm_out_abort(&out);
 		return e;
 	}
 	if (fclose(fp) != 0) {
-		e = pm_fail(err, PM_ERR_IO, "%s: %s", tmp, strerror(errno));
-		unlink(tmp);
+		e = pm_fail(err, PM_ERR_IO, "%s: %s", out.tmp, strerror(errno));
+		pm_out_abort(&out);
 		return e;
 	}
-	if (rename(tmp, path) != 0) {
-		e = pm_fail(err, PM_ERR_IO, "%s: cannot rename %s to it: %s",
-		    path, tmp, strerror(errno));
-		unlink(tmp);
-		return e;
-	}
-	return PM_OK;
+	return pm_out_commit(&out, err);
 }
 
 enum pm_err

@@ -1,6 +1,7 @@
 /*
- * tmpfile.h: the temporary file every writer goes through, so that an
- * output is either complete (renamed into place) or not there at all.
+ * tmpfile.h: the temporary file every writer goes through (by way of
+ * file.h's pm_out), so that an output is either complete (renamed into
+ * place) or not there at all.
  */
 #ifndef PM_TMPFILE_H
 #define PM_TMPFILE_H

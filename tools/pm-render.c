@@ -17,11 +17,11 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "../common/accel.h"
 #include "cli.h"
 #include "../common/parse.h"
 #include "../common/render.h"
 #include "../common/shoot.h"
+#include "../common/world.h"
 #include "../formats/exr.h"
 #include "../formats/png.h"
 #include "../formats/pmap.h"
@@ -454,17 +454,14 @@ main(int argc, char **argv)
 	struct pppm pg = {0, 0.0f, 2.0 / 3.0};
 	unsigned long long seed = 0;
 	struct pm_scene scene;
-	struct pm_accel *accel = NULL;
-	struct pm_lights lights;
+	struct pm_world world;
 	struct pm_render_ctx ctx;
 	struct pm_irr_grid irr_grid = {0};
 	struct pm_render_opts opts;
 	struct pm_render_stats stats;
 	struct pm_error err = {PM_OK, ""};
-	struct pm_vec3 lo, hi;
 	struct pm_pmap pmap;
 	struct pm_photon_maps maps;
-	float radius;
 	double t0, t_load;
 	int status = 0, have_pmap = 0;
 
@@ -675,21 +672,8 @@ main(int argc, char **argv)
 		cams = &one;
 		ncams = 1;
 	}
-	if (pm_accel_build(&scene, &accel, &err) != PM_OK) {
+	if (pm_world_init(&world, &scene, &err) != PM_OK) {
 		fprintf(stderr, PROG ": %s: %s\n", scene_path, err.msg);
-		pm_scene_free(&scene);
-		return 1;
-	}
-	pm_accel_bounds(accel, &lo, &hi);
-	if (!(pm_max_comp(pm_sub(hi, lo)) >= 0.0f)) {
-		lo = pm_v3(0, 0, 0);
-		hi = lo;
-	}
-	radius = 0.5f * pm_length(pm_sub(hi, lo));
-	if (pm_lights_init(&lights, &scene, pm_scale(pm_add(lo, hi), 0.5f), radius,
-	    &err) != PM_OK) {
-		fprintf(stderr, PROG ": %s: %s\n", scene_path, err.msg);
-		pm_accel_free(accel);
 		pm_scene_free(&scene);
 		return 1;
 	}
@@ -715,7 +699,7 @@ main(int argc, char **argv)
 			goto out;
 		}
 		have_pmap = 1;
-		if (!load_maps(map_path, &scene, radius, &pg, &pmap, &maps,
+		if (!load_maps(map_path, &scene, scene.radius, &pg, &pmap, &maps,
 		    verbose)) {
 			status = 1;
 			goto out;
@@ -738,12 +722,12 @@ main(int argc, char **argv)
 		goto out;
 	}
 	ctx.scene = &scene;
-	ctx.accel = accel;
-	ctx.lights = &lights;
+	ctx.accel = world.accel;
+	ctx.lights = &world.lights;
 	ctx.max_depth = scene.integrator.max_depth;
 	ctx.rr_depth = scene.integrator.rr_depth;
 	ctx.hide_emitters = scene.integrator.hide_emitters;
-	ctx.scene_radius = radius;
+	ctx.scene_radius = scene.radius;
 	ctx.icache = NULL;
 	maps.gather_max_depth = ctx.max_depth < 0 ? -1 : ctx.max_depth - 3;
 	if (map_path != NULL) {
@@ -845,8 +829,7 @@ out:
 		free(cams);
 	pm_image_free(&pv.snap);
 	pm_render_watch_free(pv.watch);
-	pm_lights_free(&lights);
-	pm_accel_free(accel);
+	pm_world_free(&world);
 	pm_scene_free(&scene);
 	return status;
 }

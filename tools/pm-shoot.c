@@ -13,10 +13,10 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "../common/accel.h"
 #include "cli.h"
 #include "../common/parse.h"
 #include "../common/shoot.h"
+#include "../common/world.h"
 #include "../formats/pmap.h"
 #include "../formats/scene_xml.h"
 
@@ -176,17 +176,15 @@ main(int argc, char **argv)
 	unsigned long long seed = 0, first = 0, v;
 	int verbose = 1, force = 0, compress = 0, c, status = 0;
 	struct pm_scene scene;
-	struct pm_accel *accel = NULL;
-	struct pm_lights lights;
+	struct pm_world world;
 	struct pm_shooter shooter;
 	struct pm_effects fx;
 	struct pm_error err = {PM_OK, ""};
 	struct pm_pmap out;
 	struct pm_photon_buf bufs[2] = {{NULL, 0, 0}, {NULL, 0, 0}};
-	struct pm_vec3 lo, hi;
 	char tmp[128];
 	double t0;
-	int pass;
+	int pass, i;
 
 	if (threads < 1)
 		threads = 1;
@@ -277,23 +275,25 @@ main(int argc, char **argv)
 		    (scene.integrator.max_depth > 2 ?
 		    scene.integrator.max_depth - 2 : 0);
 	pm_shoot_effects(&scene, &fx);
-	if (pm_accel_build(&scene, &accel, &err) != PM_OK) {
+	if (pm_world_init(&world, &scene, &err) != PM_OK) {
 		fprintf(stderr, PROG ": %s: %s\n", scene_path, err.msg);
 		pm_scene_free(&scene);
 		return 1;
 	}
-	pm_accel_bounds(accel, &lo, &hi);
-	if (pm_lights_init(&lights, &scene, pm_scale(pm_add(lo, hi), 0.5f),
-	    0.5f * pm_length(pm_sub(hi, lo)), &err) != PM_OK ||
-	    pm_shooter_init(&shooter, &scene, accel, &lights, &err) != PM_OK) {
+	if (pm_shooter_init(&shooter, &scene, world.accel, &world.lights,
+	    &err) != PM_OK) {
 		fprintf(stderr, PROG ": %s: %s\n", scene_path, err.msg);
-		pm_accel_free(accel);
+		pm_world_free(&world);
 		pm_scene_free(&scene);
 		return 1;
 	}
-	if (verbose >= 2)
-		fprintf(stderr, PROG ": %s: loaded in %.3f s; simulating:\n%s",
-		    scene_path, pm_cli_now() - t0, fx.why);
+	if (verbose >= 2) {
+		fprintf(stderr, PROG ": %s: loaded in %.3f s; simulating:\n",
+		    scene_path, pm_cli_now() - t0);
+		for (i = 0; i < PM_EFFECT_NOTES; i++)
+			fprintf(stderr, "%s: %s\n", fx.notes[i].name,
+			    fx.notes[i].text);
+	}
 	if (verbose && scene.dropped_triangles > 0)
 		fprintf(stderr, PROG ": %s: warning: %zu degenerate triangles "
 		    "(zero area or non-finite vertices) dropped\n", scene_path,
@@ -338,8 +338,7 @@ main(int argc, char **argv)
 		}
 		if (status != 0) {
 			pm_shooter_free(&shooter);
-			pm_lights_free(&lights);
-			pm_accel_free(accel);
+			pm_world_free(&world);
 			pm_scene_free(&scene);
 			return 1;
 		}
@@ -359,22 +358,9 @@ main(int argc, char **argv)
 	pm_pmap_info_add(&out, "scene_hash", tmp, NULL);
 	snprintf(tmp, sizeof(tmp), "%llu", seed);
 	pm_pmap_info_add(&out, "seed", tmp, NULL);
-	{
-		char *line = fx.why, *nl;
-
-		while ((nl = strchr(line, '\n')) != NULL) {
-			char key[32];
-			char *colon = strchr(line, ':');
-
-			*nl = '\0';
-			if (colon != NULL && colon < nl && (size_t)(colon - line) < sizeof(key)) {
-				snprintf(key, sizeof(key), "effect.%.*s",
-				    (int)(colon - line), line);
-				pm_pmap_info_add(&out, key, colon + 2, NULL);
-			}
-			*nl = '\n';
-			line = nl + 1;
-		}
+	for (i = 0; i < PM_EFFECT_NOTES; i++) {
+		snprintf(tmp, sizeof(tmp), "effect.%s", fx.notes[i].name);
+		pm_pmap_info_add(&out, tmp, fx.notes[i].text, NULL);
 	}
 
 	for (pass = 0; pass < 2; pass++) {
@@ -437,8 +423,7 @@ main(int argc, char **argv)
 	pm_photon_buf_free(&bufs[0]);
 	pm_photon_buf_free(&bufs[1]);
 	pm_shooter_free(&shooter);
-	pm_lights_free(&lights);
-	pm_accel_free(accel);
+	pm_world_free(&world);
 	pm_scene_free(&scene);
 	if (status == 0 && strcmp(out_path, "-") == 0 && fclose(stdout) != 0) {
 		fprintf(stderr, PROG ": standard output: %s\n", strerror(errno));

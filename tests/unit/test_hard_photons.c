@@ -29,6 +29,7 @@
 
 #include "../../common/kdtree.h"
 #include "../../common/render.h"
+#include "../../common/world.h"
 #include "../../formats/pmap.h"
 #include "../../formats/scene_xml.h"
 
@@ -256,8 +257,7 @@ static void
 fixed_radius_sum(size_t n)
 {
 	struct pm_scene s;
-	struct pm_accel *accel;
-	struct pm_lights lights;
+	struct pm_world world;
 	struct pm_photon_maps maps;
 	struct pm_render_ctx ctx;
 	struct pm_error err;
@@ -272,9 +272,7 @@ fixed_radius_sum(size_t n)
 
 	assert_int_equal(pm_scene_load_string(xml, strlen(xml), "floor.xml",
 	    tmpdir, NULL, 0, &s, &err), PM_OK);
-	assert_int_equal(pm_accel_build(&s, &accel, &err), PM_OK);
-	assert_int_equal(pm_lights_init(&lights, &s, pm_v3(0, 0, 0), 1.5f, &err),
-	    PM_OK);
+	assert_int_equal(pm_world_init(&world, &s, &err), PM_OK);
 	memset(&one, 0, sizeof(one));
 	pm_rgbe_pack(pm_rgb1(1.0f), 0.5f, one.power);
 	pm_dir_pack(pm_v3(0, 0, 1), one.dir);
@@ -297,8 +295,8 @@ fixed_radius_sum(size_t n)
 	maps.fixed_radius = true;
 	memset(&ctx, 0, sizeof(ctx));
 	ctx.scene = &s;
-	ctx.accel = accel;
-	ctx.lights = &lights;
+	ctx.accel = world.accel;
+	ctx.lights = &world.lights;
 	ctx.max_depth = -1;
 	ctx.rr_depth = 5;
 	ctx.maps = &maps;
@@ -311,8 +309,7 @@ fixed_radius_sum(size_t n)
 	    (double)L.r, want);
 	assert_true(fabs(L.r - want) < 1e-3 * want);
 	free(p);
-	pm_lights_free(&lights);
-	pm_accel_free(accel);
+	pm_world_free(&world);
 	pm_scene_free(&s);
 }
 

@@ -29,14 +29,14 @@
 
 #include "../../common/render.h"
 #include "../../common/shoot.h"
+#include "../../common/world.h"
 #include "../../formats/scene_xml.h"
 
 static char tmpdir[64];
 
 struct world {
 	struct pm_scene scene;
-	struct pm_accel *accel;
-	struct pm_lights lights;
+	struct pm_world world;
 	struct pm_render_ctx ctx;
 };
 
@@ -44,7 +44,6 @@ static void
 world_load(struct world *w, const char *xml)
 {
 	struct pm_error err;
-	struct pm_vec3 lo, hi;
 
 	memset(w, 0, sizeof(*w));
 	if (pm_scene_load_string(xml, strlen(xml), "hard.xml", tmpdir, NULL, 0,
@@ -52,14 +51,10 @@ world_load(struct world *w, const char *xml)
 		print_error("%s\n", err.msg);
 		fail();
 	}
-	assert_int_equal(pm_accel_build(&w->scene, &w->accel, &err), PM_OK);
-	pm_accel_bounds(w->accel, &lo, &hi);
-	assert_int_equal(pm_lights_init(&w->lights, &w->scene,
-	    pm_scale(pm_add(lo, hi), 0.5f), 0.5f * pm_length(pm_sub(hi, lo)),
-	    &err), PM_OK);
+	assert_int_equal(pm_world_init(&w->world, &w->scene, &err), PM_OK);
 	w->ctx.scene = &w->scene;
-	w->ctx.accel = w->accel;
-	w->ctx.lights = &w->lights;
+	w->ctx.accel = w->world.accel;
+	w->ctx.lights = &w->world.lights;
 	w->ctx.max_depth = w->scene.integrator.max_depth;
 	w->ctx.rr_depth = w->scene.integrator.rr_depth;
 	w->ctx.hide_emitters = w->scene.integrator.hide_emitters;
@@ -68,8 +63,7 @@ world_load(struct world *w, const char *xml)
 static void
 world_free(struct world *w)
 {
-	pm_lights_free(&w->lights);
-	pm_accel_free(w->accel);
+	pm_world_free(&w->world);
 	pm_scene_free(&w->scene);
 }
 
@@ -380,8 +374,8 @@ test_light_inside_glass(void **state)
 	    "</shape>"
 	    "<emitter type=\"point\"><point name=\"position\" x=\"0.3\" y=\"0.2\" "
 	    "z=\"0\"/><rgb name=\"intensity\" value=\"2\"/></emitter></scene>");
-	assert_int_equal(pm_shooter_init(&sh, &w.scene, w.accel, &w.lights, &err),
-	    PM_OK);
+	assert_int_equal(pm_shooter_init(&sh, &w.scene, w.world.accel,
+	    &w.world.lights, &err), PM_OK);
 	memset(&so, 0, sizeof(so));
 	so.pass = PM_PASS_GLOBAL;
 	so.seed = 5;
@@ -624,8 +618,8 @@ test_degenerate_meshes(void **state)
 		struct pm_photon_buf buf = {NULL, 0, 0};
 		struct pm_error err;
 
-		assert_int_equal(pm_shooter_init(&sh, &w.scene, w.accel, &w.lights,
-		    &err), PM_OK);
+		assert_int_equal(pm_shooter_init(&sh, &w.scene, w.world.accel,
+		    &w.world.lights, &err), PM_OK);
 		memset(&so, 0, sizeof(so));
 		so.pass = PM_PASS_GLOBAL;
 		so.count = 20000;

@@ -29,6 +29,7 @@
 #include "../../common/render.h"
 #include "../../common/rng.h"
 #include "../../common/shoot.h"
+#include "../../common/world.h"
 
 /* n photons on the corner of the floor z = 0 and the wall x = 0 (unit
  * squares), normals up and along +x, powers random. */
@@ -220,8 +221,7 @@ test_furnace_final_gather(void **state)
 	const float rho = 0.5f;
 	const struct pm_rgb Le = pm_rgb(1.0f, 2.0f, 0.5f);
 	struct pm_scene s;
-	struct pm_accel *accel;
-	struct pm_lights lights;
+	struct pm_world world;
 	struct pm_shooter sh;
 	struct pm_shoot_opts so;
 	struct pm_shoot_stats st;
@@ -269,10 +269,9 @@ test_furnace_final_gather(void **state)
 	s.camera.spp = 4;
 	s.camera.rfilter = PM_RFILTER_BOX;
 	assert_int_equal(pm_scene_prepare(&s, &err), PM_OK);
-	assert_int_equal(pm_accel_build(&s, &accel, &err), PM_OK);
-	assert_int_equal(pm_lights_init(&lights, &s, pm_v3(0, 0, 0), 10.0f, &err),
-	    PM_OK);
-	assert_int_equal(pm_shooter_init(&sh, &s, accel, &lights, &err), PM_OK);
+	assert_int_equal(pm_world_init(&world, &s, &err), PM_OK);
+	assert_int_equal(pm_shooter_init(&sh, &s, world.accel, &world.lights,
+	    &err), PM_OK);
 	memset(&so, 0, sizeof(so));
 	so.pass = PM_PASS_GLOBAL;
 	so.seed = 3;
@@ -304,8 +303,8 @@ test_furnace_final_gather(void **state)
 	maps.icache_a = 0.3f;
 	memset(&ctx, 0, sizeof(ctx));
 	ctx.scene = &s;
-	ctx.accel = accel;
-	ctx.lights = &lights;
+	ctx.accel = world.accel;
+	ctx.lights = &world.lights;
 	ctx.max_depth = -1;
 	ctx.rr_depth = 5;
 	ctx.maps = &maps;
@@ -332,8 +331,7 @@ test_furnace_final_gather(void **state)
 	free(rec);
 	pm_photon_buf_free(&buf);
 	pm_shooter_free(&sh);
-	pm_lights_free(&lights);
-	pm_accel_free(accel);
+	pm_world_free(&world);
 	pm_scene_free(&s);
 }
 

@@ -33,6 +33,7 @@
 #include "../../common/render.h"
 #include "../../common/rng.h"
 #include "../../common/shoot.h"
+#include "../../common/world.h"
 #include "../../formats/merl.h"
 #include "../../formats/scene_xml.h"
 
@@ -725,8 +726,7 @@ test_degenerate_directions(void **state)
 
 struct world {
 	struct pm_scene scene;
-	struct pm_accel *accel;
-	struct pm_lights lights;
+	struct pm_world world;
 	struct pm_render_ctx ctx;
 	struct pm_photon_buf photons;
 	struct pm_photon_maps maps;
@@ -736,17 +736,13 @@ static void
 world_ready(struct world *w)
 {
 	struct pm_scene *s = &w->scene;
-	struct pm_vec3 lo, hi;
 	struct pm_error err;
 
-	assert_int_equal(pm_accel_build(s, &w->accel, &err), PM_OK);
-	pm_accel_bounds(w->accel, &lo, &hi);
-	assert_int_equal(pm_lights_init(&w->lights, s, pm_scale(pm_add(lo, hi),
-	    0.5f), 0.5f * pm_length(pm_sub(hi, lo)), &err), PM_OK);
+	assert_int_equal(pm_world_init(&w->world, s, &err), PM_OK);
 	memset(&w->ctx, 0, sizeof(w->ctx));
 	w->ctx.scene = s;
-	w->ctx.accel = w->accel;
-	w->ctx.lights = &w->lights;
+	w->ctx.accel = w->world.accel;
+	w->ctx.lights = &w->world.lights;
 	w->ctx.max_depth = s->integrator.max_depth;
 	w->ctx.rr_depth = s->integrator.rr_depth;
 	memset(&w->photons, 0, sizeof(w->photons));
@@ -756,8 +752,7 @@ static void
 world_free(struct world *w)
 {
 	pm_photon_buf_free(&w->photons);
-	pm_lights_free(&w->lights);
-	pm_accel_free(w->accel);
+	pm_world_free(&w->world);
 	pm_scene_free(&w->scene);
 }
 
@@ -769,10 +764,9 @@ world_photons(struct world *w, long n)
 	struct pm_shoot_opts o;
 	struct pm_shoot_stats st;
 	struct pm_error err;
-	struct pm_vec3 lo, hi;
 
-	assert_int_equal(pm_shooter_init(&sh, &w->scene, w->accel, &w->lights,
-	    &err), PM_OK);
+	assert_int_equal(pm_shooter_init(&sh, &w->scene, w->world.accel,
+	    &w->world.lights, &err), PM_OK);
 	memset(&o, 0, sizeof(o));
 	o.pass = PM_PASS_GLOBAL;
 	o.seed = 1;
@@ -783,12 +777,11 @@ world_photons(struct world *w, long n)
 	pm_shooter_free(&sh);
 	assert_int_equal(pm_kdtree_build(w->photons.p, w->photons.n, 2, &err),
 	    PM_OK);
-	pm_accel_bounds(w->accel, &lo, &hi);
 	memset(&w->maps, 0, sizeof(w->maps));
 	w->maps.global = w->photons.p;
 	w->maps.nglobal = w->photons.n;
 	w->maps.global_scale = 1.0f / (float)n;
-	w->maps.global_r2 = 0.05f * 0.5f * pm_length(pm_sub(hi, lo));
+	w->maps.global_r2 = 0.05f * w->scene.radius;
 	w->maps.global_r2 *= w->maps.global_r2;
 	w->maps.lookup_size = 100;
 	w->maps.direct_samples = 4;

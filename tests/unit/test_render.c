@@ -20,11 +20,11 @@
 #include <cmocka.h>
 
 #include "../../common/render.h"
+#include "../../common/world.h"
 
 struct furnace {
 	struct pm_scene scene;
-	struct pm_accel *accel;
-	struct pm_lights lights;
+	struct pm_world world;
 	struct pm_render_ctx ctx;
 };
 
@@ -74,12 +74,10 @@ furnace_build(struct furnace *f, float rho, float inner_albedo, int max_depth)
 	s->camera.spp = 16;
 	s->camera.rfilter = PM_RFILTER_BOX;
 	assert_int_equal(pm_scene_prepare(s, &err), PM_OK);
-	assert_int_equal(pm_accel_build(s, &f->accel, &err), PM_OK);
-	assert_int_equal(pm_lights_init(&f->lights, s, pm_v3(0, 0, 0), 10.0f, &err),
-	    PM_OK);
+	assert_int_equal(pm_world_init(&f->world, s, &err), PM_OK);
 	f->ctx.scene = s;
-	f->ctx.accel = f->accel;
-	f->ctx.lights = &f->lights;
+	f->ctx.accel = f->world.accel;
+	f->ctx.lights = &f->world.lights;
 	f->ctx.max_depth = max_depth;
 	f->ctx.rr_depth = 5;
 	f->ctx.hide_emitters = false;
@@ -89,8 +87,7 @@ furnace_build(struct furnace *f, float rho, float inner_albedo, int max_depth)
 static void
 furnace_free(struct furnace *f)
 {
-	pm_lights_free(&f->lights);
-	pm_accel_free(f->accel);
+	pm_world_free(&f->world);
 	pm_scene_free(&f->scene);
 }
 

@@ -20,11 +20,11 @@
 #include <cmocka.h>
 
 #include "../../common/shoot.h"
+#include "../../common/world.h"
 
 struct world {
 	struct pm_scene scene;
-	struct pm_accel *accel;
-	struct pm_lights lights;
+	struct pm_world world;
 	struct pm_shooter shooter;
 };
 
@@ -52,24 +52,21 @@ add_sphere(struct pm_scene *s, struct pm_vec3 c, float r, int bsdf, bool flip)
 }
 
 static void
-world_finish(struct world *w, struct pm_vec3 center, float radius)
+world_finish(struct world *w)
 {
 	struct pm_error err;
 
 	assert_int_equal(pm_scene_prepare(&w->scene, &err), PM_OK);
-	assert_int_equal(pm_accel_build(&w->scene, &w->accel, &err), PM_OK);
-	assert_int_equal(pm_lights_init(&w->lights, &w->scene, center, radius, &err),
-	    PM_OK);
-	assert_int_equal(pm_shooter_init(&w->shooter, &w->scene, w->accel,
-	    &w->lights, &err), PM_OK);
+	assert_int_equal(pm_world_init(&w->world, &w->scene, &err), PM_OK);
+	assert_int_equal(pm_shooter_init(&w->shooter, &w->scene, w->world.accel,
+	    &w->world.lights, &err), PM_OK);
 }
 
 static void
 world_free(struct world *w)
 {
 	pm_shooter_free(&w->shooter);
-	pm_lights_free(&w->lights);
-	pm_accel_free(w->accel);
+	pm_world_free(&w->world);
 	pm_scene_free(&w->scene);
 }
 
@@ -88,7 +85,7 @@ furnace(struct world *w, float rho)
 	s->lights[l].radiance = pm_rgb(1.0f, 0.5f, 2.0f);
 	s->lights[l].shape = sh;
 	s->shapes[sh].light = l;
-	world_finish(w, pm_v3(0, 0, 0), 10.0f);
+	world_finish(w);
 }
 
 static void
@@ -216,7 +213,7 @@ test_caustic_aiming_is_unbiased(void **state)
 	s->lights[l].radiance = pm_rgb1(100.0f);
 	s->lights[l].shape = sh;
 	s->shapes[sh].light = l;
-	world_finish(&w, pm_v3(0, 2, 0), 20.0f);
+	world_finish(&w);
 	assert_int_equal(w.shooter.naim, 1);
 
 	shoot(&w, PM_PASS_GLOBAL, 0, ng, 2, &g);

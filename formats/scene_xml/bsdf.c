@@ -1,0 +1,288 @@
+/*
+ * bsdf.c: <bsdf> elements, named or nested, into the scene's BSDF table;
+ * measured (MERL) tables are read once per file.
+ */
+#include "private.h"
+
+/* An index of refraction: a number or one of Mitsuba's names. */
+static enum pm_err
+get_ior(struct ld *ld, struct plist *pl, const char *name, float def,
+    float *out)
+{
+	struct prop *p = sx_prop_find(pl, name);
+
+	*out = def;
+	if (p == NULL)
+		return PM_OK;
+	p->used = true;
+	if (p->type == P_STRING) {
+		if (!pm_ior_lookup(p->s, out))
+			return sx_fail(ld, p->n, PM_ERR_INVALID, "%s: unknown "
+			    "material \"%s\" for \"%s\"", pl->what, p->s, name);
+	} else if (p->type == P_FLOAT || p->type == P_INTEGER) {
+		*out = (float)p->f;
+	} else {
+		return sx_wrong_type(ld, pl, p, "a <float> or a <string>");
+	}
+	if (!(*out > 0.0f))
+		return sx_fail(ld, p->n, PM_ERR_INVALID, "%s: \"%s\" must be "
+		    "positive", pl->what, name);
+	return PM_OK;
+}
+
+static enum pm_err
+conductor_params(struct ld *ld, struct plist *pl, struct pm_bsdf *b)
+{
+	const char *mat;
+	enum pm_err e;
+
+	if ((e = sx_get_string(ld, pl, "material", "none", &mat)) != PM_OK)
+		return e;
+	if (sx_has(pl, "eta") || sx_has(pl, "k")) {
+		if (sx_has(pl, "material"))
+			return sx_fail(ld, sx_prop_find(pl, "material")->n,
+			    PM_ERR_INVALID, "%s: give either material or "
+			    "eta and k, not both", pl->what);
+		if (!sx_has(pl, "eta"))
+			return sx_missing(ld, pl, "eta", "k is given");
+		if (!sx_has(pl, "k"))
+			return sx_missing(ld, pl, "k", "eta is given");
+		if ((e = sx_get_color(ld, pl, "eta", 0.0f, &b->eta)) != PM_OK ||
+		    (e = sx_get_color(ld, pl, "k", 0.0f, &b->k)) != PM_OK)
+			return e;
+	} else if (!pm_conductor_lookup(mat, &b->eta, &b->k)) {
+		return sx_fail(ld, sx_prop_find(pl, "material")->n, PM_ERR_INVALID,
+		    "%s: unknown conductor material \"%s\"", pl->what, mat);
+	}
+	return sx_get_color(ld, pl, "specular_reflectance", 1.0f, &b->specular);
+}
+
+/*
+ * A measured BRDF: the file resolves like any other, and its table is
+ * read once per real path and shared by every BSDF that names it.
+ */
+static enum pm_err
+build_merl(struct ld *ld, struct xnode *n, struct plist *pl,
+    struct pm_bsdf *b)
+{
+	const char *fname, *path, *sampling, *key;
+	struct pm_merl *m;
+	char *real;
+	bool interp;
+	size_t i;
+	enum pm_err e;
+
+	if (!sx_has(pl, "filename"))
+		return sx_missing(ld, pl, "filename", "a <string>");
+	if ((e = sx_get_string(ld, pl, "filename", NULL, &fname)) != PM_OK ||
+	    (e = sx_get_bool(ld, pl, "interpolate", false, &interp)) != PM_OK ||
+	    (e = sx_get_string(ld, pl, "sampling", "data", &sampling)) != PM_OK)
+		return e;
+	if (strcmp(sampling, "data") != 0 && strcmp(sampling, "cosine") != 0)
+		return sx_fail(ld, sx_prop_find(pl, "sampling")->n, PM_ERR_INVALID,
+		    "%s: sampling \"%s\" is neither \"data\" nor \"cosine\"",
+		    pl->what, sampling);
+	b->merl_flags = (interp ? PM_MERL_INTERPOLATE : 0) |
+	    (sampling[0] == 'c' ? PM_MERL_COSINE : 0);
+	if ((e = sx_resolve(ld, n, n->dir, fname, &path)) != PM_OK)
+		return e;
+	real = realpath(path, NULL);
+	key = real != NULL ? real : path;
+	for (i = 0; i < ld->s->nmerls; i++)
+		if (strcmp(ld->s->merls[i]->path, key) == 0) {
+			b->merl = ld->s->merls[i];
+			free(real);
+			return PM_OK;
+		}
+	e = pm_merl_read(key, &m, ld->err);
+	free(real);
+	if (e != PM_OK)
+		return sx_wrap(ld, n, pl->what, e);
+	if (pm_scene_add_merl(ld->s, m) < 0) {
+		pm_merl_free(m);
+		return sx_nomem(ld);
+	}
+	b->merl = m;
+	return PM_OK;
+}
+
+static enum pm_err
+build_twosided(struct ld *ld, struct plist *pl, struct pm_bsdf *b)
+{
+	struct xnode *inner;
+	enum pm_err e;
+
+	if (pl->nobj == 0)
+		return sx_fail(ld, pl->owner, PM_ERR_INVALID, "%s needs one "
+		    "nested <bsdf> or <ref>", pl->what);
+	if (pl->nobj > 1)
+		return sx_fail(ld, pl->obj[1], PM_ERR_UNSUPPORTED, "%s: different "
+		    "BSDFs on the two sides are not supported", pl->what);
+	inner = pl->obj[0];
+	if (strcmp(inner->tag, "ref") == 0) {
+		if ((e = sx_deref(ld, inner, &inner)) != PM_OK)
+			return e;
+		if (strcmp(inner->tag, "bsdf") != 0)
+			return sx_fail(ld, pl->obj[0], PM_ERR_INVALID, "%s: <ref> "
+			    "names a <%s>, expected a <bsdf>", pl->what,
+			    inner->tag);
+	} else if (strcmp(inner->tag, "bsdf") != 0) {
+		return sx_fail(ld, inner, PM_ERR_INVALID, "unexpected <%s> inside "
+		    "%s", inner->tag, pl->what);
+	}
+	if ((e = sx_build_bsdf(ld, inner, b)) != PM_OK)
+		return e;
+	b->twosided = true;
+	return PM_OK;
+}
+
+/* Builds the BSDF an element describes into *b (not into the scene). */
+enum pm_err
+sx_build_bsdf(struct ld *ld, struct xnode *n, struct pm_bsdf *b)
+{
+	struct plist pl;
+	const char *type, *s;
+	double a, au, av;
+	float iint, iext;
+	enum pm_err e;
+
+	if (n->busy)
+		return sx_fail(ld, n, PM_ERR_INVALID, "<bsdf> refers to itself");
+	if ((e = sx_object_type(ld, n, &type)) != PM_OK ||
+	    (e = sx_collect(ld, n, "bsdf", type, &pl)) != PM_OK)
+		return e;
+	memset(b, 0, sizeof(*b));
+	n->busy = true;
+	if (strcmp(type, "diffuse") == 0) {
+		b->type = PM_BSDF_DIFFUSE;
+		e = sx_get_color(ld, &pl, "reflectance", 0.5f, &b->diffuse);
+	} else if (strcmp(type, "conductor") == 0) {
+		b->type = PM_BSDF_CONDUCTOR;
+		e = conductor_params(ld, &pl, b);
+	} else if (strcmp(type, "roughconductor") == 0) {
+		b->type = PM_BSDF_ROUGHCONDUCTOR;
+		if ((e = conductor_params(ld, &pl, b)) != PM_OK ||
+		    (e = sx_get_string(ld, &pl, "distribution", "beckmann", &s))
+		    != PM_OK ||
+		    (e = sx_get_bool(ld, &pl, "sample_visible", true,
+		    &b->sample_visible)) != PM_OK)
+			goto out;
+		if (strcmp(s, "ggx") != 0) {
+			e = sx_fail(ld, sx_has(&pl, "distribution") ?
+			    sx_prop_find(&pl, "distribution")->n : n,
+			    PM_ERR_UNSUPPORTED, "%s: distribution \"%s\" is "
+			    "not supported, only \"ggx\"%s", pl.what, s,
+			    sx_has(&pl, "distribution") ? "" : " (Mitsuba's "
+			    "default is beckmann: say <string "
+			    "name=\"distribution\" value=\"ggx\"/>)");
+			goto out;
+		}
+		if (sx_has(&pl, "alpha_u") || sx_has(&pl, "alpha_v")) {
+			if (sx_has(&pl, "alpha")) {
+				e = sx_fail(ld, sx_prop_find(&pl, "alpha")->n,
+				    PM_ERR_INVALID, "%s: give either alpha or "
+				    "alpha_u and alpha_v", pl.what);
+				goto out;
+			}
+			if ((e = sx_get_float(ld, &pl, "alpha_u", -1, 1e-4, 10,
+			    &au)) != PM_OK || (e = sx_get_float(ld, &pl,
+			    "alpha_v", -1, 1e-4, 10, &av)) != PM_OK)
+				goto out;
+			if (au != av) {
+				e = sx_fail(ld, n, PM_ERR_UNSUPPORTED, "%s: "
+				    "anisotropic roughness (alpha_u %g != "
+				    "alpha_v %g) is not supported", pl.what,
+				    au, av);
+				goto out;
+			}
+			a = au;
+		} else if ((e = sx_get_float(ld, &pl, "alpha", 0.1, 1e-4, 10,
+		    &a)) != PM_OK) {
+			goto out;
+		}
+		b->alpha = (float)a;
+	} else if (strcmp(type, "dielectric") == 0 ||
+	    strcmp(type, "thindielectric") == 0) {
+		b->type = type[0] == 'd' ? PM_BSDF_DIELECTRIC :
+		    PM_BSDF_THINDIELECTRIC;
+		if ((e = get_ior(ld, &pl, "int_ior", IOR_BK7, &iint)) != PM_OK ||
+		    (e = get_ior(ld, &pl, "ext_ior", IOR_AIR, &iext)) != PM_OK ||
+		    (e = sx_get_color(ld, &pl, "specular_reflectance", 1.0f,
+		    &b->specular)) != PM_OK ||
+		    (e = sx_get_color(ld, &pl, "specular_transmittance", 1.0f,
+		    &b->transmittance)) != PM_OK)
+			goto out;
+		b->ior = iint / iext;
+	} else if (strcmp(type, "plastic") == 0) {
+		b->type = PM_BSDF_PLASTIC;
+		if ((e = sx_get_color(ld, &pl, "diffuse_reflectance", 0.5f,
+		    &b->diffuse)) != PM_OK ||
+		    (e = sx_get_color(ld, &pl, "specular_reflectance", 1.0f,
+		    &b->specular)) != PM_OK ||
+		    (e = get_ior(ld, &pl, "int_ior", IOR_POLYPROPYLENE, &iint))
+		    != PM_OK ||
+		    (e = get_ior(ld, &pl, "ext_ior", IOR_AIR, &iext)) != PM_OK ||
+		    (e = sx_get_bool(ld, &pl, "nonlinear", false, &b->nonlinear))
+		    != PM_OK)
+			goto out;
+		b->ior = iint / iext;
+	} else if (strcmp(type, "twosided") == 0) {
+		if ((e = sx_finish(ld, &pl)) != PM_OK ||
+		    (e = build_twosided(ld, &pl, b)) != PM_OK)
+			goto out;
+		n->busy = false;
+		return PM_OK;
+	} else if (strcmp(type, "null") == 0) {
+		b->type = PM_BSDF_NULL;
+	} else if (strcmp(type, "merl") == 0) {
+		b->type = PM_BSDF_MERL;
+		e = build_merl(ld, n, &pl, b);
+	} else {
+		e = sx_unknown_plugin(ld, n, type, "diffuse, conductor, "
+		    "roughconductor, dielectric, thindielectric, plastic, "
+		    "merl, twosided and null");
+		goto out;
+	}
+	if (e == PM_OK && (e = sx_finish(ld, &pl)) == PM_OK)
+		e = sx_no_objects(ld, &pl);
+out:
+	n->busy = false;
+	return e;
+}
+
+/* The scene index of the BSDF element n, built once however often used. */
+enum pm_err
+sx_bsdf_index(struct ld *ld, struct xnode *n, int *out)
+{
+	struct pm_bsdf b;
+	enum pm_err e;
+	int i;
+
+	if (n->inst >= 0) {
+		*out = n->inst;
+		return PM_OK;
+	}
+	if ((e = sx_build_bsdf(ld, n, &b)) != PM_OK)
+		return e;
+	if ((i = pm_scene_add_bsdf(ld->s)) < 0)
+		return sx_nomem(ld);
+	ld->s->bsdfs[i] = b;
+	n->inst = i;
+	*out = i;
+	return PM_OK;
+}
+
+int
+sx_default_bsdf(struct ld *ld)
+{
+	int i;
+
+	if (ld->default_bsdf >= 0)
+		return ld->default_bsdf;
+	if ((i = pm_scene_add_bsdf(ld->s)) < 0)
+		return -1;
+	ld->s->bsdfs[i].type = PM_BSDF_DIFFUSE;
+	ld->s->bsdfs[i].diffuse = pm_rgb1(0.5f);
+	ld->default_bsdf = i;
+	return i;
+}

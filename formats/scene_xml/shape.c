@@ -1,0 +1,239 @@
+/*
+ * shape.c: <shape> elements: meshes from OBJ and PLY files and the
+ * analytic shapes, baked into world space with their BSDF and emitter.
+ */
+#include "private.h"
+
+enum pm_err
+sx_wrap(struct ld *ld, const struct xnode *n, const char *what, enum pm_err e)
+{
+	char msg[sizeof(ld->err->msg)];
+
+	snprintf(msg, sizeof(msg), "%s", ld->err->msg);
+	return sx_fail(ld, n, e, "%s: %s", what, msg);
+}
+
+/* Column lengths of M's linear part must agree and be orthogonal. */
+bool
+sx_similarity_scale(const struct pm_mat4 *M, float *scale)
+{
+	struct pm_vec3 c[3];
+	float l[3];
+	int i;
+
+	for (i = 0; i < 3; i++) {
+		c[i] = pm_v3(M->m[0][i], M->m[1][i], M->m[2][i]);
+		l[i] = pm_length(c[i]);
+	}
+	if (!(l[0] > 0.0f))
+		return false;
+	for (i = 1; i < 3; i++)
+		if (fabsf(l[i] - l[0]) > 1e-4f * l[0])
+			return false;
+	if (fabsf(pm_dot(c[0], c[1])) > 1e-4f * l[0] * l[0] ||
+	    fabsf(pm_dot(c[0], c[2])) > 1e-4f * l[0] * l[0] ||
+	    fabsf(pm_dot(c[1], c[2])) > 1e-4f * l[0] * l[0])
+		return false;
+	*scale = l[0];
+	return true;
+}
+
+/* Validation, normals, world space and orientation, in Mitsuba's order. */
+static enum pm_err
+finish_mesh(struct ld *ld, const struct xnode *n, const char *what,
+    struct pm_mesh *m, const struct pm_mat4 *M, bool face_normals, bool flip)
+{
+	struct pm_mat4 inv;
+	uint32_t dropped = 0;
+	enum pm_err e;
+
+	if (!pm_mat4_inverse(*M, &inv))
+		return sx_fail(ld, n, PM_ERR_INVALID, "%s: to_world is singular",
+		    what);
+	if ((e = pm_mesh_validate(m, &dropped, ld->err)) != PM_OK)
+		return sx_wrap(ld, n, what, e);
+	ld->s->dropped_triangles += dropped;
+	if (m->ntris == 0)
+		return sx_fail(ld, n, PM_ERR_INVALID, "%s: no triangles%s", what,
+		    dropped ? " left after dropping degenerate ones" : "");
+	if (face_normals) {
+		free(m->nrm);
+		m->nrm = NULL;
+	}
+	pm_mesh_transform(m, M);
+	/* Mitsuba 3 computes smooth normals when a file has none. */
+	if (!face_normals && m->nrm == NULL &&
+	    (e = pm_mesh_compute_normals(m, ld->err)) != PM_OK)
+		return sx_wrap(ld, n, what, e);
+	if (flip)
+		pm_mesh_flip(m);
+	return PM_OK;
+}
+
+/* The BSDF and area light of a shape, from nested elements or refs. */
+static enum pm_err
+shape_objects(struct ld *ld, struct plist *pl, int *bsdf, struct xnode **em)
+{
+	struct xnode *o, *t, *bnode = NULL;
+	size_t i;
+	enum pm_err e;
+
+	*em = NULL;
+	for (i = 0; i < pl->nobj; i++) {
+		o = pl->obj[i];
+		t = o;
+		if (strcmp(o->tag, "ref") == 0 &&
+		    (e = sx_deref(ld, o, &t)) != PM_OK)
+			return e;
+		if (strcmp(t->tag, "bsdf") == 0) {
+			if (bnode != NULL)
+				return sx_fail(ld, o, PM_ERR_INVALID, "%s has more "
+				    "than one BSDF (first at line %d)",
+				    pl->what, bnode->line);
+			bnode = o;
+			if ((e = sx_bsdf_index(ld, t, bsdf)) != PM_OK)
+				return e;
+		} else if (strcmp(t->tag, "emitter") == 0) {
+			if (*em != NULL)
+				return sx_fail(ld, o, PM_ERR_INVALID, "%s has more "
+				    "than one emitter", pl->what);
+			*em = t;
+		} else if (o != t) {
+			return sx_fail(ld, o, PM_ERR_INVALID, "%s: <ref id=\"%s\"> "
+			    "names a <%s>, expected a <bsdf> or an <emitter>",
+			    pl->what, sx_attr(o, "id"), t->tag);
+		} else {
+			return sx_fail(ld, o, PM_ERR_INVALID, "unexpected <%s> "
+			    "inside %s", o->tag, pl->what);
+		}
+	}
+	if (bnode == NULL && (*bsdf = sx_default_bsdf(ld)) < 0)
+		return sx_nomem(ld);
+	return PM_OK;
+}
+
+enum pm_err
+sx_load_shape(struct ld *ld, struct xnode *n, const char *naming_dir)
+{
+	struct plist pl;
+	struct pm_mesh mesh;
+	struct pm_shape *sh;
+	struct pm_mat4 M;
+	struct pm_vec3 center;
+	struct pm_rgb radiance;
+	struct xnode *em;
+	const char *type, *fname = NULL, *path, *id;
+	double radius = 1.0;
+	bool face_normals = false, flip = false, flip_tc = true;
+	bool is_file, is_obj;
+	float scale;
+	int idx, bsdf = -1, li;
+	uint32_t v;
+	enum pm_err e;
+
+	memset(&mesh, 0, sizeof(mesh));
+	if ((e = sx_object_type(ld, n, &type)) != PM_OK ||
+	    (e = sx_collect(ld, n, "shape", type, &pl)) != PM_OK)
+		return e;
+	is_obj = strcmp(type, "obj") == 0;
+	is_file = is_obj || strcmp(type, "ply") == 0;
+	if (!is_file && strcmp(type, "sphere") != 0 &&
+	    strcmp(type, "rectangle") != 0 && strcmp(type, "cube") != 0 &&
+	    strcmp(type, "disk") != 0)
+		return sx_unknown_plugin(ld, n, type, "obj, ply, sphere, "
+		    "rectangle, cube and disk");
+
+	if ((e = sx_get_transform(ld, &pl, "to_world", &M)) != PM_OK ||
+	    (e = sx_get_bool(ld, &pl, "flip_normals", false, &flip)) != PM_OK)
+		return e;
+	if (is_file) {
+		if (!sx_has(&pl, "filename"))
+			return sx_missing(ld, &pl, "filename", "a <string>");
+		if ((e = sx_get_string(ld, &pl, "filename", NULL, &fname))
+		    != PM_OK ||
+		    (e = sx_get_bool(ld, &pl, "face_normals", false,
+		    &face_normals)) != PM_OK)
+			return e;
+		if (is_obj && (e = sx_get_bool(ld, &pl, "flip_tex_coords", true,
+		    &flip_tc)) != PM_OK)
+			return e;
+	} else if (strcmp(type, "sphere") == 0) {
+		if ((e = sx_get_point(ld, &pl, "center", pm_v3(0, 0, 0), &center))
+		    != PM_OK ||
+		    (e = sx_get_float(ld, &pl, "radius", 1.0, 0.0, 3.4e38,
+		    &radius)) != PM_OK)
+			return e;
+		if (!(radius > 0.0))
+			return sx_fail(ld, sx_prop_find(&pl, "radius")->n,
+			    PM_ERR_INVALID, "%s: radius must be positive",
+			    pl.what);
+	}
+	if ((e = sx_finish(ld, &pl)) != PM_OK ||
+	    (e = shape_objects(ld, &pl, &bsdf, &em)) != PM_OK)
+		return e;
+
+	if (is_file) {
+		if ((e = sx_resolve(ld, n, naming_dir, fname, &path)) != PM_OK)
+			return e;
+		e = is_obj ? pm_obj_read(path, &mesh, ld->err) :
+		    pm_ply_read(path, &mesh, ld->err);
+		if (e == PM_OK && is_obj && flip_tc && mesh.uv != NULL)
+			for (v = 0; v < mesh.nverts; v++)
+				mesh.uv[2 * v + 1] = 1.0f - mesh.uv[2 * v + 1];
+	} else if (strcmp(type, "rectangle") == 0) {
+		e = pm_mesh_rectangle(&mesh, ld->err);
+	} else if (strcmp(type, "cube") == 0) {
+		e = pm_mesh_cube(&mesh, ld->err);
+	} else if (strcmp(type, "disk") == 0) {
+		e = pm_mesh_disk(&mesh, DISK_SEGMENTS, ld->err);
+	}
+	if (e != PM_OK) {
+		pm_mesh_free(&mesh);
+		return sx_wrap(ld, n, pl.what, e);
+	}
+
+	if ((idx = pm_scene_add_shape(ld->s)) < 0) {
+		pm_mesh_free(&mesh);
+		return sx_nomem(ld);
+	}
+	sh = &ld->s->shapes[idx];
+	sh->mesh = mesh;	/* owned by the scene from here on */
+	sh->bsdf = bsdf;
+	sh->flip_normals = flip;
+	id = sx_attr(n, "id");
+	if (id != NULL)
+		snprintf(sh->name, sizeof(sh->name), "%s", id);
+	else
+		snprintf(sh->name, sizeof(sh->name), "%s#%d", type, idx);
+	if (strcmp(type, "sphere") == 0) {
+		if (!sx_similarity_scale(&M, &scale))
+			return sx_fail(ld, n, PM_ERR_UNSUPPORTED, "%s: to_world "
+			    "must be a rotation, uniform scale and "
+			    "translation", pl.what);
+		sh->type = PM_SHAPE_SPHERE;
+		sh->center = pm_xform_point(&M, center);
+		sh->radius = (float)radius * scale;
+	} else {
+		sh->type = PM_SHAPE_MESH;
+		if ((e = finish_mesh(ld, n, pl.what, &sh->mesh, &M,
+		    face_normals, flip)) != PM_OK)
+			return e;
+	}
+
+	if (em != NULL) {
+		if (em->inst >= 0)
+			return sx_fail(ld, n, PM_ERR_INVALID, "%s: emitter at "
+			    "line %d is already attached to shape %s", pl.what,
+			    em->line, ld->s->shapes[em->inst].name);
+		if ((e = sx_build_area(ld, em, &radiance)) != PM_OK)
+			return e;
+		if ((li = pm_scene_add_light(ld->s)) < 0)
+			return sx_nomem(ld);
+		ld->s->lights[li].type = PM_LIGHT_AREA;
+		ld->s->lights[li].radiance = radiance;
+		ld->s->lights[li].shape = idx;
+		ld->s->shapes[idx].light = li;
+		em->inst = idx;
+	}
+	return PM_OK;
+}
