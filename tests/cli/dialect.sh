@@ -6,15 +6,10 @@
 # pm-render's --preview.
 # Run from the repository root: sh tests/cli/dialect.sh
 . tests/harness.sh
-B=${BIN:-bin}
+B=$BIN
 TOOLS="pm-shoot pm-balance pm-render pm-downsample pm-inspect pm-merl"
 scene=data/cornell-box.xml
 
-one_line() { # tool [pattern]: stderr is one line "tool: ...", stdout empty
-	[ "$(wc -l <"$tmp/err")" -eq 1 ] && grep -q "^$1: " "$tmp/err" &&
-	    grep -q -e "${2:-.}" "$tmp/err" && [ ! -s "$tmp/out" ] ||
-	    { sed 's/^/# /' "$tmp/err"; false; }
-}
 # synopsis TOOL: the man page's SYNOPSIS as one line of words.
 synopsis() {
 	mandoc -T ascii -O width=1000 "man/$1.1" | sed "s/.$(printf '\b')//g" |

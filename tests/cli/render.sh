@@ -1,24 +1,8 @@
 #!/bin/sh
 # CLI contract of pm-render: exit codes, messages, outputs.
 # Run from the repository root: sh tests/cli/render.sh
-n=0
-fail=0
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-R=${BIN:-bin}/pm-render
-
-check() { # description, then a command whose status decides
-	n=$((n + 1))
-	desc=$1
-	shift
-	if "$@"; then echo "ok $n - $desc"; else echo "not ok $n - $desc"; fail=$((fail + 1)); fi
-}
-status() { # expected-status command...: runs command, compares exit status
-	want=$1
-	shift
-	"$@" >"$tmp/out" 2>"$tmp/err"
-	[ $? -eq "$want" ]
-}
+. tests/harness.sh
+R=$BIN/pm-render
 
 check "--help exits 0 and prints usage on stdout" status 0 $R --help
 check "--help output names the synopsis" grep -q '^usage: pm-render' "$tmp/out"
@@ -45,7 +29,7 @@ check "1 and 4 threads give identical files" sh -c "$R -q -t 1 --spp 2 --size 20
 check "different seeds give different images" sh -c "$R -q --seed 1 --spp 1 --size 16x16 -o $tmp/s1.exr data/cornell-box.xml && ! cmp -s $tmp/s1.exr $tmp/t1.exr"
 
 # Photon maps: the map must come from the scene; several cameras, one load.
-B=${BIN:-bin}
+B=$BIN
 if $B/pm-shoot -q -f --photons 2000 --caustic-photons 0 -o "$tmp/cb-shot.pmap" data/cornell-box.xml &&
     $B/pm-balance -q -f -o "$tmp/cb.pmap" "$tmp/cb-shot.pmap"; then
 	check "a photon render succeeds" status 0 $R -q --spp 1 --size 16x16 -o "$tmp/pm.exr" data/cornell-box.xml "$tmp/cb.pmap"
@@ -67,5 +51,4 @@ else
 	check "pm-shoot and pm-balance make a map" false
 fi
 
-echo "render cli: $((n - fail)) passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish render
