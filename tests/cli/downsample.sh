@@ -21,7 +21,7 @@ if [ ! -x "$U" ]; then
 	U=$tmp/exrutil
 	if ! ${CC:-cc} -std=c17 -O2 -D_DEFAULT_SOURCE -I/usr/include/OpenEXR \
 	    $(pkg-config --cflags libpng 2>/dev/null) -o "$U" tests/cli/exrutil.c \
-	    common/image.c common/error.c formats/exr.c -lOpenEXRCore \
+	    common/image.c common/error.c formats/exr.c formats/tmpfile.c -lOpenEXRCore \
 	    $(pkg-config --libs libpng 2>/dev/null || echo -lpng) -lm; then
 		echo "not ok 1 - cannot build tests/cli/exrutil.c"
 		exit 1
