@@ -30,6 +30,7 @@
 #include "../../common/bsdf.h"
 #include "../../common/rng.h"
 #include "../../common/sampling.h"
+#include "stats.h"
 
 #define NCHI2 6
 #define SIGNIFICANCE (1e-3 / NCHI2)
@@ -39,100 +40,6 @@
 #define NSIGMA 6.0
 
 /* ---- statistics ---- */
-
-/* Regularised upper incomplete gamma Q(a, x), for chi-square p-values. */
-static double
-gamma_q(double a, double x)
-{
-	double lead, sum, term, b, c, d, h, an, del;
-	int i;
-
-	if (x <= 0.0)
-		return 1.0;
-	lead = exp(-x + a * log(x) - lgamma(a));
-	if (x < a + 1.0) {
-		sum = term = 1.0 / a;
-		for (i = 1; i < 100000; i++) {
-			term *= x / (a + i);
-			sum += term;
-			if (fabs(term) < fabs(sum) * 1e-15)
-				break;
-		}
-		return 1.0 - sum * lead;
-	}
-	b = x + 1.0 - a;
-	c = 1e300;
-	d = 1.0 / b;
-	h = d;
-	for (i = 1; i < 100000; i++) {
-		an = -i * (i - a);
-		b += 2.0;
-		d = an * d + b;
-		if (fabs(d) < 1e-300)
-			d = 1e-300;
-		c = b + an / c;
-		if (fabs(c) < 1e-300)
-			c = 1e-300;
-		d = 1.0 / d;
-		del = d * c;
-		h *= del;
-		if (fabs(del - 1.0) < 1e-15)
-			break;
-	}
-	return lead * h;
-}
-
-/* Pearson's test with pooling of bins expecting fewer than five. */
-static double
-chi2_test(const double *obs, const double *expd, size_t n, const char *what)
-{
-	double pool_e = 0.0, pool_o = 0.0, chi2 = 0.0, p;
-	double *ke = malloc((n + 1) * sizeof(double));
-	double *ko = malloc((n + 1) * sizeof(double));
-	size_t i, k = 0, smallest = 0;
-
-	assert_non_null(ke);
-	assert_non_null(ko);
-	for (i = 0; i < n; i++) {
-		if (expd[i] < 5.0) {
-			pool_e += expd[i];
-			pool_o += obs[i];
-		} else {
-			ke[k] = expd[i];
-			ko[k] = obs[i];
-			k++;
-		}
-	}
-	if (pool_e <= 1e-9 && pool_o > 0.0) {
-		fprintf(stderr, "%s: %g samples where none were expected\n",
-		    what, pool_o);
-		free(ke);
-		free(ko);
-		return 0.0;
-	}
-	if (pool_e > 0.0) {
-		if (pool_e >= 5.0 || k == 0) {
-			ke[k] = pool_e;
-			ko[k] = pool_o;
-			k++;
-		} else {
-			for (i = 1; i < k; i++)
-				if (ke[i] < ke[smallest])
-					smallest = i;
-			ke[smallest] += pool_e;
-			ko[smallest] += pool_o;
-		}
-	}
-	for (i = 0; i < k; i++)
-		chi2 += (ko[i] - ke[i]) * (ko[i] - ke[i]) / ke[i];
-	p = k > 1 ? gamma_q(0.5 * (double)(k - 1), 0.5 * chi2) : 1.0;
-	if (p < SIGNIFICANCE)
-		fprintf(stderr, "%s: chi2 %.1f with %zu dof, p = %g\n", what,
-		    chi2, k - 1, p);
-	free(ke);
-	free(ko);
-	return p;
-}
 
 /* Running mean and variance (Welford). */
 struct stat {
@@ -879,8 +786,8 @@ check_sampling(const struct pm_bsdf *b, struct pm_vec3 wi, uint64_t seed,
 	assert_true(total <= n * 1.001);
 	/* every case here samples a lobe most of the time */
 	assert_true(total > 0.5 * n);
-	assert_true(chi2_test(obs, expd, NZ * NPHI + 1, what) >
-	    SIGNIFICANCE);
+	assert_true(stats_chi2(obs, expd, NZ * NPHI + 1,
+	    STATS_POOL_JOIN, SIGNIFICANCE, what) > SIGNIFICANCE);
 }
 
 static void
