@@ -143,7 +143,7 @@ fi
 check "the image is the same with and without --preview" sh -c "
     $B/pm-render -q -f --spp 2 --size 40x30 -o '$tmp/nopv.exr' $scene &&
     $B/pm-render -q -f --spp 2 --size 40x30 --preview '$tmp/pv2.png' --preview-every 0.01 -o '$tmp/pv-out.exr' $scene &&
-    cmp -s '$tmp/nopv.exr' '$tmp/pv-out.exr'"
+    '$EXRUTIL' same '$tmp/nopv.exr' '$tmp/pv-out.exr' >/dev/null"
 check "--preview - is a usage error" status 2 $B/pm-render --preview - -o "$tmp/x.exr" $scene
 check "...in one line" one_line pm-render "preview"
 check "--preview-every 0 is a usage error" status 2 $B/pm-render --preview "$tmp/x.png" --preview-every 0 -o "$tmp/x.exr" $scene
