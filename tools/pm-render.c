@@ -400,17 +400,23 @@ write_exr(const char *path, const struct pm_image *img, bool half,
 {
 	struct pm_exr_attrs at = { 0 };
 	char hash[17];
-	enum pm_err e;
+	/* The map comes last: without one the list ends before it. */
+	const char *const kv[][2] = {
+		{ PROG ".version", PM_VERSION },
+		{ PROG ".command", pm_cli_command() },
+		{ PROG ".scene", scene_path },
+		{ PROG ".scene_hash", hash },
+		{ PROG ".map", map_path },
+	};
+	enum pm_err e = PM_OK;
+	size_t i;
 
 	snprintf(hash, sizeof(hash), "%016llx",
 	    (unsigned long long)pm_scene_hash(scene));
-	if ((e = pm_exr_attrs_set(&at, PROG ".version", PM_VERSION, err)) ==
-	    PM_OK && (e = pm_exr_attrs_set(&at, PROG ".command",
-	    pm_cli_command(), err)) == PM_OK && (e = pm_exr_attrs_set(&at,
-	    PROG ".scene", scene_path, err)) == PM_OK && (e =
-	    pm_exr_attrs_set(&at, PROG ".scene_hash", hash, err)) == PM_OK &&
-	    (map_path == NULL || (e = pm_exr_attrs_set(&at, PROG ".map",
-	    map_path, err)) == PM_OK))
+	for (i = 0; i < sizeof(kv) / sizeof(kv[0]) && kv[i][1] != NULL &&
+	    e == PM_OK; i++)
+		e = pm_exr_attrs_set(&at, kv[i][0], kv[i][1], err);
+	if (e == PM_OK)
 		e = pm_exr_write_attrs(path, img, half, &at, err);
 	pm_exr_attrs_free(&at);
 	return e;
