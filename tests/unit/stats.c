@@ -1,7 +1,8 @@
 /*
  * stats.c: the statistics the unit tests share (stats.h): the incomplete
- * gamma function and Pearson's chi-square test, once for every test of a
- * sampler (test_sampling, test_bsdf, test_merl).
+ * gamma function, Pearson's chi-square test and the histogram over the
+ * sphere, once for every test of a sampler (test_sampling, test_bsdf,
+ * test_merl).
  */
 #include <math.h>
 #include <stdio.h>
@@ -155,4 +156,49 @@ stats_chi2(const double *obs, const double *expd, size_t n,
 		fprintf(stderr, "%s: chi2 %.1f with %zu dof, p = %g\n", what,
 		    chi2, k - 1, p);
 	return p;
+}
+
+#define TWO_PI 6.283185307179586
+
+/* The (z, phi) bin of v, row-major in z. */
+size_t
+stats_sphere_bin(struct pm_vec3 v, int nz, int nphi)
+{
+	double phi = atan2(v.y, v.x);
+	int iz, ip;
+
+	if (phi < 0.0)
+		phi += TWO_PI;
+	iz = (int)floor((v.z + 1.0) * 0.5 * nz);
+	ip = (int)floor(phi / TWO_PI * nphi);
+	iz = iz < 0 ? 0 : iz >= nz ? nz - 1 : iz;
+	ip = ip < 0 ? 0 : ip >= nphi ? nphi - 1 : ip;
+	return (size_t)iz * nphi + (size_t)ip;
+}
+
+/* The expected counts of each bin, and their sum. */
+double
+stats_sphere_expected(double (*pdf)(struct pm_vec3, const void *),
+    const void *ctx, double n, int nz, int nphi, int sub, double *expd)
+{
+	double dz = 2.0 / nz, dp = TWO_PI / nphi, z, phi, r, sum, total = 0.0;
+	int iz, ip, a, c;
+
+	for (iz = 0; iz < nz; iz++)
+		for (ip = 0; ip < nphi; ip++) {
+			sum = 0.0;
+			for (a = 0; a < sub; a++)
+				for (c = 0; c < sub; c++) {
+					z = -1.0 + dz * (iz + (a + 0.5) / sub);
+					phi = dp * (ip + (c + 0.5) / sub);
+					r = sqrt(fmax(0.0, 1.0 - z * z));
+					sum += pdf(pm_v3((float)(r * cos(phi)),
+					    (float)(r * sin(phi)), (float)z),
+					    ctx);
+				}
+			expd[iz * nphi + ip] = n * sum * dz * dp /
+			    (sub * sub);
+			total += expd[iz * nphi + ip];
+		}
+	return total;
 }

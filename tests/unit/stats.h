@@ -1,12 +1,15 @@
 /*
  * stats.h: the statistics the unit tests share: the regularised upper
- * incomplete gamma function and Pearson's chi-square test of a histogram
- * against expected counts, with the p-value it gives.
+ * incomplete gamma function, Pearson's chi-square test of a histogram
+ * against expected counts, with the p-value it gives, and the histogram of
+ * directions over the sphere those tests fill.
  */
 #ifndef PM_TEST_STATS_H
 #define PM_TEST_STATS_H
 
 #include <stddef.h>
+
+#include "../../common/vec.h"
 
 /* Regularised upper incomplete gamma Q(a, x), for chi-square p-values:
  * a series for P(a, x) below x = a + 1, a continued fraction above. */
@@ -34,5 +37,17 @@ enum stats_pool {
  */
 double stats_chi2(const double *obs, const double *expd, size_t n,
     enum stats_pool pool, double report_below, const char *what);
+
+/* Bin of a direction on the nz x nphi grid of (z, phi) over the sphere,
+ * z from -1 to 1 and phi from 0 to 2 pi, clamped to the grid. */
+size_t stats_sphere_bin(struct pm_vec3 v, int nz, int nphi);
+
+/*
+ * n times the integral of pdf (with ctx) over each bin of that grid,
+ * dw = dz dphi, by a sub x sub midpoint rule, into expd[0..nz * nphi);
+ * returns their sum.
+ */
+double stats_sphere_expected(double (*pdf)(struct pm_vec3, const void *),
+    const void *ctx, double n, int nz, int nphi, int sub, double *expd);
 
 #endif

@@ -36,7 +36,6 @@
 #define SIGNIFICANCE (1e-3 / NCHI2)
 #define NZ 50
 #define NPHI 50
-#define TWO_PI 6.283185307179586
 #define NSIGMA 6.0
 
 /* ---- statistics ---- */
@@ -723,19 +722,18 @@ test_reciprocity(void **state)
 
 /* ---- sampling follows pdf() ---- */
 
-static size_t
-sphere_bin(struct pm_vec3 v)
-{
-	double phi = atan2(v.y, v.x);
-	int iz, ip;
+/* pdf() of one BSDF for one wi, as stats_sphere_expected wants it. */
+struct bsdf_at {
+	const struct pm_bsdf *b;
+	struct pm_vec3 wi;
+};
 
-	if (phi < 0.0)
-		phi += TWO_PI;
-	iz = (int)floor((v.z + 1.0) * 0.5 * NZ);
-	ip = (int)floor(phi / TWO_PI * NPHI);
-	iz = iz < 0 ? 0 : iz >= NZ ? NZ - 1 : iz;
-	ip = ip < 0 ? 0 : ip >= NPHI ? NPHI - 1 : ip;
-	return (size_t)iz * NPHI + (size_t)ip;
+static double
+bsdf_pdf(struct pm_vec3 wo, const void *ctx)
+{
+	const struct bsdf_at *at = ctx;
+
+	return pm_bsdf_pdf(at->b, at->wi, wo);
 }
 
 /*
@@ -749,11 +747,12 @@ check_sampling(const struct pm_bsdf *b, struct pm_vec3 wi, uint64_t seed,
     const char *what)
 {
 	static double obs[NZ * NPHI + 1], expd[NZ * NPHI + 1];
-	const int n = 1000000, sub = 12;
+	const int n = 1000000;
+	const struct bsdf_at at = { b, wi };
 	struct pm_rng rng = pm_rng_seed(seed, 0, 0);
 	struct pm_bsdf_sample s;
-	double dz = 2.0 / NZ, dp = TWO_PI / NPHI, z, phi, r, sum, total = 0;
-	int i, iz, ip, a, c;
+	double total;
+	int i;
 
 	memset(obs, 0, sizeof(obs));
 	for (i = 0; i < n; i++) {
@@ -764,24 +763,9 @@ check_sampling(const struct pm_bsdf *b, struct pm_vec3 wi, uint64_t seed,
 		    (s.lobe & PM_LOBE_DELTA))
 			obs[NZ * NPHI] += 1.0;
 		else
-			obs[sphere_bin(s.wo)] += 1.0;
+			obs[stats_sphere_bin(s.wo, NZ, NPHI)] += 1.0;
 	}
-	for (iz = 0; iz < NZ; iz++)
-		for (ip = 0; ip < NPHI; ip++) {
-			sum = 0.0;
-			for (a = 0; a < sub; a++)
-				for (c = 0; c < sub; c++) {
-					z = -1.0 + dz * (iz + (a + 0.5) / sub);
-					phi = dp * (ip + (c + 0.5) / sub);
-					r = sqrt(fmax(0.0, 1.0 - z * z));
-					sum += pm_bsdf_pdf(b, wi,
-					    pm_v3((float)(r * cos(phi)),
-					    (float)(r * sin(phi)), (float)z));
-				}
-			expd[iz * NPHI + ip] = n * sum * dz * dp /
-			    (sub * sub);
-			total += expd[iz * NPHI + ip];
-		}
+	total = stats_sphere_expected(bsdf_pdf, &at, n, NZ, NPHI, 12, expd);
 	expd[NZ * NPHI] = fmax(0.0, n - total);
 	assert_true(total <= n * 1.001);
 	/* every case here samples a lobe most of the time */

@@ -32,48 +32,6 @@
 #define NPHI 50
 #define TWO_PI 6.283185307179586
 
-/* Bin of a direction on the (z, phi) grid over the sphere. */
-static size_t
-sphere_bin(struct pm_vec3 v)
-{
-	double phi = atan2(v.y, v.x);
-	int iz, ip;
-
-	if (phi < 0.0)
-		phi += TWO_PI;
-	iz = (int)floor((v.z + 1.0) * 0.5 * NZ);
-	ip = (int)floor(phi / TWO_PI * NPHI);
-	iz = iz < 0 ? 0 : iz >= NZ ? NZ - 1 : iz;
-	ip = ip < 0 ? 0 : ip >= NPHI ? NPHI - 1 : ip;
-	return (size_t)iz * NPHI + (size_t)ip;
-}
-
-/* N times the integral of pdf over each (z, phi) bin; dw = dz dphi. */
-static void
-sphere_expected(double (*pdf)(struct pm_vec3, const void *), const void *ctx,
-    double n, double *expd)
-{
-	const int sub = 8;
-	double dz = 2.0 / NZ, dp = TWO_PI / NPHI, z, phi, r, sum;
-	int iz, ip, a, c;
-
-	for (iz = 0; iz < NZ; iz++)
-		for (ip = 0; ip < NPHI; ip++) {
-			sum = 0.0;
-			for (a = 0; a < sub; a++)
-				for (c = 0; c < sub; c++) {
-					z = -1.0 + dz * (iz + (a + 0.5) / sub);
-					phi = dp * (ip + (c + 0.5) / sub);
-					r = sqrt(fmax(0.0, 1.0 - z * z));
-					sum += pdf(pm_v3((float)(r * cos(phi)),
-					    (float)(r * sin(phi)), (float)z),
-					    ctx);
-				}
-			expd[iz * NPHI + ip] = n * sum * dz * dp /
-			    (sub * sub);
-		}
-}
-
 static double
 cosine_pdf(struct pm_vec3 v, const void *ctx)
 {
@@ -119,9 +77,9 @@ check_direction_warp(enum warp w, double (*pdf)(struct pm_vec3, const void *),
 		assert_true(fabsf(pm_length(v) - 1.0f) < 1e-5f);
 		if (w != WARP_SPHERE)
 			assert_true(v.z >= 0.0f);
-		obs[sphere_bin(v)] += 1.0;
+		obs[stats_sphere_bin(v, NZ, NPHI)] += 1.0;
 	}
-	sphere_expected(pdf, NULL, NSAMPLES, expd);
+	stats_sphere_expected(pdf, NULL, NSAMPLES, NZ, NPHI, 8, expd);
 	assert_true(stats_chi2(obs, expd, NZ * NPHI, STATS_POOL_JOIN,
 	    SIGNIFICANCE, what) > SIGNIFICANCE);
 }
@@ -157,11 +115,12 @@ test_pdf_normalisation(void **state)
 	size_t i;
 
 	(void)state;
-	sphere_expected(cosine_pdf, NULL, 1.0, expd);
+	stats_sphere_expected(cosine_pdf, NULL, 1.0, NZ, NPHI, 8, expd);
 	for (sum = 0.0, i = 0; i < NZ * NPHI; i++)
 		sum += expd[i];
 	assert_true(fabs(sum - 1.0) < 1e-4);
-	sphere_expected(hemisphere_pdf, NULL, 1.0, expd);
+	stats_sphere_expected(hemisphere_pdf, NULL, 1.0, NZ, NPHI, 8,
+	    expd);
 	for (sum = 0.0, i = 0; i < NZ * NPHI; i++)
 		sum += expd[i];
 	assert_true(fabs(sum - 1.0) < 1e-4);
