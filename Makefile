@@ -60,14 +60,17 @@ $(BIN)/%: $(BUILD)/tools/%.o $(CLI_OBJ) $(LIB)
 	@mkdir -p $(BIN)
 	$(CC) $(CFLAGS) -pthread -o $@ $< $(CLI_OBJ) $(LIB) $(PM_LIBS)
 
-$(BUILD)/tests/%: $(BUILD)/tests/unit/%.o $(LIB)
-	@mkdir -p $(dir $@)
-	$(CC) $(CFLAGS) -pthread -o $@ $< $(LIB) $(PM_LIBS) $(TEST_LIBS)
+# What the unit tests share (statistics), linked into each of them.
+TEST_HELP_OBJ = $(BUILD)/tests/unit/stats.o
 
-.SECONDARY: $(CLI_OBJ)
+$(BUILD)/tests/%: $(BUILD)/tests/unit/%.o $(TEST_HELP_OBJ) $(LIB)
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS) -pthread -o $@ $< $(TEST_HELP_OBJ) $(LIB) $(PM_LIBS) $(TEST_LIBS)
+
+.SECONDARY: $(CLI_OBJ) $(TEST_HELP_OBJ)
 
 -include $(LIB_OBJ:.o=.d) $(CLI_OBJ:.o=.d) $(TEST_SRC:tests/unit/%.c=$(BUILD)/tests/unit/%.d) \
-	$(TOOLS:%=$(BUILD)/tools/%.d)
+	$(TOOLS:%=$(BUILD)/tools/%.d) $(TEST_HELP_OBJ:.o=.d)
 
 # Installs what is missing when root, otherwise names it and stops.
 deps:

@@ -2,6 +2,7 @@
  * parse.c: strict number parsing (see parse.h).
  */
 #include <errno.h>
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 
@@ -49,7 +50,10 @@ pm_parse_float(const char *s, float min, float max, float *out)
 		return false;
 	errno = 0;
 	v = strtod(s, &end);
-	if (errno != 0 || *end != '\0' || !isfinite(v) || v < min || v > max)
+	/* Compared as the float it becomes, so that "0.001" meets a bound
+	 * of 1e-3f, which as a double is a little above 0.001. */
+	if (errno != 0 || *end != '\0' || !isfinite(v) || v < -FLT_MAX ||
+	    v > FLT_MAX || (float)v < min || (float)v > max)
 		return false;
 	*out = (float)v;
 	return true;

@@ -7,7 +7,8 @@
  * keeps the first message for the pm_error instead.  Writes go through our
  * own write callback on a temporary file opened beside the target, so that
  * we choose its name and permissions and rename it only once OpenEXR has
- * finished the offset table.
+ * finished the offset table.  Provenance travels as string attributes
+ * of the header (struct pm_exr_attrs), read and written here.
  */
 #include <errno.h>
 #include <fcntl.h>
@@ -151,6 +152,86 @@ exr_code(exr_result_t rv)
 	}
 }
 
+/* Frees every attribute and leaves a empty. */
+void
+pm_exr_attrs_free(struct pm_exr_attrs *a)
+{
+	size_t i;
+
+	for (i = 0; i < a->n; i++) {
+		free(a->v[i].name);
+		free(a->v[i].value);
+	}
+	free(a->v);
+	a->v = NULL;
+	a->n = 0;
+}
+
+/* The value of name, owned by a, or NULL if a has none. */
+const char *
+pm_exr_attrs_get(const struct pm_exr_attrs *a, const char *name)
+{
+	size_t i;
+
+	for (i = 0; i < a->n; i++)
+		if (strcmp(a->v[i].name, name) == 0)
+			return a->v[i].value;
+	return NULL;
+}
+
+/* Copies len bytes of s into a new NUL-terminated string, or NULL. */
+static char *
+exr_strndup(const char *s, size_t len)
+{
+	char *p = malloc(len + 1);
+
+	if (p != NULL) {
+		memcpy(p, s, len);
+		p[len] = '\0';
+	}
+	return p;
+}
+
+/* Sets name to the first len bytes of value, replacing or appending. */
+static enum pm_err
+exr_attrs_setn(struct pm_exr_attrs *a, const char *name, const char *value,
+    size_t len, struct pm_error *err)
+{
+	struct pm_exr_attr *v;
+	char *val;
+	size_t i;
+
+	if ((val = exr_strndup(value, len)) == NULL)
+		return pm_fail(err, PM_ERR_NOMEM, "out of memory for the "
+		    "attribute %s", name);
+	for (i = 0; i < a->n; i++)
+		if (strcmp(a->v[i].name, name) == 0) {
+			free(a->v[i].value);
+			a->v[i].value = val;
+			return PM_OK;
+		}
+	v = realloc(a->v, (a->n + 1) * sizeof(*v));
+	if (v == NULL || (v[a->n].name = strdup(name)) == NULL) {
+		if (v != NULL)
+			a->v = v;
+		free(val);
+		return pm_fail(err, PM_ERR_NOMEM, "out of memory for the "
+		    "attribute %s", name);
+	}
+	v[a->n].value = val;
+	a->v = v;
+	a->n++;
+	return PM_OK;
+}
+
+/* Sets name to value, replacing or appending; copies both strings. */
+enum pm_err
+pm_exr_attrs_set(struct pm_exr_attrs *a, const char *name, const char *value,
+    struct pm_error *err)
+{
+	return exr_attrs_setn(a, name, value, strlen(value), err);
+}
+
 /* Encodes every scanline chunk of im into the open part 0 of ctxt. */
 static exr_result_t
 exr_write_pixels(exr_context_t ctxt, const struct pm_image *im)
@@ -220,6 +301,14 @@ enum pm_err
 pm_exr_write(const char *path, const struct pm_image *im, bool half,
     struct pm_error *err)
 {
+	return pm_exr_write_attrs(path, im, half, NULL, err);
+}
+
+/* pm_exr_write with attrs (NULL for none) as string attributes. */
+enum pm_err
+pm_exr_write_attrs(const char *path, const struct pm_image *im, bool half,
+    const struct pm_exr_attrs *attrs, struct pm_error *err)
+{
 	exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
 	exr_context_t ctxt = NULL;
 	exr_pixel_type_t type = half ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT;
@@ -228,6 +317,7 @@ pm_exr_write(const char *path, const struct pm_image *im, bool half,
 	struct pm_out out;
 	const char *what;
 	int part, k;
+	size_t i;
 	enum pm_err e;
 
 	if (im == NULL || im->rgb == NULL || im->width < 1 || im->height < 1)
@@ -255,6 +345,11 @@ pm_exr_write(const char *path, const struct pm_image *im, bool half,
 		    EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
 	if (rv != EXR_ERR_SUCCESS)
 		goto fail;
+	what = "cannot set a string attribute";
+	for (i = 0; attrs != NULL && i < attrs->n; i++)
+		if ((rv = exr_attr_set_string(ctxt, part, attrs->v[i].name,
+		    attrs->v[i].value)) != EXR_ERR_SUCCESS)
+			goto fail;
 	what = "cannot write the header";
 	if ((rv = exr_write_header(ctxt)) != EXR_ERR_SUCCESS)
 		goto fail;
@@ -405,10 +500,50 @@ exr_read_tiles(exr_context_t ctxt, struct pm_image *im)
 	return rv;
 }
 
+/* Copies the string attributes of part 0 but "name" and "type" into a. */
+static enum pm_err
+exr_read_strings(exr_const_context_t ctxt, const char *path,
+    struct pm_exr_attrs *a, const struct exr_io *io, struct pm_error *err)
+{
+	const exr_attribute_t *at;
+	exr_result_t rv;
+	int32_t count, i;
+	enum pm_err e;
+
+	if ((rv = exr_get_attribute_count(ctxt, 0, &count)) != EXR_ERR_SUCCESS)
+		return exr_fail(err, exr_code(rv), path, "bad header", rv, io);
+	for (i = 0; i < count; i++) {
+		rv = exr_get_attribute_by_index(ctxt, 0,
+		    EXR_ATTR_LIST_FILE_ORDER, i, &at);
+		if (rv != EXR_ERR_SUCCESS)
+			return exr_fail(err, exr_code(rv), path, "bad header",
+			    rv, io);
+		if (at->type != EXR_ATTR_STRING || at->string == NULL ||
+		    strcmp(at->name, "name") == 0 ||
+		    strcmp(at->name, "type") == 0)
+			continue;
+		e = exr_attrs_setn(a, at->name, at->string->str != NULL ?
+		    at->string->str : "", at->string->length > 0 ?
+		    (size_t)at->string->length : 0, err);
+		if (e != PM_OK)
+			return e;
+	}
+	return PM_OK;
+}
+
 /* Reads R, G and B of the first part of path into im, which is allocated
  * here and owned by the caller; the data window gives the size. */
 enum pm_err
 pm_exr_read(const char *path, struct pm_image *im, struct pm_error *err)
+{
+	return pm_exr_read_attrs(path, im, NULL, err);
+}
+
+/* pm_exr_read that also reads the string attributes into attrs (NULL:
+ * not wanted); with im NULL only the header is read. */
+enum pm_err
+pm_exr_read_attrs(const char *path, struct pm_image *im,
+    struct pm_exr_attrs *attrs, struct pm_error *err)
 {
 	exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
 	exr_context_t ctxt = NULL;
@@ -421,8 +556,12 @@ pm_exr_read(const char *path, struct pm_image *im, struct pm_error *err)
 	int k, c;
 	enum pm_err e;
 
-	im->width = im->height = 0;
-	im->rgb = NULL;
+	if (im != NULL) {
+		im->width = im->height = 0;
+		im->rgb = NULL;
+	}
+	if (attrs != NULL)
+		pm_exr_attrs_free(attrs);
 	memset(&io, 0, sizeof(io));
 	io.fd = open(path, O_RDONLY | O_CLOEXEC);
 	if (io.fd < 0)
@@ -486,6 +625,13 @@ pm_exr_read(const char *path, struct pm_image *im, struct pm_error *err)
 		    dw.max.y);
 		goto out;
 	}
+	if (attrs != NULL &&
+	    (e = exr_read_strings(ctxt, path, attrs, &io, err)) != PM_OK)
+		goto out;
+	if (im == NULL) {
+		e = PM_OK;
+		goto out;
+	}
 	if ((e = pm_image_alloc(im, (int)w, (int)h, err)) != PM_OK) {
 		/* Put the file name in front of the allocator's message. */
 		char msg[sizeof(err->msg)];
@@ -514,6 +660,8 @@ pm_exr_read(const char *path, struct pm_image *im, struct pm_error *err)
 	}
 	e = PM_OK;
 out:
+	if (e != PM_OK && attrs != NULL)
+		pm_exr_attrs_free(attrs);
 	exr_finish(&ctxt);
 	close(io.fd);
 	return e;

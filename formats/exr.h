@@ -5,20 +5,53 @@
 #define PM_EXR_H
 
 #include <stdbool.h>
+#include <stddef.h>
 
 #include "../common/error.h"
 #include "../common/image.h"
 
+/* One string attribute of a header: the provenance the tools record. */
+struct pm_exr_attr {
+	char *name;
+	char *value;
+};
+
+/* A header's string attributes in file order, each name once; owns its
+ * strings.  Zero-initialised is empty. */
+struct pm_exr_attrs {
+	struct pm_exr_attr *v;
+	size_t n;
+};
+
+/* Sets name to value, replacing an attribute of that name or appending
+ * one; copies both strings. */
+enum pm_err pm_exr_attrs_set(struct pm_exr_attrs *a, const char *name,
+    const char *value, struct pm_error *err);
+/* The value of name (owned by a), or NULL if a has none. */
+const char *pm_exr_attrs_get(const struct pm_exr_attrs *a, const char *name);
+/* Frees every attribute and leaves a empty. */
+void pm_exr_attrs_free(struct pm_exr_attrs *a);
+
 /*
- * Writes im as a scanline RGB file, float32 or (half = true) half, ZIP
+ * Writes im as a scanline RGB file, float32 or (half = true) half, PIZ
  * compressed.  Writes to a temporary file beside path and renames it, so
  * that a failed write never leaves a partial file.
  */
 enum pm_err pm_exr_write(const char *path, const struct pm_image *im, bool half,
     struct pm_error *err);
+/* pm_exr_write with attrs (NULL for none) as string attributes of the
+ * header; a name OpenEXR reserves for another type is an error. */
+enum pm_err pm_exr_write_attrs(const char *path, const struct pm_image *im,
+    bool half, const struct pm_exr_attrs *attrs, struct pm_error *err);
 
 /* Reads the R, G and B channels (half, float or uint) of the first part;
  * a missing channel is an error. im is allocated here. */
 enum pm_err pm_exr_read(const char *path, struct pm_image *im, struct pm_error *err);
+/* pm_exr_read that also fills attrs (NULL: not wanted; emptied first,
+ * owned by the caller) with the first part's string attributes, less
+ * "name" and "type", which describe parts rather than the image; with im
+ * NULL only the header is read. */
+enum pm_err pm_exr_read_attrs(const char *path, struct pm_image *im,
+    struct pm_exr_attrs *attrs, struct pm_error *err);
 
 #endif

@@ -175,6 +175,7 @@ int
 main(int argc, char *argv[])
 {
 	struct pm_image level[MAX_LEVELS], sum, out;
+	struct pm_exr_attrs attrs = { 0 };
 	struct pm_error err;
 	enum out_kind kind = OUT_EXR;
 	const char *output = NULL, *first = NULL;
@@ -253,7 +254,9 @@ main(int argc, char *argv[])
 		struct pm_image carry;
 		size_t bad;
 
-		if (pm_exr_read(argv[i], &carry, &err) != PM_OK) {
+		/* The first input's provenance is carried through. */
+		if (pm_exr_read_attrs(argv[i], &carry, i == 0 ? &attrs : NULL,
+		    &err) != PM_OK) {
 			fprintf(stderr, "%s: %s\n", PROG, err.msg);
 			goto fail;
 		}
@@ -324,12 +327,16 @@ main(int argc, char *argv[])
 		    width, height, out.width, out.height);
 
 	if (kind == OUT_EXR) {
-		if (pm_exr_write(output, &out, half, &err) != PM_OK) {
+		if (pm_exr_attrs_set(&attrs, PROG ".version", PM_VERSION,
+		    &err) != PM_OK || pm_exr_attrs_set(&attrs, PROG
+		    ".command", pm_cli_command(), &err) != PM_OK ||
+		    pm_exr_write_attrs(output, &out, half, &attrs, &err) !=
+		    PM_OK) {
 			fprintf(stderr, "%s: %s\n", PROG, err.msg);
 			goto fail;
 		}
 		if (verbosity >= 2)
-			fprintf(stderr, "%s: %s: %dx%d OpenEXR, %s, ZIP\n",
+			fprintf(stderr, "%s: %s: %dx%d OpenEXR, %s, PIZ\n",
 			    PROG, output, out.width, out.height,
 			    half ? "half" : "float");
 	} else {
@@ -354,6 +361,7 @@ main(int argc, char *argv[])
 		free(srgb);
 	}
 	pm_image_free(&out);
+	pm_exr_attrs_free(&attrs);
 
 	/* A full disk or a closed pipe shows up only here. */
 	errno = 0;
@@ -368,6 +376,7 @@ fail:
 	free_levels(level);
 	pm_image_free(&sum);
 	pm_image_free(&out);
+	pm_exr_attrs_free(&attrs);
 	free(srgb);
 	return 1;
 }

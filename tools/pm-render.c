@@ -388,6 +388,40 @@ load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
 	return 1;
 }
 
+/*
+ * Writes img to path as OpenEXR with its provenance as string attributes,
+ * as man/pm-render.1 lists them: the version, the command line, the scene
+ * and its hash, and the map (when one was used).
+ */
+static enum pm_err
+write_exr(const char *path, const struct pm_image *img, bool half,
+    const char *scene_path, const struct pm_scene *scene,
+    const char *map_path, struct pm_error *err)
+{
+	struct pm_exr_attrs at = { 0 };
+	char hash[17];
+	/* The map comes last: without one the list ends before it. */
+	const char *const kv[][2] = {
+		{ PROG ".version", PM_VERSION },
+		{ PROG ".command", pm_cli_command() },
+		{ PROG ".scene", scene_path },
+		{ PROG ".scene_hash", hash },
+		{ PROG ".map", map_path },
+	};
+	enum pm_err e = PM_OK;
+	size_t i;
+
+	snprintf(hash, sizeof(hash), "%016llx",
+	    (unsigned long long)pm_scene_hash(scene));
+	for (i = 0; i < sizeof(kv) / sizeof(kv[0]) && kv[i][1] != NULL &&
+	    e == PM_OK; i++)
+		e = pm_exr_attrs_set(&at, kv[i][0], kv[i][1], err);
+	if (e == PM_OK)
+		e = pm_exr_write_attrs(path, img, half, &at, err);
+	pm_exr_attrs_free(&at);
+	return e;
+}
+
 int
 main(int argc, char **argv)
 {
@@ -806,7 +840,8 @@ main(int argc, char **argv)
 		/* The last preview is the finished image. */
 		if (status == 0 && pv.path != NULL)
 			preview_write(&pv, &img);
-		if (status == 0 && pm_exr_write(name, &img, half, &err) != PM_OK) {
+		if (status == 0 && write_exr(name, &img, half, scene_path,
+		    &scene, map_path, &err) != PM_OK) {
 			fprintf(stderr, PROG ": %s\n", err.msg);
 			status = 1;
 		}

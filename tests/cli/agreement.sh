@@ -4,19 +4,10 @@
 # per channel, and the error against the reference falls as photons grow;
 # the scene's max_depth limits both alike.
 # Run from the repository root: sh tests/cli/agreement.sh
-n=0
-fail=0
-B=${BIN:-bin}
-U=${EXRUTIL:-build/tests/exrutil}
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
+. tests/harness.sh
+B=$BIN
+U=$EXRUTIL
 
-check() {
-	n=$((n + 1))
-	desc=$1
-	shift
-	if "$@"; then echo "ok $n - $desc"; else echo "not ok $n - $desc"; fail=$((fail + 1)); fi
-}
 # within A B TOL: |A - B| <= TOL, all decimals
 within() { awk -v a="$1" -v b="$2" -v t="$3" 'BEGIN { d = a - b; if (d < 0) d = -d; exit !(d <= t) }'; }
 less() { awk -v a="$1" -v b="$2" 'BEGIN { exit !(a < b) }'; }
@@ -90,5 +81,4 @@ else
 	check "bias renders" false
 fi
 
-echo "agreement: $((n - fail)) passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish agreement

@@ -5,29 +5,13 @@
 # XML, meshes, photon maps, images, senseless sizes and counts, requests
 # larger than the machine, and outputs that cannot be written.
 # Run from the repository root: sh tests/cli/badinput.sh
-n=0
-fail=0
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-R=${BIN:-bin}/pm-render
-S=${BIN:-bin}/pm-shoot
-B=${BIN:-bin}/pm-balance
-I=${BIN:-bin}/pm-inspect
-D=${BIN:-bin}/pm-downsample
-EXRUTIL=${EXRUTIL:-build/tests/exrutil}
+. tests/harness.sh
+R=$BIN/pm-render
+S=$BIN/pm-shoot
+B=$BIN/pm-balance
+I=$BIN/pm-inspect
+D=$BIN/pm-downsample
 
-check() { # description, then a command whose status decides
-	n=$((n + 1))
-	desc=$1
-	shift
-	if "$@"; then echo "ok $n - $desc"; else echo "not ok $n - $desc"; fail=$((fail + 1)); fi
-}
-status() { # expected-status command...: runs command, compares exit status
-	want=$1
-	shift
-	"$@" >"$tmp/out" 2>"$tmp/err"
-	[ $? -eq "$want" ]
-}
 # refused STATUS PATTERN command...: the command exits STATUS with exactly
 # one line on stderr matching PATTERN (grep -E, case-insensitive), and
 # writes no output file ($tmp/o.*).
@@ -242,5 +226,4 @@ check "pm-downsample: PNG output under a missing directory" refused 1 "no/such" 
     $D -q -o "$tmp/no/such/o.png" "$tmp/img.exr"
 check "no temporary file is left anywhere" test "$(find "$tmp" -name '*.tmp*' -o -name 'o.*' | wc -l)" -eq 0
 
-echo "bad input cli: $((n - fail)) passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish "bad input"

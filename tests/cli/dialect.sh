@@ -6,15 +6,10 @@
 # pm-render's --preview.
 # Run from the repository root: sh tests/cli/dialect.sh
 . tests/harness.sh
-B=${BIN:-bin}
+B=$BIN
 TOOLS="pm-shoot pm-balance pm-render pm-downsample pm-inspect pm-merl"
 scene=data/cornell-box.xml
 
-one_line() { # tool [pattern]: stderr is one line "tool: ...", stdout empty
-	[ "$(wc -l <"$tmp/err")" -eq 1 ] && grep -q "^$1: " "$tmp/err" &&
-	    grep -q -e "${2:-.}" "$tmp/err" && [ ! -s "$tmp/out" ] ||
-	    { sed 's/^/# /' "$tmp/err"; false; }
-}
 # synopsis TOOL: the man page's SYNOPSIS as one line of words.
 synopsis() {
 	mandoc -T ascii -O width=1000 "man/$1.1" | sed "s/.$(printf '\b')//g" |
@@ -148,7 +143,7 @@ fi
 check "the image is the same with and without --preview" sh -c "
     $B/pm-render -q -f --spp 2 --size 40x30 -o '$tmp/nopv.exr' $scene &&
     $B/pm-render -q -f --spp 2 --size 40x30 --preview '$tmp/pv2.png' --preview-every 0.01 -o '$tmp/pv-out.exr' $scene &&
-    cmp -s '$tmp/nopv.exr' '$tmp/pv-out.exr'"
+    '$EXRUTIL' same '$tmp/nopv.exr' '$tmp/pv-out.exr' >/dev/null"
 check "--preview - is a usage error" status 2 $B/pm-render --preview - -o "$tmp/x.exr" $scene
 check "...in one line" one_line pm-render "preview"
 check "--preview-every 0 is a usage error" status 2 $B/pm-render --preview "$tmp/x.png" --preview-every 0 -o "$tmp/x.exr" $scene

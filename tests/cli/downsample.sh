@@ -3,32 +3,11 @@
 # output files.  Run from the repository root: sh tests/cli/downsample.sh
 #
 # Inputs are made, and outputs measured, by tests/cli/exrutil.c; set
-# EXRUTIL to a built copy, or this script compiles one with $CC into its
-# temporary directory.
-n=0
-fail=0
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-D=${BIN:-bin}/pm-downsample
+# EXRUTIL to a built copy (the harness's default, build/tests/exrutil), or
+# this script compiles one with $CC into its temporary directory.
+. tests/harness.sh
+D=$BIN/pm-downsample
 
-check() { # description, then a command whose status decides
-	n=$((n + 1))
-	desc=$1
-	shift
-	if "$@"; then echo "ok $n - $desc"; else echo "not ok $n - $desc"; fail=$((fail + 1)); fi
-}
-status() { # expected-status command...: runs command, compares exit status
-	want=$1
-	shift
-	"$@" >"$tmp/out" 2>"$tmp/err"
-	[ $? -eq "$want" ]
-}
-one_line() { # stderr is exactly one line starting with the tool's name
-	[ "$(wc -l <"$tmp/err")" -eq 1 ] && grep -q '^pm-downsample: ' "$tmp/err"
-}
-same() { # got want: compares two strings
-	[ "$1" = "$2" ] || { echo "# got '$1', want '$2'"; false; }
-}
 no_temp() { # nothing but the named files in $tmp/o
 	[ "$(ls -A "$tmp/o" | grep -v -x -e "$1" -e "${2:-$1}" | wc -l)" -eq 0 ]
 }
@@ -37,12 +16,12 @@ if [ ! -x "$D" ]; then
 	echo "not ok 1 - $D is not built (make all)"
 	exit 1
 fi
-U=${EXRUTIL:-}
-if [ -z "$U" ]; then
+U=$EXRUTIL
+if [ ! -x "$U" ]; then
 	U=$tmp/exrutil
 	if ! ${CC:-cc} -std=c17 -O2 -D_DEFAULT_SOURCE -I/usr/include/OpenEXR \
 	    $(pkg-config --cflags libpng 2>/dev/null) -o "$U" tests/cli/exrutil.c \
-	    common/image.c common/error.c formats/exr.c -lOpenEXRCore \
+	    common/image.c common/error.c formats/exr.c formats/tmpfile.c -lOpenEXRCore \
 	    $(pkg-config --libs libpng 2>/dev/null || echo -lpng) -lm; then
 		echo "not ok 1 - cannot build tests/cli/exrutil.c"
 		exit 1
@@ -70,7 +49,7 @@ check "the usage line is the man page's SYNOPSIS" same "$usage" "$synopsis"
 check "--version exits 0" status 0 $D --version
 check "...naming the tool" grep -q '^pm-downsample ' "$tmp/out"
 check "unknown option exits 2" status 2 $D --no-such-option -o "$tmp/o/x.exr" "$tmp/a.exr"
-check "...with one line on stderr" one_line
+check "...with one line on stderr" one_line pm-downsample
 check "missing -o exits 2" status 2 $D "$tmp/a.exr"
 check "no input exits 2" status 2 $D -o "$tmp/o/x.exr"
 check "--factor 0 exits 2" status 2 $D --factor 0 -o "$tmp/o/x.exr" "$tmp/a.exr"
@@ -131,11 +110,10 @@ check "no temporary file is left after successes" sh -c "[ \$(ls -A '$tmp/o' | g
 check "-o - writes PNG to a pipe" sh -c "$D -o - '$tmp/a.exr' | od -A n -t x1 -N 8 | grep -q '89 50 4e 47 0d 0a 1a 0a'"
 if [ -w /dev/full ]; then
 	check "a full standard output exits 1" sh -c "$D -o - '$tmp/a.exr' >/dev/full 2>'$tmp/err'; [ \$? -eq 1 ]"
-	check "...saying so in one line" one_line
+	check "...saying so in one line" one_line pm-downsample
 else
-	echo "ok $((n + 1)) # SKIP no /dev/full"; n=$((n + 1))
-	echo "ok $((n + 1)) # SKIP no /dev/full"; n=$((n + 1))
+	skip "a full standard output exits 1: no /dev/full"
+	skip "...saying so in one line: no /dev/full"
 fi
 
-echo "downsample cli: $((n - fail)) passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish downsample

@@ -2,10 +2,10 @@
  * exrutil.c: makes and measures the small images that the CLI tests of
  * pm-downsample feed it and read back; a test helper, never installed.
  *
- *   exrutil make OUT.exr W H R G B [ramp]
+ *   exrutil make OUT.exr W H R G B [ramp] [NAME=VALUE...]
  *	writes a W x H float image of colour (R, G, B); with "ramp", x / W
  *	is added to every channel of column x, so that filters have
- *	something to move.
+ *	something to move; each NAME=VALUE becomes a string attribute.
  *   exrutil stat IN.exr
  *	prints "W H meanR meanG meanB min max" with %.9g.
  *   exrutil pngstat IN.png
@@ -15,6 +15,11 @@
  *	mean over pixels and channels of (t - r)^2 / (r^2 + 0.01), and the
  *	relative difference of the means per channel, (mean t - mean r) /
  *	mean r: "relmse dR dG dB".
+ *   exrutil attrs IN.exr
+ *	prints the string attributes, "NAME<TAB>VALUE" in file order.
+ *   exrutil same A.exr B.exr
+ *	succeeds if both decode to the same size and the same float pixels,
+ *	bit for bit; otherwise names the first difference.
  *
  * Exit status 0 on success, 1 on any failure (with a message on stderr).
  */
@@ -33,12 +38,28 @@ main(int argc, char **argv)
 {
 	struct pm_error err;
 
-	if (argc >= 2 && strcmp(argv[1], "make") == 0 &&
-	    (argc == 8 || (argc == 9 && strcmp(argv[8], "ramp") == 0))) {
+	if (argc >= 8 && strcmp(argv[1], "make") == 0) {
+		struct pm_exr_attrs at = { 0 };
 		struct pm_image im;
-		int w = atoi(argv[3]), h = atoi(argv[4]), x, y, k;
+		int w = atoi(argv[3]), h = atoi(argv[4]), x, y, k, a;
+		int ramp = argc > 8 && strcmp(argv[8], "ramp") == 0;
 		float c[3];
 
+		for (a = 8 + ramp; a < argc; a++) {
+			char *eq = strchr(argv[a], '=');
+
+			if (eq == NULL) {
+				fprintf(stderr, "exrutil: %s: expected "
+				    "NAME=VALUE\n", argv[a]);
+				return 1;
+			}
+			*eq = '\0';
+			if (pm_exr_attrs_set(&at, argv[a], eq + 1, &err) !=
+			    PM_OK) {
+				fprintf(stderr, "exrutil: %s\n", err.msg);
+				return 1;
+			}
+		}
 		for (k = 0; k < 3; k++)
 			c[k] = strtof(argv[5 + k], NULL);
 		if (pm_image_alloc(&im, w, h, &err) != PM_OK) {
@@ -49,12 +70,56 @@ main(int argc, char **argv)
 		for (x = 0; x < w; x++)
 		for (k = 0; k < 3; k++)
 			im.rgb[((size_t)y * w + x) * 3 + k] = c[k] +
-			    (argc == 9 ? (float)x / w : 0.0f);
-		if (pm_exr_write(argv[2], &im, false, &err) != PM_OK) {
+			    (ramp ? (float)x / w : 0.0f);
+		if (pm_exr_write_attrs(argv[2], &im, false, &at, &err) !=
+		    PM_OK) {
 			fprintf(stderr, "exrutil: %s\n", err.msg);
 			return 1;
 		}
+		pm_exr_attrs_free(&at);
 		pm_image_free(&im);
+		return 0;
+	}
+	if (argc == 3 && strcmp(argv[1], "attrs") == 0) {
+		struct pm_exr_attrs at = { 0 };
+		size_t i;
+
+		if (pm_exr_read_attrs(argv[2], NULL, &at, &err) != PM_OK) {
+			fprintf(stderr, "exrutil: %s\n", err.msg);
+			return 1;
+		}
+		for (i = 0; i < at.n; i++)
+			printf("%s\t%s\n", at.v[i].name, at.v[i].value);
+		pm_exr_attrs_free(&at);
+		return 0;
+	}
+	if (argc == 4 && strcmp(argv[1], "same") == 0) {
+		struct pm_image a, b;
+		size_t i, n;
+
+		if (pm_exr_read(argv[2], &a, &err) != PM_OK ||
+		    pm_exr_read(argv[3], &b, &err) != PM_OK) {
+			fprintf(stderr, "exrutil: %s\n", err.msg);
+			return 1;
+		}
+		if (a.width != b.width || a.height != b.height) {
+			fprintf(stderr, "exrutil: sizes differ: %dx%d and "
+			    "%dx%d\n", a.width, a.height, b.width, b.height);
+			return 1;
+		}
+		n = (size_t)a.width * (size_t)a.height * 3;
+		for (i = 0; i < n; i++)
+			if (memcmp(&a.rgb[i], &b.rgb[i], sizeof(float)) != 0) {
+				fprintf(stderr, "exrutil: pixel (%zu, %zu) "
+				    "channel %zu differs: %.9g and %.9g\n",
+				    i / 3 % (size_t)a.width,
+				    i / 3 / (size_t)a.width, i % 3,
+				    a.rgb[i], b.rgb[i]);
+				return 1;
+			}
+		printf("%dx%d, %zu values identical\n", a.width, a.height, n);
+		pm_image_free(&a);
+		pm_image_free(&b);
 		return 0;
 	}
 	if (argc == 3 && strcmp(argv[1], "stat") == 0) {
@@ -139,8 +204,10 @@ main(int argc, char **argv)
 		free(buf);
 		return 0;
 	}
-	fprintf(stderr, "usage: exrutil make OUT.exr W H R G B [ramp]\n"
+	fprintf(stderr, "usage: exrutil make OUT.exr W H R G B [ramp] "
+	    "[NAME=VALUE...]\n"
 	    "       exrutil stat IN.exr\n       exrutil pngstat IN.png\n"
-	    "       exrutil relmse TEST.exr REF.exr\n");
+	    "       exrutil relmse TEST.exr REF.exr\n"
+	    "       exrutil attrs IN.exr\n       exrutil same A.exr B.exr\n");
 	return 1;
 }

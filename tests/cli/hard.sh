@@ -4,27 +4,11 @@
 # tools count them with -v), and the same scene at millimetre, metre and
 # kilometre scale gives the same image up to noise.
 # Run from the repository root: sh tests/cli/hard.sh
-n=0
-fail=0
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-R=${BIN:-bin}/pm-render
-S=${BIN:-bin}/pm-shoot
-B=${BIN:-bin}/pm-balance
-EXRUTIL=${EXRUTIL:-build/tests/exrutil}
+. tests/harness.sh
+R=$BIN/pm-render
+S=$BIN/pm-shoot
+B=$BIN/pm-balance
 
-check() { # description, then a command whose status decides
-	n=$((n + 1))
-	desc=$1
-	shift
-	if "$@"; then echo "ok $n - $desc"; else echo "not ok $n - $desc"; fail=$((fail + 1)); fi
-}
-status() { # expected-status command...: runs command, compares exit status
-	want=$1
-	shift
-	"$@" >"$tmp/out" 2>"$tmp/err"
-	[ $? -eq "$want" ]
-}
 none_dropped() { # the -v report of the last command says "0 ... dropped"
 	grep -q 'dropped' "$tmp/err" && ! grep 'dropped' "$tmp/err" | grep -qv ' 0 [a-z -]*dropped\|, 0 dropped'
 }
@@ -80,5 +64,4 @@ for f in cornell-box caustics materials point-lights sky; do
 	check "...(-v says 0 dropped)" none_dropped
 done
 
-echo "hard cli: $((n - fail)) passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish hard

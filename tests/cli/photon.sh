@@ -3,32 +3,17 @@
 # codes and messages, shards merging into exactly the map of one run,
 # refusals, pipes, the report, the checks and the point-cloud dumps.
 # Run from the repository root: sh tests/cli/photon.sh
-n=0
-fail=0
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-SHOOT=${BIN:-bin}/pm-shoot
+. tests/harness.sh
+SHOOT=$BIN/pm-shoot
 # Maps of photons only, unless a check asks for irradiance records: the
 # checks of merging and dumping count photons.
-BAL="${BIN:-bin}/pm-balance --irradiance-stride 0"
-BALI=${BIN:-bin}/pm-balance
-INS=${BIN:-bin}/pm-inspect
+BAL="$BIN/pm-balance --irradiance-stride 0"
+BALI=$BIN/pm-balance
+INS=$BIN/pm-inspect
 scene=data/cornell-box.xml
 scene2=data/point-lights.xml
 caustic_scene=data/caustics.xml
 
-check() { # description, then a command whose status decides
-	n=$((n + 1))
-	desc=$1
-	shift
-	if "$@"; then echo "ok $n - $desc"; else echo "not ok $n - $desc"; fail=$((fail + 1)); fi
-}
-status() { # expected-status command...: runs command, compares exit status
-	want=$1
-	shift
-	"$@" >"$tmp/out" 2>"$tmp/err"
-	[ $? -eq "$want" ]
-}
 key() { # file key: the first value of one key of pm-inspect's report
 	$INS "$1" | awk -F'\t' -v k="$2" '$1 == k { print $2 }'
 }
@@ -39,7 +24,6 @@ same_content() { # a b: both hold the same photons in the same order
 	content "$1" >"$tmp/c1" && content "$2" >"$tmp/c2" && cmp -s "$tmp/c1" "$tmp/c2" &&
 	    grep -q '^global.records_crc32' "$tmp/c1"
 }
-one_line() { test "$(wc -l <"$tmp/err")" -eq 1; }
 # Swaps the first and last photons of the first map of an uncompressed
 # map file (or, with "reverse", reverses them all) and fixes both
 # checksums, as pmap(5) lays them out: a file that reads cleanly but whose
@@ -316,7 +300,7 @@ if add_irradiance "$tmp/whole.pmap" "$tmp/irr.pmap" 0.0625; then
 	check "...merging it with a shard that has none" status 0 $BAL -q -f -o "$tmp/irr-bal.pmap" "$tmp/irr.pmap" "$tmp/next.pmap"
 	check "...-q silencing the note" test ! -s "$tmp/err"
 	check "...into photons of paths [0, 7000)" test "$(key "$tmp/irr-bal.pmap" global.emitted)" -eq 7000
-	check "pm-render renders with a map that has irradiance records" status 0 ${BIN:-bin}/pm-render -q --spp 1 --size 8x8 -o "$tmp/irr.exr" "$scene" "$tmp/irr.pmap"
+	check "pm-render renders with a map that has irradiance records" status 0 $BIN/pm-render -q --spp 1 --size 8x8 -o "$tmp/irr.exr" "$scene" "$tmp/irr.pmap"
 else
 	check "the map with an irradiance map was made" false
 fi
@@ -341,7 +325,6 @@ check "--irradiance-stride 16 makes half as many" sh -c "$BALI -q --irradiance-s
 r1=$(key "$tmp/rec.pmap" irradiance.radius)
 check "--pass 9 computes them over a smaller fixed radius" sh -c "$BALI -q --pass 9 -o $tmp/p9.pmap $tmp/all.pmap && $BALI -q --pass 1 -o $tmp/p1.pmap $tmp/all.pmap && awk -v a=\$($INS $tmp/p1.pmap | awk -F'\t' '\$1 == \"irradiance.radius\" { print \$2 }') -v b=\$($INS $tmp/p9.pmap | awk -F'\t' '\$1 == \"irradiance.radius\" { print \$2 }') -v c=$r1 'BEGIN { exit !(b < a && a == c) }'"
 check "--irradiance-stride x is a usage error" status 2 $BALI --irradiance-stride x -o "$tmp/x.pmap" "$tmp/all.pmap"
-check "pm-render uses the records" status 0 ${BIN:-bin}/pm-render -q --spp 1 --size 8x8 -o "$tmp/rec.exr" "$scene" "$tmp/rec.pmap"
+check "pm-render uses the records" status 0 $BIN/pm-render -q --spp 1 --size 8x8 -o "$tmp/rec.exr" "$scene" "$tmp/rec.pmap"
 
-echo "photon cli: $((n - fail)) passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish photon

@@ -6,26 +6,11 @@
 # own map and seed) converging on a path-traced reference of the same view:
 # far closer than any single pass.
 # Run from the repository root: sh tests/cli/progressive.sh
-n=0
-fail=0
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-B=${BIN:-bin}
-X=${EXRUTIL:-build/tests/exrutil}
+. tests/harness.sh
+B=$BIN
+X=$EXRUTIL
 scene=data/cornell-box.xml
 
-check() { # description, then a command whose status decides
-	n=$((n + 1))
-	desc=$1
-	shift
-	if "$@"; then echo "ok $n - $desc"; else echo "not ok $n - $desc"; fail=$((fail + 1)); fi
-}
-status() { # expected-status command...: runs command, compares exit status
-	want=$1
-	shift
-	"$@" >"$tmp/out" 2>"$tmp/err"
-	[ $? -eq "$want" ]
-}
 # radii PASS [options]: "scale global caustic" from pm-render -v
 radii() {
 	_p=$1
@@ -95,5 +80,4 @@ check "the mean of 32 passes (relMSE $1) is at least 4x better than one pass ($o
 check "...and its mean is within 3% of the reference's" \
     awk -v r="$2" -v g="$3" -v b="$4" 'BEGIN { exit !(r^2 < 9e-4 && g^2 < 9e-4 && b^2 < 9e-4) }'
 
-echo "progressive cli: $((n - fail)) passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish progressive

@@ -11,7 +11,7 @@
 # first run only pm-render's cost remains. Outputs land in build/mitsuba-out/.
 # The scenes: data/cornell-box.xml (ours, must exist) and Mitsuba's own
 # Cornell box from ../shared/scenes/mitsuba-cbox (skipped when ../shared is
-# absent). Results are TAP-like lines and a closing "mitsuba: N passed,
+# absent). Results are TAP-like lines and a closing "mitsuba cli: N passed,
 # N failed"; the exit status is non-zero when anything failed, including
 # the set-up of Mitsuba itself (no network means failure, never a pass).
 #
@@ -38,18 +38,8 @@ case "${1:-}" in
 *) echo "usage: sh tests/mitsuba/compare.sh [--selftest]" >&2; exit 2 ;;
 esac
 
-n=0
-passed=0
-failed=0
-
-ok() { n=$((n + 1)); passed=$((passed + 1)); echo "ok $n - $*"; }
-notok() { n=$((n + 1)); failed=$((failed + 1)); echo "not ok $n - $*"; }
+. tests/harness.sh
 diag() { sed 's/^/# /'; }
-finish() {
-	echo "mitsuba: $passed passed, $failed failed"
-	[ "$failed" = 0 ]
-	exit
-}
 
 if [ ! -f "$HERE/compare.py" ]; then
 	echo "compare.sh: run me from the repository root" >&2
@@ -61,8 +51,9 @@ if PM_VENV=$VENV sh "$HERE/setup-venv.sh" >"$OUT/setup.log" 2>&1; then
 	diag <"$OUT/setup.log"
 else
 	diag <"$OUT/setup.log"
-	notok "set up Mitsuba 3 in $VENV (pip install mitsuba numpy)"
-	finish
+	check "set up Mitsuba 3 in $VENV (pip install mitsuba numpy)" false
+	finish mitsuba
+	exit
 fi
 VARIANT=${MITSUBA_VARIANT:-$(cat "$VENV/pm-variant")}
 
@@ -108,32 +99,32 @@ compare() {
 	return $_rc
 }
 
-# check NAME SCENE: pm-render against Mitsuba.
-check() {
+# against NAME SCENE: pm-render against Mitsuba.
+against() {
 	name=$1
 	scene=$2
 	if ! mitsuba "$name" mi-1 "$scene" "$MI_SPP" 1 ||
 	    ! mitsuba "$name" mi-2 "$scene" "$MI_SPP" 2; then
-		notok "$name: Mitsuba cannot render $scene"
+		check "$name: Mitsuba cannot render $scene" false
 		return
 	fi
 	if [ ! -x "$PM_RENDER" ]; then
-		notok "$name: $PM_RENDER not built"
+		check "$name: $PM_RENDER not built" false
 		return
 	fi
 	if ! pmrender "$name" "$scene" 1; then
-		notok "$name: pm-render failed on $scene"
+		check "$name: pm-render failed on $scene" false
 		return
 	fi
 	if ! pmrender "$name" "$scene" 2; then
-		notok "$name: pm-render failed on $scene"
+		check "$name: pm-render failed on $scene" false
 		return
 	fi
 	if compare "$name" vs "$OUT/$name-mi-1.exr" "$OUT/$name-mi-2.exr" \
 	    "$OUT/$name-pm-1.exr" "$OUT/$name-pm-2.exr"; then
-		ok "$name: pm-render agrees with Mitsuba ($RES x $RES, Mitsuba 2x$MI_SPP spp, pm-render 2x$PM_SPP spp)"
+		check "$name: pm-render agrees with Mitsuba ($RES x $RES, Mitsuba 2x$MI_SPP spp, pm-render 2x$PM_SPP spp)" true
 	else
-		notok "$name: pm-render differs from Mitsuba (see build/mitsuba-out/$name-vs.txt, $name-vs-diff.exr)"
+		check "$name: pm-render differs from Mitsuba (see build/mitsuba-out/$name-vs.txt, $name-vs-diff.exr)" false
 	fi
 }
 
@@ -149,22 +140,22 @@ selfcheck() {
 	    ! mitsuba "$name" bright-3 "$scene" "$PM_SPP" 3 --light-scale 1.05 ||
 	    ! mitsuba "$name" bright-4 "$scene" "$PM_SPP" 4 --light-scale 1.05
 	then
-		notok "$name: Mitsuba cannot render $scene"
+		check "$name: Mitsuba cannot render $scene" false
 		return
 	fi
 	if compare "$name" self "$OUT/$name-mi-1.exr" "$OUT/$name-mi-2.exr" \
 	    "$OUT/$name-self-3.exr" "$OUT/$name-self-4.exr"; then
-		ok "$name: Mitsuba agrees with itself under other seeds"
+		check "$name: Mitsuba agrees with itself under other seeds" true
 	else
-		notok "$name: Mitsuba disagrees with itself under other seeds"
+		check "$name: Mitsuba disagrees with itself under other seeds" false
 	fi
 	if compare "$name" bright "$OUT/$name-mi-1.exr" "$OUT/$name-mi-2.exr" \
 	    "$OUT/$name-bright-3.exr" "$OUT/$name-bright-4.exr"; then
-		notok "$name: a light 5% brighter went unnoticed"
+		check "$name: a light 5% brighter went unnoticed" false
 	elif grep -q ' mean *FAIL' "$OUT/$name-bright.txt"; then
-		ok "$name: a light 5% brighter fails the mean check"
+		check "$name: a light 5% brighter fails the mean check" true
 	else
-		notok "$name: a light 5% brighter failed, but not the mean check"
+		check "$name: a light 5% brighter failed, but not the mean check" false
 	fi
 }
 
@@ -172,7 +163,7 @@ run() {
 	if [ "$selftest" = 1 ]; then
 		selfcheck "$@"
 	else
-		check "$@"
+		against "$@"
 	fi
 }
 
@@ -182,20 +173,20 @@ echo "# Mitsuba variant $VARIANT, ${RES}x${RES}"
 if [ -f data/cornell-box.xml ]; then
 	run cornell-box data/cornell-box.xml
 else
-	notok "cornell-box: data/cornell-box.xml is missing"
+	check "cornell-box: data/cornell-box.xml is missing" false
 fi
 
 if [ -f data/materials.xml ]; then
 	run materials data/materials.xml
 else
-	notok "materials: data/materials.xml is missing"
+	check "materials: data/materials.xml is missing" false
 fi
 
 for scene in point-lights sky bunny; do
 	if [ -f data/$scene.xml ]; then
 		run $scene data/$scene.xml
 	else
-		notok "$scene: data/$scene.xml is missing"
+		check "$scene: data/$scene.xml is missing" false
 	fi
 done
 
@@ -206,4 +197,4 @@ else
 fi
 
 echo "# total $(($(now) - t0)) s"
-finish
+finish mitsuba

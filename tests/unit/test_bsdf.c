@@ -30,109 +30,15 @@
 #include "../../common/bsdf.h"
 #include "../../common/rng.h"
 #include "../../common/sampling.h"
+#include "stats.h"
 
 #define NCHI2 6
 #define SIGNIFICANCE (1e-3 / NCHI2)
 #define NZ 50
 #define NPHI 50
-#define TWO_PI 6.283185307179586
 #define NSIGMA 6.0
 
 /* ---- statistics ---- */
-
-/* Regularised upper incomplete gamma Q(a, x), for chi-square p-values. */
-static double
-gamma_q(double a, double x)
-{
-	double lead, sum, term, b, c, d, h, an, del;
-	int i;
-
-	if (x <= 0.0)
-		return 1.0;
-	lead = exp(-x + a * log(x) - lgamma(a));
-	if (x < a + 1.0) {
-		sum = term = 1.0 / a;
-		for (i = 1; i < 100000; i++) {
-			term *= x / (a + i);
-			sum += term;
-			if (fabs(term) < fabs(sum) * 1e-15)
-				break;
-		}
-		return 1.0 - sum * lead;
-	}
-	b = x + 1.0 - a;
-	c = 1e300;
-	d = 1.0 / b;
-	h = d;
-	for (i = 1; i < 100000; i++) {
-		an = -i * (i - a);
-		b += 2.0;
-		d = an * d + b;
-		if (fabs(d) < 1e-300)
-			d = 1e-300;
-		c = b + an / c;
-		if (fabs(c) < 1e-300)
-			c = 1e-300;
-		d = 1.0 / d;
-		del = d * c;
-		h *= del;
-		if (fabs(del - 1.0) < 1e-15)
-			break;
-	}
-	return lead * h;
-}
-
-/* Pearson's test with pooling of bins expecting fewer than five. */
-static double
-chi2_test(const double *obs, const double *expd, size_t n, const char *what)
-{
-	double pool_e = 0.0, pool_o = 0.0, chi2 = 0.0, p;
-	double *ke = malloc((n + 1) * sizeof(double));
-	double *ko = malloc((n + 1) * sizeof(double));
-	size_t i, k = 0, smallest = 0;
-
-	assert_non_null(ke);
-	assert_non_null(ko);
-	for (i = 0; i < n; i++) {
-		if (expd[i] < 5.0) {
-			pool_e += expd[i];
-			pool_o += obs[i];
-		} else {
-			ke[k] = expd[i];
-			ko[k] = obs[i];
-			k++;
-		}
-	}
-	if (pool_e <= 1e-9 && pool_o > 0.0) {
-		fprintf(stderr, "%s: %g samples where none were expected\n",
-		    what, pool_o);
-		free(ke);
-		free(ko);
-		return 0.0;
-	}
-	if (pool_e > 0.0) {
-		if (pool_e >= 5.0 || k == 0) {
-			ke[k] = pool_e;
-			ko[k] = pool_o;
-			k++;
-		} else {
-			for (i = 1; i < k; i++)
-				if (ke[i] < ke[smallest])
-					smallest = i;
-			ke[smallest] += pool_e;
-			ko[smallest] += pool_o;
-		}
-	}
-	for (i = 0; i < k; i++)
-		chi2 += (ko[i] - ke[i]) * (ko[i] - ke[i]) / ke[i];
-	p = k > 1 ? gamma_q(0.5 * (double)(k - 1), 0.5 * chi2) : 1.0;
-	if (p < SIGNIFICANCE)
-		fprintf(stderr, "%s: chi2 %.1f with %zu dof, p = %g\n", what,
-		    chi2, k - 1, p);
-	free(ke);
-	free(ko);
-	return p;
-}
 
 /* Running mean and variance (Welford). */
 struct stat {
@@ -816,19 +722,18 @@ test_reciprocity(void **state)
 
 /* ---- sampling follows pdf() ---- */
 
-static size_t
-sphere_bin(struct pm_vec3 v)
-{
-	double phi = atan2(v.y, v.x);
-	int iz, ip;
+/* pdf() of one BSDF for one wi, as stats_sphere_expected wants it. */
+struct bsdf_at {
+	const struct pm_bsdf *b;
+	struct pm_vec3 wi;
+};
 
-	if (phi < 0.0)
-		phi += TWO_PI;
-	iz = (int)floor((v.z + 1.0) * 0.5 * NZ);
-	ip = (int)floor(phi / TWO_PI * NPHI);
-	iz = iz < 0 ? 0 : iz >= NZ ? NZ - 1 : iz;
-	ip = ip < 0 ? 0 : ip >= NPHI ? NPHI - 1 : ip;
-	return (size_t)iz * NPHI + (size_t)ip;
+static double
+bsdf_pdf(struct pm_vec3 wo, const void *ctx)
+{
+	const struct bsdf_at *at = ctx;
+
+	return pm_bsdf_pdf(at->b, at->wi, wo);
 }
 
 /*
@@ -842,11 +747,12 @@ check_sampling(const struct pm_bsdf *b, struct pm_vec3 wi, uint64_t seed,
     const char *what)
 {
 	static double obs[NZ * NPHI + 1], expd[NZ * NPHI + 1];
-	const int n = 1000000, sub = 12;
+	const int n = 1000000;
+	const struct bsdf_at at = { b, wi };
 	struct pm_rng rng = pm_rng_seed(seed, 0, 0);
 	struct pm_bsdf_sample s;
-	double dz = 2.0 / NZ, dp = TWO_PI / NPHI, z, phi, r, sum, total = 0;
-	int i, iz, ip, a, c;
+	double total;
+	int i;
 
 	memset(obs, 0, sizeof(obs));
 	for (i = 0; i < n; i++) {
@@ -857,30 +763,15 @@ check_sampling(const struct pm_bsdf *b, struct pm_vec3 wi, uint64_t seed,
 		    (s.lobe & PM_LOBE_DELTA))
 			obs[NZ * NPHI] += 1.0;
 		else
-			obs[sphere_bin(s.wo)] += 1.0;
+			obs[stats_sphere_bin(s.wo, NZ, NPHI)] += 1.0;
 	}
-	for (iz = 0; iz < NZ; iz++)
-		for (ip = 0; ip < NPHI; ip++) {
-			sum = 0.0;
-			for (a = 0; a < sub; a++)
-				for (c = 0; c < sub; c++) {
-					z = -1.0 + dz * (iz + (a + 0.5) / sub);
-					phi = dp * (ip + (c + 0.5) / sub);
-					r = sqrt(fmax(0.0, 1.0 - z * z));
-					sum += pm_bsdf_pdf(b, wi,
-					    pm_v3((float)(r * cos(phi)),
-					    (float)(r * sin(phi)), (float)z));
-				}
-			expd[iz * NPHI + ip] = n * sum * dz * dp /
-			    (sub * sub);
-			total += expd[iz * NPHI + ip];
-		}
+	total = stats_sphere_expected(bsdf_pdf, &at, n, NZ, NPHI, 12, expd);
 	expd[NZ * NPHI] = fmax(0.0, n - total);
 	assert_true(total <= n * 1.001);
 	/* every case here samples a lobe most of the time */
 	assert_true(total > 0.5 * n);
-	assert_true(chi2_test(obs, expd, NZ * NPHI + 1, what) >
-	    SIGNIFICANCE);
+	assert_true(stats_chi2(obs, expd, NZ * NPHI + 1,
+	    STATS_POOL_JOIN, SIGNIFICANCE, what) > SIGNIFICANCE);
 }
 
 static void

@@ -1,6 +1,6 @@
 /*
  * test_image.c: the image operations behind pm-downsample and the EXR and
- * PNG files around them.
+ * PNG files around them, with the string attributes that carry provenance.
  *
  * Filters are checked against answers that follow from their definition:
  * a constant stays constant, a box is a block mean, a symmetric filter
@@ -483,6 +483,98 @@ test_exr_roundtrip_float(void **state)
 }
 
 /*
+ * String attributes, the provenance the tools record: set replaces or
+ * appends; they come back in the order written, byte for byte (spaces,
+ * quotes, UTF-8, an empty value); the pixels are those of a file written
+ * without them; a header alone can be read; a name OpenEXR keeps for
+ * another type fails the write and leaves nothing behind.
+ */
+static void
+test_exr_attributes(void **state)
+{
+	static const char *const names[] = {
+		"pm-render.version", "pm-render.command", "owner", "empty",
+	};
+	static const char *const values[] = {
+		"0.3.0", "pm-render -o 'a b.exr' \"x\" data/caustics.xml",
+		"\xc3\xa9t\xc3\xa9", "",
+	};
+	struct pm_exr_attrs at = { 0 }, back = { 0 };
+	struct pm_error err;
+	struct pm_image a, b, c;
+	char path[512], plain[512];
+	size_t i;
+
+	(void)state;
+	assert_int_equal(pm_exr_attrs_set(&at, "owner", "nobody", &err), PM_OK);
+	for (i = 0; i < 4; i++)
+		assert_int_equal(pm_exr_attrs_set(&at, names[i], values[i],
+		    &err), PM_OK);
+	/* "owner" was set twice: replaced in place, not appended. */
+	assert_int_equal(at.n, 4);
+	assert_string_equal(pm_exr_attrs_get(&at, "owner"), values[2]);
+	assert_null(pm_exr_attrs_get(&at, "nothing"));
+	assert_string_equal(at.v[0].name, "owner");
+
+	rng_state = 5;
+	path_in_tmp(path, sizeof(path), "attrs.exr");
+	path_in_tmp(plain, sizeof(plain), "plain.exr");
+	assert_int_equal(pm_image_alloc(&a, 9, 40, &err), PM_OK);
+	fill_random(&a, 0.0f, 50.0f);
+	if (pm_exr_write_attrs(path, &a, false, &at, &err) != PM_OK)
+		fail_msg("%s", err.msg);
+	assert_int_equal(pm_exr_write(plain, &a, false, &err), PM_OK);
+	if (pm_exr_read_attrs(path, &b, &back, &err) != PM_OK)
+		fail_msg("%s", err.msg);
+	assert_int_equal(back.n, at.n);
+	for (i = 0; i < at.n; i++) {
+		assert_string_equal(back.v[i].name, at.v[i].name);
+		assert_string_equal(back.v[i].value, at.v[i].value);
+	}
+	assert_int_equal(pm_exr_read_attrs(plain, &c, NULL, &err), PM_OK);
+	assert_int_equal(b.width, c.width);
+	assert_int_equal(b.height, c.height);
+	assert_memory_equal(b.rgb, c.rgb, sizeof(float) * 3 * 9 * 40);
+	assert_memory_equal(a.rgb, b.rgb, sizeof(float) * 3 * 9 * 40);
+	pm_image_free(&b);
+	pm_image_free(&c);
+
+	/* A file without them reads as none, emptying what was there. */
+	assert_int_equal(pm_exr_read_attrs(plain, NULL, &back, &err), PM_OK);
+	assert_int_equal(back.n, 0);
+	assert_null(back.v);
+	/* The header alone. */
+	assert_int_equal(pm_exr_read_attrs(path, NULL, &back, &err), PM_OK);
+	assert_int_equal(back.n, 4);
+	assert_string_equal(pm_exr_attrs_get(&back, "pm-render.command"),
+	    values[1]);
+	pm_exr_attrs_free(&back);
+	assert_int_equal(back.n, 0);
+	unlink(plain);
+
+	/* Not an image: an error, and no attributes. */
+	assert_int_equal(pm_exr_attrs_set(&back, "x", "y", &err), PM_OK);
+	path_in_tmp(plain, sizeof(plain), "text.exr");
+	copy_prefix(path, plain, 100);
+	assert_int_not_equal(pm_exr_read_attrs(plain, NULL, &back, &err),
+	    PM_OK);
+	assert_int_equal(back.n, 0);
+	unlink(plain);
+
+	/* "compression" is a header attribute of another type. */
+	unlink(path);
+	assert_int_equal(pm_exr_attrs_set(&at, "compression", "none", &err),
+	    PM_OK);
+	err.msg[0] = '\0';
+	assert_int_not_equal(pm_exr_write_attrs(path, &a, false, &at, &err),
+	    PM_OK);
+	assert_non_null(strstr(err.msg, "attrs.exr"));
+	assert_true(only_files("nothing", NULL));
+	pm_exr_attrs_free(&at);
+	pm_image_free(&a);
+}
+
+/*
  * Noise that does not compress, in chunks of a realistic width.  The
  * writer uses PIZ because OpenEXRCore 3.1.5 corrupted one ZIP chunk of a
  * real render (data/caustics.xml, 96x96, 1024 spp, seed 5); this noise does
@@ -929,6 +1021,7 @@ main(void)
 		cmocka_unit_test(test_exr_roundtrip_float),
 		cmocka_unit_test(test_exr_roundtrip_incompressible),
 		cmocka_unit_test(test_exr_roundtrip_half),
+		cmocka_unit_test(test_exr_attributes),
 		cmocka_unit_test(test_exr_read_variants),
 		cmocka_unit_test(test_exr_missing_channel),
 		cmocka_unit_test(test_exr_truncated),

@@ -36,6 +36,7 @@
 #include "../../common/world.h"
 #include "../../formats/merl.h"
 #include "../../formats/scene_xml.h"
+#include "stats.h"
 
 #define NZ 40
 #define NPHI 40
@@ -397,78 +398,6 @@ test_reciprocity(void **state)
 	assert_true(close >= n * 0.995);
 }
 
-/* Regularised upper incomplete gamma Q(a, x), for chi-square p-values. */
-static double
-gamma_q(double a, double x)
-{
-	double lead, sum, term, b, c, d, h, an, del;
-	int i;
-
-	if (x <= 0.0)
-		return 1.0;
-	lead = exp(-x + a * log(x) - lgamma(a));
-	if (x < a + 1.0) {
-		sum = term = 1.0 / a;
-		for (i = 1; i < 100000; i++) {
-			term *= x / (a + i);
-			sum += term;
-			if (fabs(term) < fabs(sum) * 1e-15)
-				break;
-		}
-		return 1.0 - sum * lead;
-	}
-	b = x + 1.0 - a;
-	c = 1e300;
-	d = 1.0 / b;
-	h = d;
-	for (i = 1; i < 100000; i++) {
-		an = -i * (i - a);
-		b += 2.0;
-		d = an * d + b;
-		if (fabs(d) < 1e-300)
-			d = 1e-300;
-		c = b + an / c;
-		if (fabs(c) < 1e-300)
-			c = 1e-300;
-		d = 1.0 / d;
-		del = d * c;
-		h *= del;
-		if (fabs(del - 1.0) < 1e-15)
-			break;
-	}
-	return lead * h;
-}
-
-/* Pearson's test, bins expecting fewer than five pooled into one. */
-static double
-chi2_p(const double *obs, const double *expd, size_t n, const char *what)
-{
-	double chi2 = 0.0, pe = 0.0, po = 0.0, p;
-	size_t i, k = 0;
-
-	for (i = 0; i < n; i++) {
-		if (expd[i] < 5.0) {
-			pe += expd[i];
-			po += obs[i];
-			continue;
-		}
-		chi2 += (obs[i] - expd[i]) * (obs[i] - expd[i]) / expd[i];
-		k++;
-	}
-	if (pe > 0.0) {
-		chi2 += (po - pe) * (po - pe) / fmax(pe, 5.0);
-		k++;
-	} else if (po > 0.0) {
-		fprintf(stderr, "%s: %g samples where none were expected\n",
-		    what, po);
-		return 0.0;
-	}
-	p = k > 1 ? gamma_q(0.5 * (double)(k - 1), 0.5 * chi2) : 1.0;
-	print_message("%s: chi2 %.1f, %zu dof, p = %.3g\n", what, chi2, k - 1,
-	    p);
-	return p;
-}
-
 /*
  * Sampled directions over a (z, phi) grid of the upper hemisphere plus a
  * bin for failures; the expected counts integrate pdf() over each bin
@@ -537,7 +466,8 @@ check_sampling(const struct pm_bsdf *b, struct pm_vec3 wi, uint64_t seed,
 	/* the pdf integrates to the fraction of samples that succeed */
 	assert_true(fabs(total / n - (1.0 - obs[NZ * NPHI] / n)) < 0.01);
 	expd[NZ * NPHI] = fmax(0.0, n - total);
-	assert_true(chi2_p(obs, expd, NZ * NPHI + 1, what) > SIGNIFICANCE);
+	assert_true(stats_chi2(obs, expd, NZ * NPHI + 1, STATS_POOL_OWN,
+	    2.0, what) > SIGNIFICANCE);
 }
 
 static struct pm_bsdf
@@ -637,7 +567,7 @@ test_sampling_grazing_cells(void **state)
 			chi2 += (obs[i][j] - e) * (obs[i][j] - e) / e;
 			cells++;
 		}
-	p = gamma_q(0.5 * (cells - 1), 0.5 * chi2);
+	p = stats_gamma_q(0.5 * (cells - 1), 0.5 * chi2);
 	print_message("gold, 83 degrees, in half-vector cells: chi2 %.1f over "
 	    "%d cells, p = %.3g\n", chi2, cells, p);
 	assert_true(cells > 500);

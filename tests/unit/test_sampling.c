@@ -23,6 +23,7 @@
 
 #include "../../common/rng.h"
 #include "../../common/sampling.h"
+#include "stats.h"
 
 #define NCHI2 9
 #define SIGNIFICANCE (1e-3 / NCHI2)
@@ -30,148 +31,6 @@
 #define NZ 50
 #define NPHI 50
 #define TWO_PI 6.283185307179586
-
-/* Regularised upper incomplete gamma Q(a, x), for chi-square p-values. */
-static double
-gamma_q(double a, double x)
-{
-	double lead, sum, term, b, c, d, h, an, del;
-	int i;
-
-	if (x <= 0.0)
-		return 1.0;
-	lead = exp(-x + a * log(x) - lgamma(a));
-	if (x < a + 1.0) {
-		/* series for P(a, x) */
-		sum = term = 1.0 / a;
-		for (i = 1; i < 100000; i++) {
-			term *= x / (a + i);
-			sum += term;
-			if (fabs(term) < fabs(sum) * 1e-15)
-				break;
-		}
-		return 1.0 - sum * lead;
-	}
-	/* continued fraction for Q(a, x), modified Lentz */
-	b = x + 1.0 - a;
-	c = 1e300;
-	d = 1.0 / b;
-	h = d;
-	for (i = 1; i < 100000; i++) {
-		an = -i * (i - a);
-		b += 2.0;
-		d = an * d + b;
-		if (fabs(d) < 1e-300)
-			d = 1e-300;
-		c = b + an / c;
-		if (fabs(c) < 1e-300)
-			c = 1e-300;
-		d = 1.0 / d;
-		del = d * c;
-		h *= del;
-		if (fabs(del - 1.0) < 1e-15)
-			break;
-	}
-	return lead * h;
-}
-
-/*
- * Pearson's test of observed against expected counts; bins expecting
- * fewer than 5 are pooled (and the pool joins the smallest bin if it is
- * still small).  A sample where nothing was expected gives p = 0.
- */
-static double
-chi2_test(const double *obs, const double *expd, size_t n, const char *what)
-{
-	double pool_e = 0.0, pool_o = 0.0, chi2 = 0.0, p;
-	double *ke = malloc((n + 1) * sizeof(double));
-	double *ko = malloc((n + 1) * sizeof(double));
-	size_t i, k = 0, smallest = 0;
-
-	assert_non_null(ke);
-	assert_non_null(ko);
-	for (i = 0; i < n; i++) {
-		if (expd[i] < 5.0) {
-			pool_e += expd[i];
-			pool_o += obs[i];
-		} else {
-			ke[k] = expd[i];
-			ko[k] = obs[i];
-			k++;
-		}
-	}
-	if (pool_e <= 1e-9 && pool_o > 0.0) {
-		fprintf(stderr, "%s: %g samples where none were expected\n",
-		    what, pool_o);
-		free(ke);
-		free(ko);
-		return 0.0;
-	}
-	if (pool_e > 0.0) {
-		if (pool_e >= 5.0 || k == 0) {
-			ke[k] = pool_e;
-			ko[k] = pool_o;
-			k++;
-		} else {
-			for (i = 1; i < k; i++)
-				if (ke[i] < ke[smallest])
-					smallest = i;
-			ke[smallest] += pool_e;
-			ko[smallest] += pool_o;
-		}
-	}
-	for (i = 0; i < k; i++)
-		chi2 += (ko[i] - ke[i]) * (ko[i] - ke[i]) / ke[i];
-	p = k > 1 ? gamma_q(0.5 * (double)(k - 1), 0.5 * chi2) : 1.0;
-	if (p < SIGNIFICANCE)
-		fprintf(stderr, "%s: chi2 %.1f with %zu dof, p = %g\n", what,
-		    chi2, k - 1, p);
-	free(ke);
-	free(ko);
-	return p;
-}
-
-/* Bin of a direction on the (z, phi) grid over the sphere. */
-static size_t
-sphere_bin(struct pm_vec3 v)
-{
-	double phi = atan2(v.y, v.x);
-	int iz, ip;
-
-	if (phi < 0.0)
-		phi += TWO_PI;
-	iz = (int)floor((v.z + 1.0) * 0.5 * NZ);
-	ip = (int)floor(phi / TWO_PI * NPHI);
-	iz = iz < 0 ? 0 : iz >= NZ ? NZ - 1 : iz;
-	ip = ip < 0 ? 0 : ip >= NPHI ? NPHI - 1 : ip;
-	return (size_t)iz * NPHI + (size_t)ip;
-}
-
-/* N times the integral of pdf over each (z, phi) bin; dw = dz dphi. */
-static void
-sphere_expected(double (*pdf)(struct pm_vec3, const void *), const void *ctx,
-    double n, double *expd)
-{
-	const int sub = 8;
-	double dz = 2.0 / NZ, dp = TWO_PI / NPHI, z, phi, r, sum;
-	int iz, ip, a, c;
-
-	for (iz = 0; iz < NZ; iz++)
-		for (ip = 0; ip < NPHI; ip++) {
-			sum = 0.0;
-			for (a = 0; a < sub; a++)
-				for (c = 0; c < sub; c++) {
-					z = -1.0 + dz * (iz + (a + 0.5) / sub);
-					phi = dp * (ip + (c + 0.5) / sub);
-					r = sqrt(fmax(0.0, 1.0 - z * z));
-					sum += pdf(pm_v3((float)(r * cos(phi)),
-					    (float)(r * sin(phi)), (float)z),
-					    ctx);
-				}
-			expd[iz * NPHI + ip] = n * sum * dz * dp /
-			    (sub * sub);
-		}
-}
 
 static double
 cosine_pdf(struct pm_vec3 v, const void *ctx)
@@ -218,10 +77,11 @@ check_direction_warp(enum warp w, double (*pdf)(struct pm_vec3, const void *),
 		assert_true(fabsf(pm_length(v) - 1.0f) < 1e-5f);
 		if (w != WARP_SPHERE)
 			assert_true(v.z >= 0.0f);
-		obs[sphere_bin(v)] += 1.0;
+		obs[stats_sphere_bin(v, NZ, NPHI)] += 1.0;
 	}
-	sphere_expected(pdf, NULL, NSAMPLES, expd);
-	assert_true(chi2_test(obs, expd, NZ * NPHI, what) > SIGNIFICANCE);
+	stats_sphere_expected(pdf, NULL, NSAMPLES, NZ, NPHI, 8, expd);
+	assert_true(stats_chi2(obs, expd, NZ * NPHI, STATS_POOL_JOIN,
+	    SIGNIFICANCE, what) > SIGNIFICANCE);
 }
 
 static void
@@ -255,11 +115,12 @@ test_pdf_normalisation(void **state)
 	size_t i;
 
 	(void)state;
-	sphere_expected(cosine_pdf, NULL, 1.0, expd);
+	stats_sphere_expected(cosine_pdf, NULL, 1.0, NZ, NPHI, 8, expd);
 	for (sum = 0.0, i = 0; i < NZ * NPHI; i++)
 		sum += expd[i];
 	assert_true(fabs(sum - 1.0) < 1e-4);
-	sphere_expected(hemisphere_pdf, NULL, 1.0, expd);
+	stats_sphere_expected(hemisphere_pdf, NULL, 1.0, NZ, NPHI, 8,
+	    expd);
 	for (sum = 0.0, i = 0; i < NZ * NPHI; i++)
 		sum += expd[i];
 	assert_true(fabs(sum - 1.0) < 1e-4);
@@ -305,7 +166,8 @@ check_cone(float cos_max, uint64_t seed, int nt, int np, const char *what)
 	}
 	for (i = 0; i < nt * np; i++)
 		expd[i] = (double)NSAMPLES / (nt * np);
-	p = chi2_test(obs, expd, (size_t)(nt * np), what);
+	p = stats_chi2(obs, expd, (size_t)(nt * np), STATS_POOL_JOIN,
+	    SIGNIFICANCE, what);
 	free(obs);
 	free(expd);
 	return p;
@@ -350,7 +212,8 @@ test_disk(void **state)
 	}
 	for (i = 0; i < NZ * NPHI; i++)
 		expd[i] = (double)NSAMPLES / (NZ * NPHI);
-	assert_true(chi2_test(obs, expd, NZ * NPHI, "disk") > SIGNIFICANCE);
+	assert_true(stats_chi2(obs, expd, NZ * NPHI, STATS_POOL_JOIN,
+	    SIGNIFICANCE, "disk") > SIGNIFICANCE);
 	/* the centre of the square is the centre of the disk */
 	pm_square_to_disk(0.5f, 0.5f, &x, &y);
 	assert_true(x == 0.0f && y == 0.0f);
@@ -386,8 +249,8 @@ test_triangle(void **state)
 			expd[i * NZ + j] = (double)NSAMPLES / (NZ * NZ) *
 			    (i + j < NZ - 1 ? 2.0 : i + j == NZ - 1 ? 1.0 :
 			    0.0);
-	assert_true(chi2_test(obs, expd, NZ * NZ, "triangle") >
-	    SIGNIFICANCE);
+	assert_true(stats_chi2(obs, expd, NZ * NZ, STATS_POOL_JOIN,
+	    SIGNIFICANCE, "triangle") > SIGNIFICANCE);
 }
 
 static void
@@ -481,11 +344,13 @@ test_distrib_frequencies(void **state)
 	}
 	for (i = 0; i < NW; i++)
 		expd[i] = NSAMPLES * weights[i] / sum;
-	assert_true(chi2_test(obs, expd, NW, "distrib") > SIGNIFICANCE);
+	assert_true(stats_chi2(obs, expd, NW, STATS_POOL_JOIN,
+	    SIGNIFICANCE, "distrib") > SIGNIFICANCE);
 	/* what is left of u is itself uniform */
 	for (i = 0; i < 100; i++)
 		rexp[i] = NSAMPLES / 100.0;
-	assert_true(chi2_test(robs, rexp, 100, "u_reuse") > SIGNIFICANCE);
+	assert_true(stats_chi2(robs, rexp, 100, STATS_POOL_JOIN,
+	    SIGNIFICANCE, "u_reuse") > SIGNIFICANCE);
 	pm_distrib_free(&d);
 	assert_null(d.cdf);
 }

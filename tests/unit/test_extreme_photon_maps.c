@@ -1,5 +1,5 @@
 /*
- * test_hard_photons.c: photon maps at their extremes.
+ * test_extreme_photon_maps.c: photon maps at their extremes.
  *
  *  - a million photons at one point, on a plane, on a line: the kd-tree
  *    builds, verifies and answers queries (test_kdtree.c covers the same

@@ -1,5 +1,5 @@
 /*
- * test_hard_scenes.c: hard but valid scenes, each rendered or shot end to
+ * test_extreme_scenes.c: hard but valid scenes, each rendered or shot end to
  * end from Mitsuba XML, must give finite and correct results with no
  * sample or photon dropped:
  *

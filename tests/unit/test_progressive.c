@@ -1,5 +1,5 @@
 /*
- * test_pppm.c: the two pieces progressive photon mapping adds to the
+ * test_progressive.c: the two pieces progressive photon mapping adds to the
  * library.  The buffer-free radius walk of the kd-tree
  * (pm_kdtree_range_init/next) yields exactly the photons brute force finds
  * within the radius, each once, at its true distance and through the flag
