@@ -5,7 +5,10 @@
  *   - emitters count where they are seen directly or through specular
  *     surfaces (and, with MIS, after glossy ones);
  *   - specular (delta) components are followed recursively, choosing
- *     reflection or refraction by Fresnel weight;
+ *     reflection or refraction by Fresnel weight; plastic's coating is
+ *     followed every time, weighted by its Fresnel reflectance, beside the
+ *     estimates of its diffuse base (choosing it with probability P would
+ *     turn the light's reflection in it into noise);
  *   - glossy surfaces (rough conductors, shiny measured BRDFs) are path
  *     traced: light sampling and BSDF sampling with multiple importance
  *     sampling;
@@ -416,15 +419,19 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 				break;
 		}
 
-		u1 = pm_rng_float(rng);
-		u2 = pm_rng_float(rng);
-		u3 = pm_rng_float(rng);
-		if (!pm_bsdf_sample(b, wi, u1, u2, u3, PM_RADIANCE, &bs))
-			break;
-		/* At a diffuse surface with a specular coating only the
-		 * coating goes on; its weight already holds 1/P(coating). */
-		if (!is_glossy(b) && !(bs.lobe & PM_LOBE_DELTA))
-			break;
+		if (!is_glossy(b) && has_nonspecular(b)) {
+			/* A diffuse base with a smooth coating: the base is
+			 * estimated above, the coating followed every time
+			 * (one path, so no splitting blow-up). */
+			if (!pm_bsdf_coating(b, wi, &bs))
+				break;
+		} else {
+			u1 = pm_rng_float(rng);
+			u2 = pm_rng_float(rng);
+			u3 = pm_rng_float(rng);
+			if (!pm_bsdf_sample(b, wi, u1, u2, u3, PM_RADIANCE, &bs))
+				break;
+		}
 		if (!pm_path_continue(&pa, &h, fr, &bs, depth, ctx->rr_depth, rng))
 			break;
 	}
