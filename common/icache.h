@@ -26,7 +26,10 @@
 #include "error.h"
 #include "vec.h"
 
-/* Defaults: measured on the study's scenes (docs/accuracy.md). */
+/* Defaults: measured on the study's scenes (docs/accuracy.md).  The grid
+ * spacing when not given is the finest of 4, 2 and 1 pixels at which the
+ * cache's rays per pixel stay within the samples per pixel
+ * (pm_icache_default_step). */
 #define PM_ICACHE_STEP		4
 /* Rays per grid point when not given: 16 per sample per pixel, from 64 to
  * 256, so that the cache costs about what the camera pass does and its
@@ -38,6 +41,13 @@
 
 struct pm_render_ctx;
 struct pm_camera_rays;
+
+/* Rays per grid point and grid spacing for spp samples per pixel when the
+ * user gives neither: so that the cache costs at most about what the
+ * camera pass does, while its interpolation error, which more samples do
+ * not average away, falls as the samples grow. */
+int pm_icache_default_rays(int spp);
+int pm_icache_default_step(int spp, int rays);
 
 struct pm_icache_point {
 	struct pm_vec3 p, n;		/* position, normal on the seen side */

@@ -306,15 +306,15 @@ pm_render(const struct pm_render_ctx *ctx, const struct pm_camera *cam,
 	atomic_init(&j.dropped, 0);
 	/* Indirect light on the surfaces seen, gathered once on a grid. */
 	if (opts->method == PM_METHOD_PHOTON && ctx->maps != NULL &&
-	    ctx->maps->final_gather && ctx->maps->icache_step > 0) {
+	    ctx->maps->final_gather && ctx->maps->icache_step != 0) {
 		int rays = ctx->maps->icache_rays;
+		int step = ctx->maps->icache_step;
 
-		if (rays <= 0) {
-			rays = PM_ICACHE_RAYS_PER_SPP * opts->spp;
-			rays = rays < PM_ICACHE_RAYS_MIN ? PM_ICACHE_RAYS_MIN :
-			    (rays > PM_ICACHE_RAYS ? PM_ICACHE_RAYS : rays);
-		}
-		rc = pm_icache_build(&cache, ctx, &j.rays, ctx->maps->icache_step,
+		if (rays <= 0)
+			rays = pm_icache_default_rays(opts->spp);
+		if (step < 0)
+			step = pm_icache_default_step(opts->spp, rays);
+		rc = pm_icache_build(&cache, ctx, &j.rays, step,
 		    rays, ctx->maps->icache_a, opts->seed, nthreads, err);
 		if (rc != PM_OK) {
 			pm_image_free(out);

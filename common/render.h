@@ -42,7 +42,8 @@ struct pm_photon_maps {
 	bool final_gather;
 	int final_gather_samples;	/* rays per sample without the cache */
 	/* The image-space irradiance cache (icache.h): grid points every
-	 * icache_step pixels (0: none), icache_rays gather rays each (0: by
+	 * icache_step pixels (0: none, < 0: by the samples per pixel,
+	 * pm_icache_default_step), icache_rays gather rays each (0: by
 	 * the samples per pixel), Ward's accuracy icache_a. */
 	int icache_step;
 	int icache_rays;

@@ -70,7 +70,9 @@ static const char help_text[] =
     "      --final-gather-samples N  gather rays of a camera sample that the\n"
     "                              irradiance cache does not serve (default 1)\n"
     "      --cache-step PIXELS     pixels between irradiance cache points\n"
-    "                              (default 4; 0: no cache)\n"
+    "                              (default by the spp: 4, 2 or 1, the\n"
+    "                              finest whose rays per pixel stay within\n"
+    "                              the spp; 0: no cache)\n"
     "      --cache-rays N          gather rays per cache point (default\n"
     "                              16 per spp, from 64 to 256)\n"
     "      --cache-accuracy A      Ward's a: larger trusts points farther\n"
@@ -373,7 +375,7 @@ load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
 	maps->direct_samples = pp->direct_samples;
 	maps->final_gather = pp->final_gather;
 	maps->final_gather_samples = pp->final_gather_samples;
-	maps->icache_step = PM_ICACHE_STEP;
+	maps->icache_step = -1;		/* by the samples per pixel */
 	maps->icache_rays = 0;		/* by the samples per pixel */
 	maps->icache_a = PM_ICACHE_ACCURACY;
 	if (verbose >= 2)

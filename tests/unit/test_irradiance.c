@@ -441,6 +441,32 @@ test_stratified_light_points(void **state)
 	pm_scene_free(&s);
 }
 
+/* The cache's default spacing: the finest of 4, 2, 1 whose gather rays
+ * per pixel stay within the samples per pixel (pm-render(1)). */
+static void
+test_icache_default_step(void **state)
+{
+	int spp;
+
+	(void)state;
+	for (spp = 1; spp <= 4096; spp++) {
+		int rays = pm_icache_default_rays(spp);
+		int step = pm_icache_default_step(spp, rays);
+
+		assert_true(rays >= PM_ICACHE_RAYS_MIN && rays <= PM_ICACHE_RAYS);
+		assert_true(step == 1 || step == 2 || step == PM_ICACHE_STEP);
+		if (step < PM_ICACHE_STEP)
+			assert_true(rays <= spp * step * step);
+		if (step > 1)
+			assert_true(rays > spp * (step / 2) * (step / 2));
+	}
+	/* the documented ranges */
+	assert_int_equal(pm_icache_default_step(63, pm_icache_default_rays(63)), 4);
+	assert_int_equal(pm_icache_default_step(64, pm_icache_default_rays(64)), 2);
+	assert_int_equal(pm_icache_default_step(255, pm_icache_default_rays(255)), 2);
+	assert_int_equal(pm_icache_default_step(256, pm_icache_default_rays(256)), 1);
+}
+
 int
 main(void)
 {
@@ -450,6 +476,7 @@ main(void)
 		cmocka_unit_test(test_grid_lookup),
 		cmocka_unit_test(test_furnace_final_gather),
 		cmocka_unit_test(test_stratified_light_points),
+		cmocka_unit_test(test_icache_default_step),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);
