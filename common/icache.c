@@ -54,6 +54,10 @@ pm_icache_default_step(int spp, int rays)
 {
 	int s;
 
+	/* a budget of at least 4 rays per pixel: below, the cache's points
+	 * would be too few or too noisy for what they cost to matter */
+	if (spp < 4)
+		spp = 4;
 	for (s = 1; s < PM_ICACHE_STEP; s *= 2)
 		if ((long)rays <= (long)spp * s * s)
 			return s;

@@ -455,14 +455,19 @@ test_icache_default_step(void **state)
 
 		assert_true(rays >= PM_ICACHE_RAYS_MIN && rays <= PM_ICACHE_RAYS);
 		assert_true(step == 1 || step == 2 || step == PM_ICACHE_STEP);
+		int budget = spp < 4 ? 4 : spp;
+
 		if (step < PM_ICACHE_STEP)
-			assert_true(rays <= spp * step * step);
+			assert_true(rays <= budget * step * step);
 		if (step > 1)
-			assert_true(rays > spp * (step / 2) * (step / 2));
+			assert_true(rays > budget * (step / 2) * (step / 2));
 	}
-	/* the documented ranges */
-	assert_int_equal(pm_icache_default_step(63, pm_icache_default_rays(63)), 4);
-	assert_int_equal(pm_icache_default_step(64, pm_icache_default_rays(64)), 2);
+	/* the documented ranges: every 2nd pixel below 256 spp, then every
+	 * pixel */
+	assert_int_equal(pm_icache_default_rays(1), 16);
+	assert_int_equal(pm_icache_default_rays(16), 64);
+	assert_int_equal(pm_icache_default_rays(64), 256);
+	assert_int_equal(pm_icache_default_step(1, pm_icache_default_rays(1)), 2);
 	assert_int_equal(pm_icache_default_step(255, pm_icache_default_rays(255)), 2);
 	assert_int_equal(pm_icache_default_step(256, pm_icache_default_rays(256)), 1);
 }
