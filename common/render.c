@@ -77,21 +77,24 @@ render_tile(struct job *j, int tile)
 	int x0 = (tile % j->tiles_x) * TILE, y0 = (tile / j->tiles_x) * TILE;
 	int x1 = x0 + TILE < cam->width ? x0 + TILE : cam->width;
 	int y1 = y0 + TILE < cam->height ? y0 + TILE : cam->height;
-	int spp = j->opts->spp, x, y, i, k, kl;
+	int spp = j->opts->spp, x, y, i, kx, ky, lx, ly;
 	uint16_t cell[LIGHT_STRATA * LIGHT_STRATA];
 	uint64_t dropped = 0;
 
-	/* The first k x k samples of a pixel are stratified over its filter
-	 * (jittered: one per cell of a k x k grid), the rest independent:
-	 * an edge or a small bright light inside the pixel is then covered
-	 * in proportion, not by chance.  Each sample still depends only on
+	/* The first kx x ky samples of a pixel are stratified over its
+	 * filter (jittered: one per cell of a kx x ky grid, k x k or
+	 * (k + 1) x k, the largest within spp), the rest independent: an
+	 * edge or a small bright light inside the pixel is then covered in
+	 * proportion, not by chance.  Each sample still depends only on
 	 * (seed, pixel, sample index). */
-	for (k = 1; (k + 1) * (k + 1) <= spp; k++)
+	for (ky = 1; (ky + 1) * (ky + 1) <= spp; ky++)
 		;
-	/* The first light sample of those k x k samples is stratified the
-	 * same way over the light, in cells shuffled per pixel so that the
+	kx = (ky + 1) * ky <= spp ? ky + 1 : ky;
+	/* The first light sample of those samples is stratified the same
+	 * way over the light, in cells shuffled per pixel so that the
 	 * light's cell does not follow the film's. */
-	kl = k < LIGHT_STRATA ? k : LIGHT_STRATA;
+	lx = kx < LIGHT_STRATA ? kx : LIGHT_STRATA;
+	ly = ky < LIGHT_STRATA ? ky : LIGHT_STRATA;
 	for (y = y0; y < y1; y++) {
 		for (x = x0; x < x1; x++) {
 			uint64_t pix = (uint64_t)y * (uint64_t)cam->width + (uint64_t)x;
@@ -100,7 +103,7 @@ render_tile(struct job *j, int tile)
 			struct pm_rng prng = pm_rng_seed(j->opts->seed, pix,
 			    UINT64_MAX);
 
-			for (i = 0; i < kl * kl; i++) {
+			for (i = 0; i < lx * ly; i++) {
 				int r = (int)(pm_rng_u32(&prng) % (uint32_t)(i + 1));
 
 				cell[i] = cell[r];
@@ -113,20 +116,20 @@ render_tile(struct job *j, int tile)
 				struct pm_camera_sample cs = { 0, 0, { -1.0f, -1.0f } };
 				float fx, fy;
 
-				if (i < k * k) {
-					ux = ((float)(i % k) + ux) / (float)k;
-					uy = ((float)(i / k) + uy) / (float)k;
+				if (i < kx * ky) {
+					ux = ((float)(i % kx) + ux) / (float)kx;
+					uy = ((float)(i / kx) + uy) / (float)ky;
 				}
-				if (i < kl * kl) {
+				if (i < lx * ly) {
 					/* its own stream, so that the
 					 * path's numbers stay as they were */
 					struct pm_rng lr = pm_rng_seed(j->opts->seed,
 					    pix, UINT64_MAX - 1 - (uint64_t)i);
 
-					cs.lu[0] = ((float)(cell[i] % kl) +
-					    pm_rng_float(&lr)) / (float)kl;
-					cs.lu[1] = ((float)(cell[i] / kl) +
-					    pm_rng_float(&lr)) / (float)kl;
+					cs.lu[0] = ((float)(cell[i] % lx) +
+					    pm_rng_float(&lr)) / (float)lx;
+					cs.lu[1] = ((float)(cell[i] / lx) +
+					    pm_rng_float(&lr)) / (float)ly;
 				}
 				fx = (float)x + 0.5f + filter_offset(cam->rfilter,
 				    cam->filter_radius, ux, &rng);
