@@ -506,6 +506,34 @@ sample_merl(const struct pm_bsdf *b, struct pm_vec3 wi, float u1, float u2,
 	return true;
 }
 
+/* The smooth coating of a coated diffuse BSDF (plastic) as one sample that
+ * chooses nothing: the mirror direction with weight Fresnel x specular.
+ * A camera path that follows it at every coated hit, beside the base's own
+ * estimate, sees the coating's reflections without the noise of picking
+ * the coating with probability P (weight 1/P where picked, 0 elsewhere). */
+bool
+pm_bsdf_coating(const struct pm_bsdf *b, struct pm_vec3 wi,
+    struct pm_bsdf_sample *s)
+{
+	bool flip = twosided_flip(b, wi);
+
+	if (b->type != PM_BSDF_PLASTIC)
+		return false;
+	if (flip)
+		wi.z = -wi.z;
+	if (wi.z <= 0.0f)
+		return false;
+	s->wo = reflect_z(wi);
+	s->pdf = 1.0f;
+	s->weight = pm_rgb_scale(b->specular,
+	    pm_fresnel_dielectric(wi.z, b->ior, NULL));
+	s->eta = 1.0f;
+	s->lobe = PM_LOBE_DELTA_REFLECTION;
+	if (flip)
+		s->wo.z = -s->wo.z;
+	return true;
+}
+
 /* u1 chooses the lobe, (u2, u3) the direction; false if nothing was sampled. */
 bool
 pm_bsdf_sample(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,

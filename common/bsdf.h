@@ -97,6 +97,11 @@ float pm_bsdf_pdf(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo)
 bool pm_bsdf_sample(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
     float u2, float u3, enum pm_transport mode, struct pm_bsdf_sample *s);
 
+/* Plastic's coating as a deterministic mirror sample (weight Fresnel x
+ * specular); false for every other type or from below. */
+bool pm_bsdf_coating(const struct pm_bsdf *b, struct pm_vec3 wi,
+    struct pm_bsdf_sample *s);
+
 /* True if every lobe is a delta (mirror, glass): no light sampling there. */
 static inline bool pm_bsdf_is_delta(const struct pm_bsdf *b)
 {

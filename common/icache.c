@@ -40,6 +40,30 @@ struct icache_job {
 	_Atomic int next;
 };
 
+int
+pm_icache_default_rays(int spp)
+{
+	long rays = (long)PM_ICACHE_RAYS_PER_SPP * spp;
+
+	return rays < PM_ICACHE_RAYS_MIN ? PM_ICACHE_RAYS_MIN :
+	    (rays > PM_ICACHE_RAYS ? PM_ICACHE_RAYS : (int)rays);
+}
+
+int
+pm_icache_default_step(int spp, int rays)
+{
+	int s;
+
+	/* a budget of at least 4 rays per pixel: below, the cache's points
+	 * would be too few or too noisy for what they cost to matter */
+	if (spp < 4)
+		spp = 4;
+	for (s = 1; s < PM_ICACHE_STEP; s *= 2)
+		if ((long)rays <= (long)spp * s * s)
+			return s;
+	return PM_ICACHE_STEP;
+}
+
 static void
 build_point(struct icache_job *j, int gx, int gy)
 {

@@ -26,18 +26,29 @@
 #include "error.h"
 #include "vec.h"
 
-/* Defaults: measured on the study's scenes (docs/accuracy.md). */
-#define PM_ICACHE_STEP		4
-/* Rays per grid point when not given: 16 per sample per pixel, from 64 to
- * 256, so that the cache costs about what the camera pass does and its
- * noise stays below the pixels'. */
-#define PM_ICACHE_RAYS_PER_SPP	16
-#define PM_ICACHE_RAYS_MIN	64
+/* Defaults: measured on the study's scenes (docs/accuracy.md).  At equal
+ * cost a finer grid with fewer rays per point wins: the cache's error is
+ * mostly the blur of interpolating over its footprint, not its points'
+ * noise.  So by default the rays per point are 4 per sample per pixel
+ * (16 to 256) and the grid spacing is the finest of 1, 2 and 4 pixels at
+ * which the cache's rays per pixel stay within the samples per pixel (at
+ * least 4): every 2nd pixel below 256 samples, every pixel from 256.  The
+ * cache then costs at most about what the camera pass does. */
+#define PM_ICACHE_STEP		4	/* the coarsest default spacing */
+#define PM_ICACHE_RAYS_PER_SPP	4
+#define PM_ICACHE_RAYS_MIN	16
 #define PM_ICACHE_RAYS		256
 #define PM_ICACHE_ACCURACY	0.3f
 
 struct pm_render_ctx;
 struct pm_camera_rays;
+
+/* Rays per grid point and grid spacing for spp samples per pixel when the
+ * user gives neither: so that the cache costs at most about what the
+ * camera pass does, while its interpolation error, which more samples do
+ * not average away, falls as the samples grow. */
+int pm_icache_default_rays(int spp);
+int pm_icache_default_step(int spp, int rays);
 
 struct pm_icache_point {
 	struct pm_vec3 p, n;		/* position, normal on the seen side */

@@ -41,7 +41,8 @@ struct pm_photon_maps {
 	bool final_gather;
 	int final_gather_samples;	/* rays per sample without the cache */
 	/* The image-space irradiance cache (icache.h): grid points every
-	 * icache_step pixels (0: none), icache_rays gather rays each (0: by
+	 * icache_step pixels (0: none, < 0: by the samples per pixel,
+	 * pm_icache_default_step), icache_rays gather rays each (0: by
 	 * the samples per pixel), Ward's accuracy icache_a. */
 	int icache_step;
 	int icache_rays;
@@ -113,10 +114,18 @@ struct pm_rgb pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 struct pm_rgb pm_photon_li(const struct pm_render_ctx *ctx, struct pm_vec3 o,
     struct pm_vec3 d, float tmin, float tmax, struct pm_rng *rng);
 
-/* The same for the camera sample at film position (fx, fy), which lets
- * the first surface seen take its indirect light from ctx->icache. */
+/* What the camera pass knows of one sample beyond its ray: its film
+ * position (fx, fy), which lets the first surface seen take its indirect
+ * light from ctx->icache, and a stratified point (lu[0], lu[1]) in
+ * [0, 1)^2 for the first light sample along the path (lu[0] < 0: none). */
+struct pm_camera_sample {
+	float fx, fy;
+	float lu[2];
+};
+
+/* The same as pm_photon_li for the camera sample cs. */
 struct pm_rgb pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
-    struct pm_vec3 d, float tmin, float tmax, float fx, float fy,
+    struct pm_vec3 d, float tmin, float tmax, const struct pm_camera_sample *cs,
     struct pm_rng *rng);
 
 /* True where the photon render estimates light at a surface rather than

@@ -5,7 +5,10 @@
  *   - emitters count where they are seen directly or through specular
  *     surfaces (and, with MIS, after glossy ones);
  *   - specular (delta) components are followed recursively, choosing
- *     reflection or refraction by Fresnel weight;
+ *     reflection or refraction by Fresnel weight; plastic's coating is
+ *     followed every time, weighted by its Fresnel reflectance, beside the
+ *     estimates of its diffuse base (choosing it with probability P would
+ *     turn the light's reflection in it into noise);
  *   - glossy surfaces (rough conductors, shiny measured BRDFs) are path
  *     traced: light sampling and BSDF sampling with multiple importance
  *     sampling;
@@ -183,11 +186,15 @@ pm_pppm_radius_scale(long pass, double alpha)
 	return sqrt(s2);
 }
 
-/* Direct light at a non-specular hit: the mean of n light samples. */
+/* Direct light at a non-specular hit: the mean of n light samples.  lu,
+ * when not NULL, is a point of the camera pass's stratification that the
+ * first light sample uses for its position on the light: over a pixel's
+ * samples the light is then covered in proportion, which is what makes
+ * soft shadows converge faster than independent samples do. */
 static struct pm_rgb
 direct_light(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
     const struct pm_hit *h, struct pm_frame fr, struct pm_vec3 wi_local, int n,
-    bool mis, struct pm_rng *rng)
+    bool mis, const float *lu, struct pm_rng *rng)
 {
 	struct pm_rgb L = pm_rgb1(0.0f);
 	int i;
@@ -198,6 +205,11 @@ direct_light(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 		struct pm_rgb f;
 		float u0 = pm_rng_float(rng), u1 = pm_rng_float(rng);
 		float u2 = pm_rng_float(rng), w;
+
+		if (i == 0 && lu != NULL) {
+			u1 = lu[0];
+			u2 = lu[1];
+		}
 
 		if (!pm_lights_sample(ctx->lights, ctx->scene, h->p, u0, u1, u2, &ls))
 			continue;
@@ -341,18 +353,22 @@ struct pm_rgb
 pm_photon_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
     float tmin, float tmax, struct pm_rng *rng)
 {
-	return pm_photon_li_px(ctx, o, d, tmin, tmax, NAN, NAN, rng);
+	struct pm_camera_sample cs = { NAN, NAN, { -1.0f, -1.0f } };
+
+	return pm_photon_li_px(ctx, o, d, tmin, tmax, &cs, rng);
 }
 
 struct pm_rgb
 pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
-    struct pm_vec3 d, float tmin, float tmax, float fx, float fy,
+    struct pm_vec3 d, float tmin, float tmax, const struct pm_camera_sample *cs,
     struct pm_rng *rng)
 {
 	const struct pm_scene *s = ctx->scene;
 	const struct pm_photon_maps *m = ctx->maps;
 	struct pm_rgb L = pm_rgb1(0.0f);
 	struct pm_path pa;
+	const float *lu = cs->lu[0] >= 0.0f ? cs->lu : NULL;
+	float fx = cs->fx, fy = cs->fy;
 	int depth;
 
 	pm_path_start(&pa, o, d, tmin, tmax);
@@ -382,10 +398,13 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 		if (is_glossy(b)) {
 			/* Path traced: light sampling here, BSDF sampling on. */
 			L = pm_rgb_madd(L, pa.beta, direct_light(ctx, b, &h, fr, wi,
-			    1, true, rng));
+			    1, true, lu, rng));
+			lu = NULL;
 		} else if (has_nonspecular(b)) {
 			struct pm_rgb E = direct_light(ctx, b, &h, fr, wi,
-			    m->direct_samples, false, rng);
+			    m->direct_samples, false, lu, rng);
+
+			lu = NULL;
 
 			struct pm_vec3 nrm = side_normal(&h, pa.d);
 			/* Photons of d bounces close paths of depth + d + 1
@@ -416,15 +435,19 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 				break;
 		}
 
-		u1 = pm_rng_float(rng);
-		u2 = pm_rng_float(rng);
-		u3 = pm_rng_float(rng);
-		if (!pm_bsdf_sample(b, wi, u1, u2, u3, PM_RADIANCE, &bs))
-			break;
-		/* At a diffuse surface with a specular coating only the
-		 * coating goes on; its weight already holds 1/P(coating). */
-		if (!is_glossy(b) && !(bs.lobe & PM_LOBE_DELTA))
-			break;
+		if (!is_glossy(b) && has_nonspecular(b)) {
+			/* A diffuse base with a smooth coating: the base is
+			 * estimated above, the coating followed every time
+			 * (one path, so no splitting blow-up). */
+			if (!pm_bsdf_coating(b, wi, &bs))
+				break;
+		} else {
+			u1 = pm_rng_float(rng);
+			u2 = pm_rng_float(rng);
+			u3 = pm_rng_float(rng);
+			if (!pm_bsdf_sample(b, wi, u1, u2, u3, PM_RADIANCE, &bs))
+				break;
+		}
 		if (!pm_path_continue(&pa, &h, fr, &bs, depth, ctx->rr_depth, rng))
 			break;
 	}

@@ -66,6 +66,10 @@ filter_offset(enum pm_rfilter f, float radius, float u, struct pm_rng *rng)
 	return u - 0.5f;
 }
 
+/* At most this many light cells a side (the first LIGHT_STRATA^2 samples
+ * of a pixel); beyond, independent samples are as good. */
+#define LIGHT_STRATA 32
+
 static void
 render_tile(struct job *j, int tile)
 {
@@ -73,31 +77,59 @@ render_tile(struct job *j, int tile)
 	int x0 = (tile % j->tiles_x) * TILE, y0 = (tile / j->tiles_x) * TILE;
 	int x1 = x0 + TILE < cam->width ? x0 + TILE : cam->width;
 	int y1 = y0 + TILE < cam->height ? y0 + TILE : cam->height;
-	int spp = j->opts->spp, x, y, i, k;
+	int spp = j->opts->spp, x, y, i, kx, ky, lx, ly;
+	uint16_t cell[LIGHT_STRATA * LIGHT_STRATA];
 	uint64_t dropped = 0;
 
-	/* The first k x k samples of a pixel are stratified over its filter
-	 * (jittered: one per cell of a k x k grid), the rest independent:
-	 * an edge or a small bright light inside the pixel is then covered
-	 * in proportion, not by chance.  Each sample still depends only on
+	/* The first kx x ky samples of a pixel are stratified over its
+	 * filter (jittered: one per cell of a kx x ky grid, k x k or
+	 * (k + 1) x k, the largest within spp), the rest independent: an
+	 * edge or a small bright light inside the pixel is then covered in
+	 * proportion, not by chance.  Each sample still depends only on
 	 * (seed, pixel, sample index). */
-	for (k = 1; (k + 1) * (k + 1) <= spp; k++)
+	for (ky = 1; (ky + 1) * (ky + 1) <= spp; ky++)
 		;
+	kx = (ky + 1) * ky <= spp ? ky + 1 : ky;
+	/* The first light sample of those samples is stratified the same
+	 * way over the light, in cells shuffled per pixel so that the
+	 * light's cell does not follow the film's. */
+	lx = kx < LIGHT_STRATA ? kx : LIGHT_STRATA;
+	ly = ky < LIGHT_STRATA ? ky : LIGHT_STRATA;
 	for (y = y0; y < y1; y++) {
 		for (x = x0; x < x1; x++) {
 			uint64_t pix = (uint64_t)y * (uint64_t)cam->width + (uint64_t)x;
 			double acc[3] = {0, 0, 0};
 			float *dst = &j->out->rgb[3 * pix];
+			struct pm_rng prng = pm_rng_seed(j->opts->seed, pix,
+			    UINT64_MAX);
 
+			for (i = 0; i < lx * ly; i++) {
+				int r = (int)(pm_rng_u32(&prng) % (uint32_t)(i + 1));
+
+				cell[i] = cell[r];
+				cell[r] = (uint16_t)i;
+			}
 			for (i = 0; i < spp; i++) {
 				struct pm_rng rng = pm_rng_seed(j->opts->seed, pix,
 				    (uint64_t)i);
 				float ux = pm_rng_float(&rng), uy = pm_rng_float(&rng);
+				struct pm_camera_sample cs = { 0, 0, { -1.0f, -1.0f } };
 				float fx, fy;
 
-				if (i < k * k) {
-					ux = ((float)(i % k) + ux) / (float)k;
-					uy = ((float)(i / k) + uy) / (float)k;
+				if (i < kx * ky) {
+					ux = ((float)(i % kx) + ux) / (float)kx;
+					uy = ((float)(i / kx) + uy) / (float)ky;
+				}
+				if (i < lx * ly) {
+					/* its own stream, so that the
+					 * path's numbers stay as they were */
+					struct pm_rng lr = pm_rng_seed(j->opts->seed,
+					    pix, UINT64_MAX - 1 - (uint64_t)i);
+
+					cs.lu[0] = ((float)(cell[i] % lx) +
+					    pm_rng_float(&lr)) / (float)lx;
+					cs.lu[1] = ((float)(cell[i] / lx) +
+					    pm_rng_float(&lr)) / (float)ly;
 				}
 				fx = (float)x + 0.5f + filter_offset(cam->rfilter,
 				    cam->filter_radius, ux, &rng);
@@ -106,9 +138,13 @@ render_tile(struct job *j, int tile)
 				float tmin, tmax;
 				struct pm_vec3 d = pm_camera_ray(&j->rays, fx, fy,
 				    &tmin, &tmax);
-				struct pm_rgb L = j->opts->method == PM_METHOD_PHOTON ?
+				struct pm_rgb L;
+
+				cs.fx = fx;
+				cs.fy = fy;
+				L = j->opts->method == PM_METHOD_PHOTON ?
 				    pm_photon_li_px(j->ctx, j->rays.origin, d, tmin, tmax,
-				    fx, fy, &rng) : pm_path_li(j->ctx, j->rays.origin, d, tmin,
+				    &cs, &rng) : pm_path_li(j->ctx, j->rays.origin, d, tmin,
 				    tmax, &rng);
 
 				if (!pm_rgb_is_finite(L)) {
@@ -273,15 +309,15 @@ pm_render(const struct pm_render_ctx *ctx, const struct pm_camera *cam,
 	atomic_init(&j.dropped, 0);
 	/* Indirect light on the surfaces seen, gathered once on a grid. */
 	if (opts->method == PM_METHOD_PHOTON && ctx->maps != NULL &&
-	    ctx->maps->final_gather && ctx->maps->icache_step > 0) {
+	    ctx->maps->final_gather && ctx->maps->icache_step != 0) {
 		int rays = ctx->maps->icache_rays;
+		int step = ctx->maps->icache_step;
 
-		if (rays <= 0) {
-			rays = PM_ICACHE_RAYS_PER_SPP * opts->spp;
-			rays = rays < PM_ICACHE_RAYS_MIN ? PM_ICACHE_RAYS_MIN :
-			    (rays > PM_ICACHE_RAYS ? PM_ICACHE_RAYS : rays);
-		}
-		rc = pm_icache_build(&cache, ctx, &j.rays, ctx->maps->icache_step,
+		if (rays <= 0)
+			rays = pm_icache_default_rays(opts->spp);
+		if (step < 0)
+			step = pm_icache_default_step(opts->spp, rays);
+		rc = pm_icache_build(&cache, ctx, &j.rays, step,
 		    rays, ctx->maps->icache_a, opts->seed, nthreads, err);
 		if (rc != PM_OK) {
 			pm_image_free(out);

@@ -70,9 +70,11 @@ static const char help_text[] =
     "      --final-gather-samples N  gather rays of a camera sample that the\n"
     "                              irradiance cache does not serve (default 1)\n"
     "      --cache-step PIXELS     pixels between irradiance cache points\n"
-    "                              (default 4; 0: no cache)\n"
+    "                              (default 2, 1 from 256 spp: the finest\n"
+    "                              whose rays per pixel stay within the\n"
+    "                              spp; 0: no cache)\n"
     "      --cache-rays N          gather rays per cache point (default\n"
-    "                              16 per spp, from 64 to 256)\n"
+    "                              4 per spp, from 16 to 256)\n"
     "      --cache-accuracy A      Ward's a: larger trusts points farther\n"
     "                              (default 0.3)\n"
     "      --pass I                progressive pass I (1, 2, ...): fixed radii\n"
@@ -373,7 +375,7 @@ load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
 	maps->direct_samples = pp->direct_samples;
 	maps->final_gather = pp->final_gather;
 	maps->final_gather_samples = pp->final_gather_samples;
-	maps->icache_step = PM_ICACHE_STEP;
+	maps->icache_step = -1;		/* by the samples per pixel */
 	maps->icache_rays = 0;		/* by the samples per pixel */
 	maps->icache_a = PM_ICACHE_ACCURACY;
 	if (verbose >= 2)

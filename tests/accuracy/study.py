@@ -59,11 +59,15 @@ SWEEPS = [
                         {"global": v, "caustic": v})
                        for v in (25000, 400000, 1600000)] +
                        [("photons=100k", {})]),
-    ("cache", "pm", [("cache-step 2", {"render": ["--cache-step", "2"]}),
-                     ("cache-step 8", {"render": ["--cache-step", "8"]}),
-                     ("cache-rays 64", {"render": ["--cache-rays", "64"]}),
-                     ("cache-rays 1024", {"render": ["--cache-rays",
-                                                     "1024"]}),
+    # At 16 spp the default cache is every 2nd pixel with 64 rays.
+    ("cache", "pm", [("cache-step 1", {"render": ["--cache-step", "1"]}),
+                     ("cache-step 4", {"render": ["--cache-step", "4"]}),
+                     ("cache-step 4, 256 rays (0.3.0's grid)",
+                      {"render": ["--cache-step", "4", "--cache-rays",
+                                  "256"]}),
+                     ("cache-rays 16", {"render": ["--cache-rays", "16"]}),
+                     ("cache-rays 256", {"render": ["--cache-rays",
+                                                    "256"]}),
                      ("cache-accuracy 0.15", {"render": [
                          "--cache-accuracy", "0.15"]}),
                      ("cache-accuracy 0.6", {"render": [

@@ -556,15 +556,46 @@ check_albedo(const struct pm_bsdf *b, const char *name, float r_delta)
 		if (r_delta >= 0.0f) {
 			float fi = pm_fresnel_dielectric(wi.z, b->ior, NULL);
 
+			struct pm_bsdf_sample cs;
+
 			if (!close_to(a.delta.mean, r_delta * fi,
 			    NSIGMA * stat_err(&a.delta) + 1e-5, name))
 				fail_msg("%s: delta part", name);
+			/* pm-render follows the coating every time with this
+			 * weight: it must be what the sampler's coating
+			 * averages to */
+			assert_true(pm_bsdf_coating(b, wi, &cs));
+			if (!close_to(cs.weight.r, a.delta.mean,
+			    NSIGMA * stat_err(&a.delta) + 1e-5, name))
+				fail_msg("%s: coating weight", name);
+			assert_true(close_to(cs.weight.r, r_delta * fi, 1e-6,
+			    name));
+			assert_true(close_to(cs.wo.x, -wi.x, 1e-6, name) &&
+			    close_to(cs.wo.y, -wi.y, 1e-6, name) &&
+			    close_to(cs.wo.z, wi.z, 1e-6, name));
 		}
 		tot = fmax(a.maxc_eval, a.maxc_smooth) + a.delta.mean;
 		if (tot > 1.0 + NSIGMA * stat_err(&a.eval) + 1e-3)
 			fail_msg("%s at theta %g: albedo %g > 1", name,
 			    thetas[i], tot);
 	}
+}
+
+/* Only plastic has a coating to follow, and only from above. */
+static void
+test_coating_only_plastic(void **state)
+{
+	struct pm_bsdf_sample cs;
+	struct pm_bsdf b;
+
+	(void)state;
+	b = mk_plastic(1.49f, pm_rgb(0.5f, 0.5f, 0.5f), false);
+	assert_true(pm_bsdf_coating(&b, dir(0.4, 0.1), &cs));
+	assert_false(pm_bsdf_coating(&b, pm_neg(dir(0.4, 0.1)), &cs));
+	b = mk_diffuse(0.8f, false);
+	assert_false(pm_bsdf_coating(&b, dir(0.4, 0.1), &cs));
+	b = mk_dielectric(PM_BSDF_DIELECTRIC, 1.5f);
+	assert_false(pm_bsdf_coating(&b, dir(0.4, 0.1), &cs));
 }
 
 static void
@@ -989,6 +1020,7 @@ main(void)
 		cmocka_unit_test(test_lobes),
 		cmocka_unit_test(test_rough_analytic),
 		cmocka_unit_test(test_albedo),
+		cmocka_unit_test(test_coating_only_plastic),
 		cmocka_unit_test(test_furnace),
 		cmocka_unit_test(test_reciprocity),
 		cmocka_unit_test(test_sampling_diffuse),

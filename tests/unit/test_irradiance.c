@@ -326,6 +326,7 @@ test_furnace_final_gather(void **state)
 	assert_true(fabs(mean[0] / (Le.r / (1 - rho)) - 1.0) < 0.02);
 	assert_true(fabs(mean[1] / (Le.g / (1 - rho)) - 1.0) < 0.02);
 	assert_true(fabs(mean[2] / (Le.b / (1 - rho)) - 1.0) < 0.02);
+
 	pm_image_free(&im);
 	pm_irr_grid_free(&grid);
 	free(rec);
@@ -333,6 +334,136 @@ test_furnace_final_gather(void **state)
 	pm_shooter_free(&sh);
 	pm_world_free(&world);
 	pm_scene_free(&s);
+}
+
+/* The camera pass's stratified light points (pm_camera_sample.lu): a
+ * diffuse sphere of albedo a inside a black sphere that emits Le inward
+ * reflects a Le exactly (direct light only).  16 samples of one camera
+ * ray, their light points in a 4 x 4 grid of cells or independent: both
+ * means are a Le and the stratified one varies less. */
+static void
+test_stratified_light_points(void **state)
+{
+	enum { R = 400, N = 16 };
+	const float a = 0.5f, Le = 2.0f;
+	struct pm_scene s;
+	struct pm_world world;
+	struct pm_photon_maps maps;
+	struct pm_render_ctx ctx;
+	struct pm_error err;
+	struct pm_vec3 o = pm_v3(0, 0, 5), d;
+	double m[2] = {0, 0}, m2[2] = {0, 0}, var[2];
+	int b, shp, l, r, j, mode;
+
+	(void)state;
+	pm_scene_init(&s);
+	b = pm_scene_add_bsdf(&s);
+	s.bsdfs[b].type = PM_BSDF_DIFFUSE;
+	s.bsdfs[b].diffuse = pm_rgb1(0.0f);
+	shp = pm_scene_add_shape(&s);
+	s.shapes[shp].type = PM_SHAPE_SPHERE;
+	s.shapes[shp].center = pm_v3(0, 0, 0);
+	s.shapes[shp].radius = 10.0f;
+	s.shapes[shp].flip_normals = true;
+	s.shapes[shp].bsdf = b;
+	l = pm_scene_add_light(&s);
+	s.lights[l].type = PM_LIGHT_AREA;
+	s.lights[l].radiance = pm_rgb1(Le);
+	s.lights[l].shape = shp;
+	s.shapes[shp].light = l;
+	b = pm_scene_add_bsdf(&s);
+	s.bsdfs[b].type = PM_BSDF_DIFFUSE;
+	s.bsdfs[b].diffuse = pm_rgb1(a);
+	shp = pm_scene_add_shape(&s);
+	s.shapes[shp].type = PM_SHAPE_SPHERE;
+	s.shapes[shp].center = pm_v3(0, 0, 0);
+	s.shapes[shp].radius = 1.0f;
+	s.shapes[shp].bsdf = b;
+	s.shapes[shp].light = -1;
+	s.integrator.max_depth = -1;
+	assert_int_equal(pm_scene_prepare(&s, &err), PM_OK);
+	assert_int_equal(pm_world_init(&world, &s, &err), PM_OK);
+	/* empty maps: no caustics, no indirect light (the black sphere
+	 * reflects none), so the estimate is direct light alone */
+	memset(&maps, 0, sizeof(maps));
+	maps.global_r2 = 1.0f;
+	maps.caustic_r2 = 1.0f;
+	maps.lookup_size = 16;
+	maps.direct_samples = 1;
+	memset(&ctx, 0, sizeof(ctx));
+	ctx.scene = &s;
+	ctx.accel = world.accel;
+	ctx.lights = &world.lights;
+	ctx.max_depth = -1;
+	ctx.rr_depth = 5;
+	ctx.maps = &maps;
+	ctx.scene_radius = 10.0f;
+	ctx.hide_emitters = true;
+	d = pm_normalize(pm_v3(0.1f, 0.12f, -1.0f));
+	for (mode = 0; mode < 2; mode++)
+		for (r = 0; r < R; r++) {
+			double sum = 0;
+
+			for (j = 0; j < N; j++) {
+				struct pm_rng rng = pm_rng_seed(9, (uint64_t)r,
+				    (uint64_t)j);
+				struct pm_camera_sample cs = { 0, 0,
+				    { -1.0f, -1.0f } };
+
+				if (mode == 1) {
+					cs.lu[0] = ((float)(j % 4) +
+					    pm_rng_float(&rng)) / 4.0f;
+					cs.lu[1] = ((float)(j / 4) +
+					    pm_rng_float(&rng)) / 4.0f;
+				}
+				sum += pm_photon_li_px(&ctx, o, d, 0.0f,
+				    INFINITY, &cs, &rng).g;
+			}
+			m[mode] += sum / N / R;
+			m2[mode] += (sum / N) * (sum / N) / R;
+		}
+	var[0] = m2[0] - m[0] * m[0];
+	var[1] = m2[1] - m[1] * m[1];
+	print_message("16 light samples: mean %.4f / %.4f (want %.4f), "
+	    "variance %.3g independent, %.3g stratified\n", m[0], m[1],
+	    (double)(a * Le), var[0], var[1]);
+	/* means within four standard errors */
+	assert_true(fabs(m[0] - a * Le) < 4.0 * sqrt(var[0] / R));
+	assert_true(fabs(m[1] - a * Le) < 4.0 * sqrt(var[1] / R));
+	assert_true(var[1] < 0.5 * var[0]);
+	pm_world_free(&world);
+	pm_scene_free(&s);
+}
+
+/* The cache's default spacing: the finest of 4, 2, 1 whose gather rays
+ * per pixel stay within the samples per pixel (pm-render(1)). */
+static void
+test_icache_default_step(void **state)
+{
+	int spp;
+
+	(void)state;
+	for (spp = 1; spp <= 4096; spp++) {
+		int rays = pm_icache_default_rays(spp);
+		int step = pm_icache_default_step(spp, rays);
+
+		assert_true(rays >= PM_ICACHE_RAYS_MIN && rays <= PM_ICACHE_RAYS);
+		assert_true(step == 1 || step == 2 || step == PM_ICACHE_STEP);
+		int budget = spp < 4 ? 4 : spp;
+
+		if (step < PM_ICACHE_STEP)
+			assert_true(rays <= budget * step * step);
+		if (step > 1)
+			assert_true(rays > budget * (step / 2) * (step / 2));
+	}
+	/* the documented ranges: every 2nd pixel below 256 spp, then every
+	 * pixel */
+	assert_int_equal(pm_icache_default_rays(1), 16);
+	assert_int_equal(pm_icache_default_rays(16), 64);
+	assert_int_equal(pm_icache_default_rays(64), 256);
+	assert_int_equal(pm_icache_default_step(1, pm_icache_default_rays(1)), 2);
+	assert_int_equal(pm_icache_default_step(255, pm_icache_default_rays(255)), 2);
+	assert_int_equal(pm_icache_default_step(256, pm_icache_default_rays(256)), 1);
 }
 
 int
@@ -343,6 +474,8 @@ main(void)
 		cmocka_unit_test(test_records_fixed_radius),
 		cmocka_unit_test(test_grid_lookup),
 		cmocka_unit_test(test_furnace_final_gather),
+		cmocka_unit_test(test_stratified_light_points),
+		cmocka_unit_test(test_icache_default_step),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);
