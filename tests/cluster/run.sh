@@ -114,6 +114,29 @@ check "...printing no job" same "$(cat "$tmp/out")" ""
 check "other parameters in the same directory are refused" \
     status 1 sh $submit $P --seed 7 -o "$tmp/c" $scene
 
+# Progressive photon mapping: a pass array, then the mean; each pass and
+# the mean byte for byte what pipelines/progressive.mk's commands make.
+Q=$tmp/prog
+mkdir -p "$Q"
+for i in 1 2 3 4; do
+	$B/pm-shoot -q -f --seed $i --photons 20000 --caustic-photons 20000 -o "$Q/$i.shot" $scene &&
+	    $B/pm-balance -q -f --pass $i --alpha 0.6666667 -o "$Q/$i.pmap" "$Q/$i.shot" &&
+	    $B/pm-render -f -q --pass $i --seed $i --alpha 0.6666667 --spp 2 --size 32x32 \
+		-o "$Q/pass-00$i.exr" $scene "$Q/$i.pmap"
+done
+$B/pm-downsample -f -q -o "$Q/mean.exr" "$Q"/pass-00[1-4].exr
+$B/pm-downsample -f -q -o "$Q/mean.png" "$Q/mean.exr"
+check "submit --passes 4" status 0 sh $submit --passes 4 --photons 20000 --spp 2 --size 32x32 \
+    -o "$tmp/p" $scene
+cp "$tmp/out" "$tmp/p.jobs"
+sed 's/^/# /' "$tmp/p.jobs"
+check "...prints pass (array 1-4), final" \
+    same "$(awk '{ print $1, $3 }' "$tmp/p.jobs" | tr '\n' ' ')" "pass 1-4 final  "
+check "...which all complete" waitjobs $(ids "$tmp/p.jobs")
+check "...into progressive.mk's passes and mean, byte for byte" sh -c \
+    "cd $tmp/p && for f in passes/pass-00[1-4].exr mean.exr mean.png; do cmp -s \$f $Q/\${f#passes/} || exit 1; done"
+check "...and no pass map left" same "$(ls "$tmp/p/passes" | grep -v '\.exr$')" ""
+
 # A shard task that fails: shard 2's output is a directory.
 mkdir -p "$tmp/f/shards/shard-002.pmap"
 check "submit with shard 2 bound to fail" status 0 sh $submit $P -o "$tmp/f" $scene
