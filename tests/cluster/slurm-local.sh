@@ -37,6 +37,20 @@ stop_pid() {
 }
 
 stop() {
+	# Jobs still running (a test interrupted) end first, so that no
+	# slurmstepd or job outlives the daemons.
+	if [ -s "$D/run/slurmctld.pid" ] && kill -0 "$(cat "$D/run/slurmctld.pid")" 2>/dev/null; then
+		jobs=$(SLURM_CONF=$D/slurm.conf squeue -h -o %i 2>/dev/null)
+		if [ -n "$jobs" ]; then
+			# shellcheck disable=SC2086
+			SLURM_CONF=$D/slurm.conf scancel $jobs 2>/dev/null
+			i=0
+			while [ -n "$(SLURM_CONF=$D/slurm.conf squeue -h -o %i 2>/dev/null)" ] && [ $i -lt 50 ]; do
+				sleep 0.2
+				i=$((i + 1))
+			done
+		fi
+	fi
 	stop_pid "$D/run/slurmd.pid"
 	stop_pid "$D/run/slurmctld.pid"
 	stop_pid "$D/run/munged.pid"
