@@ -16,6 +16,8 @@ P="--shards 2 --photons 4000 --spp 1 --size 16x16 --cameras $tmp/cams"
 # plan: submit -n's lines, one string
 plan() { sh $submit -n $P -o "$tmp/r" $scene 2>&1 | tr '\n' ';'; }
 
+check "--help exits 0" status 0 sh $submit --help
+check "...printing the usage on stdout" grep -q '^usage: submit' "$tmp/out"
 check "no output directory exits 2" status 2 sh $submit $scene
 check "...saying so" grep -q 'no output directory' "$tmp/err"
 check "an unknown option exits 2" status 2 sh $submit --frobnicate -o "$tmp/x" $scene
