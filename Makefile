@@ -25,6 +25,9 @@ TEST_LIBS = $(shell pkg-config --libs cmocka 2>/dev/null || echo -lcmocka)
 DEBS = build-essential pkg-config libembree-dev libopenexr-dev libexpat1-dev \
 	libpng-dev zlib1g-dev libflann-dev libcmocka-dev mandoc glmark2-data \
 	python3 python3-venv libllvm19 clang libclang-rt-14-dev
+# ...and those of the cluster tests (a one-node Slurm, tests/cluster/),
+# which print SKIP without them.
+CLUSTER_DEBS = slurm-wlm munge
 
 BUILD = build
 BIN   = bin
@@ -39,7 +42,7 @@ TEST_BIN = $(TEST_SRC:tests/unit/%.c=$(BUILD)/tests/%)
 MANS     = $(sort $(wildcard man/*.[1-9]))
 
 .PHONY: all demo test deps install clean check-unit check-cli check-man check-mitsuba \
-	check-sanitize check-tsan turntable
+	check-sanitize check-tsan turntable deps-cluster check-cluster
 .PHONY: fuzz fuzz-build check-fuzz
 
 all: $(BINS)
@@ -87,6 +90,21 @@ deps:
 		fi; \
 	fi
 
+# Installs Slurm and munge when root; otherwise the cluster tests SKIP.
+deps-cluster:
+	@missing=""; for p in $(CLUSTER_DEBS); do \
+		dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
+	if [ -n "$$missing" ]; then \
+		if [ "$$(id -u)" = 0 ]; then \
+			echo "installing:$$missing"; \
+			DEBIAN_FRONTEND=noninteractive apt-get update -qq && \
+			DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $$missing \
+				|| echo "not installed:$$missing (the cluster tests will SKIP)"; \
+		else \
+			echo "missing Debian packages:$$missing (the cluster tests will SKIP)"; \
+		fi; \
+	fi
+
 include pipelines/bunny.mk
 include pipelines/turntable.mk
 include pipelines/merl.mk
@@ -101,9 +119,10 @@ demo: deps
 	$(MAKE) -j$(NPROC) all
 	$(MAKE) $(BUNNY).png
 
-test: deps
+test: deps deps-cluster
 	$(MAKE) -j$(NPROC) all $(TEST_BIN)
 	$(MAKE) check-unit check-cli check-man
+	$(MAKE) check-cluster
 	$(MAKE) check-sanitize
 	$(MAKE) check-fuzz
 	$(MAKE) check-mitsuba
@@ -118,6 +137,12 @@ $(BUILD)/tests/exrutil: tests/cli/exrutil.c $(LIB)
 CLI_TESTS = $(sort $(wildcard tests/cli/*.sh))
 check-cli: $(BINS) $(BUILD)/tests/exrutil
 	@BIN=$(BIN) EXRUTIL=$(BUILD)/tests/exrutil sh tests/run-cli.sh $(CLI_TESTS)
+
+# pipelines/slurm through a one-node Slurm started and stopped by the test
+# (root, slurm-wlm and munge; SKIP otherwise, a failure when
+# PM_CLUSTER_REQUIRED=1).
+check-cluster: $(BINS)
+	@BIN=$(BIN) sh tests/cluster/run.sh
 
 # The unit and CLI tests again, built with AddressSanitizer and UBSan.
 SAN_FLAGS = -O1 -g -fsanitize=address,undefined -fno-omit-frame-pointer \
