@@ -141,7 +141,7 @@ check-cli: $(BINS) $(BUILD)/tests/exrutil
 # pipelines/slurm through a one-node Slurm started and stopped by the test
 # (root, slurm-wlm and munge; SKIP otherwise, a failure when
 # PM_CLUSTER_REQUIRED=1).
-check-cluster: $(BINS)
+check-cluster: $(BINS) $(BUILD)/tests/exrutil
 	@BIN=$(BIN) sh tests/cluster/run.sh
 
 # The unit and CLI tests again, built with AddressSanitizer and UBSan.

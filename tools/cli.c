@@ -2,7 +2,10 @@
  * cli.c: the option dialect, output checks, provenance and progress line
  * shared by the tools' mains (see cli.h).
  */
+/* sched_getaffinity and CPU_COUNT are GNU extensions. */
+#define _GNU_SOURCE
 #include <errno.h>
+#include <sched.h>
 #include <libgen.h>
 #include <pthread.h>
 #include <stdarg.h>
@@ -206,6 +209,19 @@ pm_cli_join_args(int argc, char **argv)
 	}
 	*q = '\0';
 	return s;
+}
+
+long
+pm_cli_cores(void)
+{
+	cpu_set_t set;
+	long n;
+
+	if (sched_getaffinity(0, sizeof(set), &set) == 0 &&
+	    (n = CPU_COUNT(&set)) > 0)
+		return n;
+	n = sysconf(_SC_NPROCESSORS_ONLN);
+	return n > 0 ? n : 1;
 }
 
 const char *

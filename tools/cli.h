@@ -70,6 +70,11 @@ char *pm_cli_join_args(int argc, char **argv);
  * owned by cli.c; "?" if it could not be recorded. */
 const char *pm_cli_command(void);
 
+/* The default thread count: the processors this process may run on (its
+ * affinity mask, as nproc(1) counts them, so that a Slurm allocation or
+ * taskset is followed), or the online ones where the mask is unknown. */
+long pm_cli_cores(void);
+
 /*
  * A progress line on stderr, "prog: label  42%  0:03 elapsed, 0:04 left",
  * redrawn four times a second while work runs, when stderr is a terminal

@@ -482,7 +482,7 @@ main(int argc, char **argv)
 	int verbose = 1, c, fg = -1, force = 0;
 	struct preview pv = {NULL, NULL, {0, 0, NULL}, NULL, 0, 0};
 	float preview_every = 1.0f;
-	long spp = 0, threads = sysconf(_SC_NPROCESSORS_ONLN);
+	long spp = 0, threads = pm_cli_cores();
 	long lookup = 0, direct = 0, fg_samples = 0;
 	long cache_step = -1, cache_rays = 0;
 	float cache_acc = 0.0f;

@@ -171,7 +171,7 @@ main(int argc, char **argv)
 	struct pm_define defs[MAX_DEFINES];
 	size_t ndefs = 0;
 	const char *out_path = NULL, *scene_path;
-	long threads = sysconf(_SC_NPROCESSORS_ONLN), max_depth = -2;
+	long threads = pm_cli_cores(), max_depth = -2;
 	long long nglobal = -1, ncaustic = -1;
 	unsigned long long seed = 0, first = 0, v;
 	int verbose = 1, force = 0, compress = 0, c, status = 0;

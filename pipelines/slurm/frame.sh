@@ -15,11 +15,11 @@ if pm_exr_ok "$out"; then
 	exit 0
 fi
 pm_clean "$out"
-# An image does not record pm-render's command line, so the thread count
-# may follow the allocation without changing a byte of it.  RENDER is a
-# list of options, split into words on purpose.
+# No -t: an image records pm-render's command line, and the tools'
+# default thread count already follows the allocation (the processors the
+# task may run on).  RENDER is a list of options, split into words on
+# purpose.
 # shellcheck disable=SC2086
 pm_run pm-render -v -f --spp "$SPP" --size "$SIZE" $RENDER \
-    ${SLURM_CPUS_PER_TASK:+-t "$SLURM_CPUS_PER_TASK"} \
     --cameras "$cam" -o "$out" "$SCENE" scene.pmap || { pm_clean "$out"; exit 1; }
 pm_log "render: wrote $out"

@@ -17,15 +17,15 @@ if pm_exr_ok "$out"; then
 fi
 pm_clean "$map.shot" "$map" "$out"
 s=$((SEED + i))
-# RENDER is a list of options, split into words on purpose; an image does
-# not record the command line, so -t may follow the allocation.
+# RENDER is a list of options, split into words on purpose; no -t, since
+# maps and images record the command line and the default thread count
+# already follows the allocation.
 # shellcheck disable=SC2086
 pm_run pm-shoot -v -f --seed "$s" --photons "$PHOTONS" --caustic-photons "$CAUSTIC" \
     -o "$map.shot" "$SCENE" &&
     pm_run pm-balance -v -f --pass "$i" --alpha "$ALPHA" -o "$map" "$map.shot" &&
     pm_run pm-render -v -f --pass "$i" --seed "$s" --alpha "$ALPHA" --spp "$SPP" \
-	--size "$SIZE" $RENDER ${SLURM_CPUS_PER_TASK:+-t "$SLURM_CPUS_PER_TASK"} \
-	-o "$out" "$SCENE" "$map"
+	--size "$SIZE" $RENDER -o "$out" "$SCENE" "$map"
 r=$?
 pm_clean "$map.shot" "$map" "$out"
 rm -f "$map.shot" "$map"
