@@ -176,8 +176,8 @@ plan_map(struct piece *pc, int n, struct pm_map *out, pm_merge_note_fn *note,
 			    (unsigned long long)m->emitted);
 		if (emitted > UINT64_MAX - m->emitted ||
 		    count > UINT64_MAX - m->count)
-			return pm_fail(err, PM_ERR_LIMIT, "%s: %s photon counts "
-			    "pass 2^64", pc[i].in->name,
+			return pm_fail(err, PM_ERR_LIMIT, "%s: %s photon "
+			    "counts pass 2^64", pc[i].in->name,
 			    pm_map_kind_name(m->kind));
 		emitted += m->emitted;
 		count += m->count;

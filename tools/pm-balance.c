@@ -136,7 +136,8 @@ main(int argc, char *argv[])
 	long threads = sysconf(_SC_NPROCESSORS_ONLN);
 	long irr_stride = 8, irr_k = 32, pass = 0;
 	float irr_radius = 0.05f, alpha = 2.0f / 3.0f;
-	int ch, i, j, k, n = 0, nread = 0, nstdin = 0, status = 1, *order = NULL;
+	int ch, i, j, k, n = 0, nread = 0, nstdin = 0, status = 1;
+	int *order = NULL;
 	uint64_t dropped;
 	double t, t_sort;
 	struct pm_cli_progress *prog = NULL;
@@ -248,8 +249,8 @@ main(int argc, char *argv[])
 		nread = i + 1;
 		if ((dropped = pm_pmap_drop_irradiance(&in[i])) > 0 &&
 		    verbosity >= 1)
-			fprintf(stderr, "%s: %s: note: its irradiance map (%llu "
-			    "records) is dropped, not merged\n", PROG,
+			fprintf(stderr, "%s: %s: note: its irradiance map "
+			    "(%llu records) is dropped, not merged\n", PROG,
 			    shards[i].name, (unsigned long long)dropped);
 		if (i > 0 && pm_pmap_compatible(&shards[0], &shards[i], &err) !=
 		    PM_OK) {
@@ -320,8 +321,8 @@ main(int argc, char *argv[])
 			    (unsigned long long)m->emitted,
 			    (unsigned long long)m->first_index,
 			    (unsigned long long)(m->first_index + m->emitted),
-			    n, n == 1 ? "" : "s", t_sort, pm_cli_now() - t, threads,
-			    threads == 1 ? "" : "s");
+			    n, n == 1 ? "" : "s", t_sort, pm_cli_now() - t,
+			    threads, threads == 1 ? "" : "s");
 		pm_cli_progress_release(prog);
 	}
 

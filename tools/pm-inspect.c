@@ -236,7 +236,8 @@ print_tsv(const struct report *r)
 			printf("%s.radius", k);
 			tsv_float(m->radius);
 			printf("\n%s.mean_irradiance\t%.9g\t%.9g\t%.9g\n", k,
-			    mr->st.mean_e[0], mr->st.mean_e[1], mr->st.mean_e[2]);
+			    mr->st.mean_e[0], mr->st.mean_e[1],
+			    mr->st.mean_e[2]);
 			printf("%s.max_irradiance\t%.9g\n", k, mr->st.max_e);
 		} else {
 			printf("%s.flux\t%.9g\t%.9g\t%.9g\n", k,
@@ -479,7 +480,8 @@ print_json(const struct report *r)
 			    (unsigned long long)mr->st.via_diffuse,
 			    (unsigned long long)mr->st.caustic);
 		}
-		printf("      \"records_crc32\": \"%08x\"", (unsigned)m->records_crc);
+		printf("      \"records_crc32\": \"%08x\"",
+		    (unsigned)m->records_crc);
 		if (mr->verified) {
 			printf(",\n      \"kdtree\": ");
 			if (!m->balanced)

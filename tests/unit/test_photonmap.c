@@ -34,7 +34,7 @@
 #define PATHS		20000	/* photon paths of the single run */
 #define CUT		7919	/* where the shards meet */
 #define SEED		42
-#define CAUSTIC_SEED	99	/* the second map's photons: another stream */
+#define CAUSTIC_SEED	99	/* the second map's: another stream */
 
 struct world {
 	struct pm_scene scene;
@@ -407,7 +407,7 @@ test_stats_recount(void **state)
 		}
 		assert_int_equal(total, m->count);
 		assert_int_equal(s.max_depth, deepest);
-		assert_true(s.max_depth >= 3);	/* albedo 0.6: many bounces */
+		assert_true(s.max_depth >= 3);	/* albedo 0.6: bounces */
 		vd = ca = 0;
 		sum[0] = sum[1] = sum[2] = 0.0L;
 		max_e = 0.0;
@@ -520,19 +520,22 @@ test_reader_reports(void **state)
 		    (uInt)(one.maps[k].count * sizeof(struct pm_photon)));
 	snprintf(path, sizeof(path), "%s/m.pmap", tmpdir);
 	for (c = 0; c < 2; c++) {
-		assert_int_equal(pm_pmap_write(path, &one, c == 1, &err), PM_OK);
+		assert_int_equal(pm_pmap_write(path, &one, c == 1, &err),
+		    PM_OK);
 		buf = slurp(path, &len);
 		for (how = 0; how < 4; how++) {
 			if (how < 2)
-				assert_int_equal(pm_pmap_read(path, &r, how == 1,
-				    &err), PM_OK);
+				assert_int_equal(pm_pmap_read(path, &r,
+				    how == 1, &err), PM_OK);
 			else if (how == 2)
 				assert_int_equal(pm_pmap_parse("m.pmap", buf,
 				    len, &r, &err), PM_OK);
 			else
 				read_piped(buf, len, &r);
-			assert_int_equal(r.version_major, PM_PMAP_VERSION_MAJOR);
-			assert_int_equal(r.version_minor, PM_PMAP_VERSION_MINOR);
+			assert_int_equal(r.version_major,
+			    PM_PMAP_VERSION_MAJOR);
+			assert_int_equal(r.version_minor,
+			    PM_PMAP_VERSION_MINOR);
 			assert_int_equal(r.file_bytes, len);
 			assert_int_equal(r.nmaps, 3);
 			for (k = 0; k < 3; k++) {
@@ -548,7 +551,8 @@ test_reader_reports(void **state)
 				memcpy(&st, e + 48, 8);
 
 				assert_true(off + st <= len);
-				assert_int_equal(r.maps[k].records_crc, want[k]);
+				assert_int_equal(r.maps[k].records_crc,
+				    want[k]);
 				assert_int_equal(r.maps[k].stored_crc, crc);
 				assert_int_equal(r.maps[k].stored_crc,
 				    (uint32_t)crc32(0, buf + off, (uInt)st));
