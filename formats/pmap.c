@@ -97,6 +97,7 @@ struct pmap_in {
 	uint64_t size;			/* or PMAP_UNKNOWN (a pipe) */
 	uint64_t pos;			/* offset of the next byte */
 	bool strict;			/* minor <= ours: reserved are 0 */
+	unsigned major, minor;		/* the file's version */
 	bool zero_copy;			/* buf is our private mapping */
 };
 
@@ -507,6 +508,8 @@ read_header(struct pmap_in *in, unsigned char **hp, uint32_t *hsp)
 		    "version %u.%u (this reader knows %d.x)", in->name,
 		    (unsigned)major, (unsigned)minor, PM_PMAP_VERSION_MAJOR);
 	in->strict = minor <= PM_PMAP_VERSION_MINOR;
+	in->major = major;
+	in->minor = minor;
 	hs = get32(fixed + 12);
 	if (hs < PMAP_FIXED + 4)
 		return pm_fail(in->err, PM_ERR_FORMAT, "%s: header size %lu "
@@ -560,6 +563,17 @@ read_header(struct pmap_in *in, unsigned char **hp, uint32_t *hsp)
 	return PM_OK;
 }
 
+/* A payload that the file's end cuts short, in one message whether the
+ * size was known beforehand or found at the end of a pipe. */
+static enum pm_err
+map_cut(struct pmap_in *in, const struct pmap_entry *me)
+{
+	return pm_fail(in->err, PM_ERR_TRUNCATED, "%s: truncated %s map "
+	    "(bytes %" PRIu64 " to %" PRIu64 ", file is %" PRIu64 " bytes)",
+	    in->name, kind_name(me->kind), me->offset, me->offset +
+	    me->stored, in->size);
+}
+
 /* Checks one map-table entry on its own and against the file's size. */
 static enum pm_err
 check_entry(struct pmap_in *in, const struct pmap_entry *me, uint32_t hs)
@@ -607,9 +621,7 @@ check_entry(struct pmap_in *in, const struct pmap_entry *me, uint32_t hs)
 		    me->at + 40);
 	end = me->offset + me->stored;
 	if (in->size != PMAP_UNKNOWN && end > in->size)
-		return pm_fail(in->err, PM_ERR_TRUNCATED, "%s: truncated %s "
-		    "map (bytes %" PRIu64 " to %" PRIu64 ", file is %" PRIu64
-		    " bytes)", in->name, kn, me->offset, end, in->size);
+		return map_cut(in, me);
 	raw = me->count * PMAP_REC;
 	if (me->compression == PMAP_STORE_NONE && me->stored != raw)
 		return pm_fail(in->err, PM_ERR_FORMAT, "%s: the %s map stores "
@@ -901,16 +913,16 @@ inflate_map(struct pmap_in *in, const struct pmap_entry *me,
 }
 
 /*
- * Checks the count records at rec, raw bytes: their crc32 when they are
- * the payload as stored (with_crc), then, unless the file is of a newer
- * minor version, that their reserved bytes are zero.  Both walk the
- * records a cache-sized block at a time, so that a memory-mapped map is
- * read from memory once.  A damaged byte is reported as a checksum
- * mismatch first.
+ * Checks the count records at rec, raw bytes: their crc32 (into *crcp)
+ * against the stored one when they are the payload as stored (with_crc),
+ * then, unless the file is of a newer minor version, that their reserved
+ * bytes are zero.  Both walk the records a cache-sized block at a time,
+ * so that a memory-mapped map is read from memory once.  A damaged byte
+ * is reported as a checksum mismatch first.
  */
 static enum pm_err
 check_records(struct pmap_in *in, const struct pmap_entry *me,
-    const unsigned char *rec, uint64_t raw, bool with_crc)
+    const unsigned char *rec, uint64_t raw, bool with_crc, uint32_t *crcp)
 {
 	const size_t block = (size_t)PMAP_CHECK_RECS * PMAP_REC;
 	uint64_t at, bad = UINT64_MAX;
@@ -919,13 +931,14 @@ check_records(struct pmap_in *in, const struct pmap_entry *me,
 
 	for (at = 0; at < raw; at += n) {
 		n = raw - at < block ? (size_t)(raw - at) : block;
-		if (with_crc)
-			crc = crc32_z(crc, rec + at, n);
+		/* Inflated records too: what pm-inspect reports. */
+		crc = crc32_z(crc, rec + at, n);
 		if (in->strict && bad == UINT64_MAX &&
 		    (j = first_reserved(rec + at, n / PMAP_REC)) <
 		    n / PMAP_REC)
 			bad = at / PMAP_REC + j;
 	}
+	*crcp = (uint32_t)crc;
 	if (with_crc && (uint32_t)crc != me->crc)
 		return crc_mismatch(in, me, (uint32_t)crc);
 	if (bad == UINT64_MAX)
@@ -942,7 +955,8 @@ check_records(struct pmap_in *in, const struct pmap_entry *me,
 
 /* Reads one map's payload (the current position is at or before it). */
 static enum pm_err
-load_map(struct pmap_in *in, const struct pmap_entry *me, struct pm_map *out)
+load_payload(struct pmap_in *in, const struct pmap_entry *me,
+    struct pm_map *out)
 {
 	char what[32];
 	unsigned char *dst;
@@ -962,6 +976,8 @@ load_map(struct pmap_in *in, const struct pmap_entry *me, struct pm_map *out)
 		out->hi[k] = me->hi[k];
 	}
 	out->photons = NULL;
+	out->stored_crc = me->crc;
+	out->records_crc = 0;		/* that of no bytes */
 	if ((e = in_skip(in, me->offset, what)) != PM_OK)
 		return e;
 	if (raw > SIZE_MAX)
@@ -972,7 +988,8 @@ load_map(struct pmap_in *in, const struct pmap_entry *me, struct pm_map *out)
 	if (me->compression == PMAP_STORE_NONE && in->zero_copy) {
 		dst = (unsigned char *)(uintptr_t)(in->buf + in->pos);
 		in->pos += raw;
-		if ((e = check_records(in, me, dst, raw, true)) != PM_OK)
+		if ((e = check_records(in, me, dst, raw, true,
+		    &out->records_crc)) != PM_OK)
 			return e;
 		out->photons = raw > 0 ? (struct pm_photon *)(void *)dst : NULL;
 		return PM_OK;
@@ -986,11 +1003,13 @@ load_map(struct pmap_in *in, const struct pmap_entry *me, struct pm_map *out)
 	if (me->compression == PMAP_STORE_NONE) {
 		e = in_need(in, dst, (size_t)raw, what);
 		if (e == PM_OK)
-			e = check_records(in, me, dst, raw, true);
+			e = check_records(in, me, dst, raw, true,
+			    &out->records_crc);
 	} else {
 		e = inflate_map(in, me, dst, raw, what);
 		if (e == PM_OK)
-			e = check_records(in, me, dst, raw, false);
+			e = check_records(in, me, dst, raw, false,
+			    &out->records_crc);
 	}
 	if (e != PM_OK || raw == 0) {
 		free(dst);
@@ -999,6 +1018,21 @@ load_map(struct pmap_in *in, const struct pmap_entry *me, struct pm_map *out)
 	out->photons = (struct pm_photon *)(void *)dst;
 	records_to_host(out->photons, (size_t)me->count);
 	return PM_OK;
+}
+
+/*
+ * The same, where a pipe that ends inside the payload is reported as a
+ * file of known size is: the end was unknown until it came.
+ */
+static enum pm_err
+load_map(struct pmap_in *in, const struct pmap_entry *me, struct pm_map *out)
+{
+	enum pm_err e = load_payload(in, me, out);
+
+	if (e == PM_ERR_TRUNCATED && in->size != PMAP_UNKNOWN &&
+	    me->offset + me->stored > in->size)
+		return map_cut(in, me);
+	return e;
 }
 
 /* The whole file from in into m (zeroed by the caller). */
@@ -1018,6 +1052,8 @@ parse(struct pmap_in *in, struct pm_pmap *m)
 	free(h);
 	if (r != PM_OK)
 		return r;
+	m->version_major = in->major;
+	m->version_minor = in->minor;
 	/* In file order, so that a pipe is read front to back. */
 	offset_order(e, (uint32_t)m->nmaps, order);
 	for (i = 0; i < m->nmaps; i++)
@@ -1033,6 +1069,25 @@ parse(struct pmap_in *in, struct pm_pmap *m)
 			    "data after the last map (byte %" PRIu64 ")",
 			    in->name, in->pos - 1);
 	}
+	return PM_OK;
+}
+
+/*
+ * Reads a pipe to its end, so that its size is known: only a file of a
+ * newer minor version, which may append what this reader skips, has
+ * bytes left after its last map.
+ */
+static enum pm_err
+in_drain(struct pmap_in *in)
+{
+	unsigned char buf[4096];
+	enum pm_err e;
+	size_t got;
+
+	do {
+		if ((e = in_fill(in, buf, sizeof(buf), &got)) != PM_OK)
+			return e;
+	} while (got == sizeof(buf));
 	return PM_OK;
 }
 
@@ -1096,6 +1151,10 @@ pm_pmap_read(const char *path, struct pm_pmap *m, bool allow_mmap,
 		}
 	}
 	r = parse(&in, m);
+	if (r == PM_OK && in.size == PMAP_UNKNOWN)
+		r = in_drain(&in);
+	if (r == PM_OK)
+		m->file_bytes = in.size;
 	if (r == PM_OK && m->mapped != NULL) {
 		/* Keep the mapping only if some map points into it. */
 		for (i = 0; i < m->nmaps; i++)
@@ -1132,6 +1191,8 @@ pm_pmap_parse(const char *name, const unsigned char *buf, size_t len,
 	in.size = len;
 	if ((r = parse(&in, m)) != PM_OK)
 		pm_pmap_free(m);
+	else
+		m->file_bytes = len;
 	return r;
 }
 
@@ -1546,16 +1607,4 @@ pm_pmap_info_add(struct pm_pmap *m, const char *key, const char *value,
 	*d++ = '\n';
 	*d = '\0';
 	return PM_OK;
-}
-
-/* The map of the given kind in m, or NULL. */
-struct pm_map *
-pm_pmap_find(struct pm_pmap *m, enum pm_map_kind kind)
-{
-	int i;
-
-	for (i = 0; i < m->nmaps && i < PMAP_MAXMAPS; i++)
-		if (m->maps[i].kind == kind)
-			return &m->maps[i];
-	return NULL;
 }

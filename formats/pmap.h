@@ -1,6 +1,7 @@
 /*
  * pmap.h: the photon-map file, pm's contract between tools.  man/pmap.5
- * specifies every byte; this is its reader and writer.
+ * specifies every byte; this is its reader and writer.  The types it
+ * reads into, and what is done with them, are common/photonmap.h's.
  */
 #ifndef PM_PMAP_H
 #define PM_PMAP_H
@@ -11,56 +12,10 @@
 
 #include "../common/error.h"
 #include "../common/photon.h"
+#include "../common/photonmap.h"
 
 #define PM_PMAP_VERSION_MAJOR 2
 #define PM_PMAP_VERSION_MINOR 0
-
-enum pm_map_kind {
-	PM_MAP_GLOBAL = 1,
-	PM_MAP_CAUSTIC = 2,
-	/* Precomputed irradiance (Christensen 1999): records in the photon
-	 * layout whose power is the irradiance E (W/m^2, not divided by
-	 * emitted, which is 0 as first_index is), whose normal is the
-	 * surface's, at a fraction of the global photons; made by
-	 * pm-balance.  dir is undefined (0) and depth 0. */
-	PM_MAP_IRRADIANCE = 3,
-};
-
-/* Effects a map file simulates (header field `effects`). */
-enum {
-	PM_EFFECT_GLOBAL = 1 << 0,	/* diffuse interreflection: a global map */
-	PM_EFFECT_CAUSTICS = 1 << 1,	/* specular-to-diffuse: a caustic map */
-	PM_EFFECT_REFRACTION = 1 << 2,	/* the scene has dielectrics */
-};
-
-struct pm_map {
-	enum pm_map_kind kind;
-	uint64_t count;			/* photons stored */
-	uint64_t emitted;		/* photon paths shot for this map: the
-					 * flux normaliser */
-	uint64_t first_index;		/* index of the first path shot */
-	bool balanced;			/* photons are in kd-tree order */
-	float lo[3], hi[3];		/* bounds of the positions */
-	float radius;			/* irradiance maps: the lookup radius
-					 * the records were computed with,
-					 * 0 if unknown; 0 for other kinds */
-	struct pm_photon *photons;	/* count records (owned or mapped) */
-};
-
-struct pm_pmap {
-	uint64_t scene_hash;		/* pm_scene_hash of the scene shot */
-	uint64_t seed;
-	uint32_t effects;		/* PM_EFFECT_* */
-	uint32_t max_depth;		/* photon bounces allowed, 0 unlimited */
-	char *info;			/* provenance: "key=value\n" lines, NUL-
-					 * terminated, each tool appending its
-					 * own; owned */
-	int nmaps;			/* 0 to 3 */
-	struct pm_map maps[3];
-	/* Private: set by the reader when the photons are memory-mapped. */
-	void *mapped;
-	size_t mapped_len;
-};
 
 /*
  * Writes m to path ("-": standard output) through a temporary file renamed
@@ -78,7 +33,9 @@ enum pm_err pm_pmap_write(const char *path, const struct pm_pmap *m,
  * again.  With allow_mmap, the
  * records of an uncompressed file are memory-mapped rather than copied
  * (little-endian hosts only).  m is initialised here; free it with
- * pm_pmap_free.
+ * pm_pmap_free.  Besides the contents, m receives what the file says of
+ * itself: its version, its size in bytes (a pipe is read to its end) and
+ * each map's stored crc32 and the crc32 of its records uncompressed.
  */
 enum pm_err pm_pmap_read(const char *path, struct pm_pmap *m, bool allow_mmap,
     struct pm_error *err);
@@ -95,8 +52,5 @@ void pm_pmap_free(struct pm_pmap *m);
  * and newline, which is replaced by a space). */
 enum pm_err pm_pmap_info_add(struct pm_pmap *m, const char *key,
     const char *value, struct pm_error *err);
-
-/* The map of the given kind, or NULL. */
-struct pm_map *pm_pmap_find(struct pm_pmap *m, enum pm_map_kind kind);
 
 #endif

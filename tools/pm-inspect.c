@@ -17,11 +17,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
-#include <time.h>
 #include <unistd.h>
 
-#include <zlib.h>
 
 #include "../common/error.h"
 #include "../common/kdtree.h"
@@ -69,14 +66,7 @@ enum dump_kind { DUMP_NONE, DUMP_XYZ, DUMP_PLY, DUMP_CSV };
 /* What is known of one map once it has been read and checked. */
 struct map_report {
 	const struct pm_map *m;
-	double flux[3];			/* watts: sum of power / emitted */
-	/* Irradiance maps, whose records hold E, not flux: */
-	double mean_e[3];		/* W/m^2, over the records */
-	double max_e;			/* W/m^2, the largest channel */
-	uint64_t depth[256];		/* photons per depth */
-	int max_depth;			/* largest depth present, -1: none */
-	uint64_t via_diffuse, caustic;	/* photons with each flag */
-	uint32_t crc;			/* crc32 of the records, little-endian */
+	struct pm_map_stats st;		/* counted over the records */
 	/* --verify */
 	bool verified, tree_ok;
 	size_t bad;
@@ -88,9 +78,6 @@ struct map_report {
 struct report {
 	const char *name;
 	const struct pm_pmap *pm;
-	uint64_t file_bytes;
-	unsigned version_major, version_minor;
-	bool have_version;
 	uint64_t photons;
 	int n;
 	struct map_report maps[3];
@@ -126,29 +113,6 @@ static const struct pm_cli cli = { PROG, usage_line, help_text, longopts };
 /* Reports a usage error in one line and exits 2. */
 #define usage_error pm_cli_usage_error
 
-static double
-now(void)
-{
-	struct timespec ts;
-
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static const char *
-kind_name(enum pm_map_kind kind)
-{
-	switch (kind) {
-	case PM_MAP_GLOBAL:
-		return "global";
-	case PM_MAP_CAUSTIC:
-		return "caustic";
-	case PM_MAP_IRRADIANCE:
-		return "irradiance";
-	}
-	return "unknown";
-}
-
 /* Effects as a comma-separated list of names ("none" for none). */
 static void
 effects_names(uint32_t e, char *buf, size_t len)
@@ -180,195 +144,24 @@ finite_or_zero(double x)
 /* --- Reading ---------------------------------------------------------- */
 
 /*
- * Reads all of f into a buffer: a pipe has no size to ask for.  Returns
- * NULL with a message printed on failure.
- */
-static unsigned char *
-slurp(FILE *f, const char *name, size_t *len)
-{
-	unsigned char *buf = NULL, *nb;
-	size_t cap = 0, n = 0, got;
-
-	for (;;) {
-		if (n == cap) {
-			cap = cap == 0 ? (size_t)1 << 16 : cap * 2;
-			if ((nb = realloc(buf, cap)) == NULL) {
-				fprintf(stderr, "%s: %s: out of memory\n", PROG,
-				    name);
-				free(buf);
-				return NULL;
-			}
-			buf = nb;
-		}
-		got = fread(buf + n, 1, cap - n, f);
-		n += got;
-		if (got == 0)
-			break;
-	}
-	if (ferror(f)) {
-		fprintf(stderr, "%s: %s: read error: %s\n", PROG, name,
-		    strerror(errno));
-		free(buf);
-		return NULL;
-	}
-	*len = n;
-	return buf;
-}
-
-/* The version fields of the file header (see pmap(5)), if present. */
-static void
-header_version(struct report *r, const unsigned char *h, size_t len)
-{
-	if (len < 12)
-		return;
-	r->version_major = (unsigned)h[8] | (unsigned)h[9] << 8;
-	r->version_minor = (unsigned)h[10] | (unsigned)h[11] << 8;
-	r->have_version = true;
-}
-
-/* Reads and parses a stream that cannot be read twice (a pipe). */
-static bool
-load_stream(FILE *f, const char *name, struct pm_pmap *pm, struct report *r)
-{
-	struct pm_error err;
-	unsigned char *buf;
-	size_t len;
-
-	if ((buf = slurp(f, name, &len)) == NULL)
-		return false;
-	if (pm_pmap_parse(name, buf, len, pm, &err) != PM_OK) {
-		fprintf(stderr, "%s: %s\n", PROG, err.msg);
-		free(buf);
-		return false;
-	}
-	r->file_bytes = len;
-	header_version(r, buf, len);
-	free(buf);
-	return true;
-}
-
-/*
- * Reads the map: a regular file through pm_pmap_read (memory-mapped),
- * standard input or a pipe through a buffer, since the size and version
- * are read from the file itself.  Fills the file-level report.
+ * Reads the map: memory-mapped when it is a regular file, read front to
+ * back when it is a pipe.  The reader says the file's size and version.
  */
 static bool
-load(const char *path, struct pm_pmap *pm, struct report *r)
+load(const char *path, struct pm_pmap *pm)
 {
 	struct pm_error err;
-	unsigned char head[16];
-	struct stat st;
-	size_t len;
-	FILE *f;
-	bool ok;
 
-	memset(&st, 0, sizeof(st));
-	if (strcmp(path, "-") == 0) {
-		if (isatty(STDIN_FILENO)) {
-			fprintf(stderr, "%s: -: refusing to read a photon map "
-			    "from a terminal\n", PROG);
-			return false;
-		}
-		return load_stream(stdin, "standard input", pm, r);
-	}
-	if (stat(path, &st) == 0 && !S_ISREG(st.st_mode) &&
-	    !S_ISDIR(st.st_mode)) {
-		if ((f = fopen(path, "rb")) == NULL) {
-			fprintf(stderr, "%s: %s: %s\n", PROG, path,
-			    strerror(errno));
-			return false;
-		}
-		ok = load_stream(f, path, pm, r);
-		fclose(f);
-		return ok;
+	if (strcmp(path, "-") == 0 && isatty(STDIN_FILENO)) {
+		fprintf(stderr, "%s: -: refusing to read a photon map from a "
+		    "terminal\n", PROG);
+		return false;
 	}
 	if (pm_pmap_read(path, pm, true, &err) != PM_OK) {
 		fprintf(stderr, "%s: %s\n", PROG, err.msg);
 		return false;
 	}
-	/* The reader has checked the header; this reads it again only for
-	 * the version and the size, which it does not keep. */
-	r->file_bytes = (uint64_t)st.st_size;
-	if ((f = fopen(path, "rb")) != NULL) {
-		len = fread(head, 1, sizeof(head), f);
-		header_version(r, head, len);
-		fclose(f);
-	}
 	return true;
-}
-
-/* --- Statistics -------------------------------------------------------- */
-
-/* crc32 of the records as the file stores them uncompressed. */
-static uint32_t
-records_crc(const struct pm_photon *p, size_t n)
-{
-	unsigned char buf[sizeof(struct pm_photon) * 512];
-	uLong crc = crc32(0L, Z_NULL, 0);
-	size_t i, at = 0;
-	int a;
-
-	for (i = 0; i < n; i++) {
-		for (a = 0; a < 3; a++) {
-			uint32_t u;
-
-			memcpy(&u, &p[i].pos[a], 4);
-			buf[at++] = (unsigned char)u;
-			buf[at++] = (unsigned char)(u >> 8);
-			buf[at++] = (unsigned char)(u >> 16);
-			buf[at++] = (unsigned char)(u >> 24);
-		}
-		memcpy(buf + at, p[i].power, 4);
-		at += 4;
-		memcpy(buf + at, p[i].dir, 2);
-		at += 2;
-		memcpy(buf + at, p[i].normal, 2);
-		at += 2;
-		buf[at++] = p[i].flags;
-		buf[at++] = p[i].depth;
-		memcpy(buf + at, p[i].reserved, 2);
-		at += 2;
-		if (at == sizeof(buf)) {
-			crc = crc32(crc, buf, (uInt)at);
-			at = 0;
-		}
-	}
-	crc = crc32(crc, buf, (uInt)at);
-	return (uint32_t)crc;
-}
-
-static void
-map_stats(struct map_report *mr, const struct pm_map *m)
-{
-	double sum[3] = { 0.0, 0.0, 0.0 };
-	size_t i, n = (size_t)m->count;
-
-	memset(mr, 0, sizeof(*mr));
-	mr->m = m;
-	mr->max_depth = -1;
-	for (i = 0; i < n; i++) {
-		const struct pm_photon *p = &m->photons[i];
-		struct pm_rgb c = pm_rgbe_unpack(p->power);
-
-		sum[0] += c.r;
-		sum[1] += c.g;
-		sum[2] += c.b;
-		if (pm_rgb_max(c) > mr->max_e)
-			mr->max_e = pm_rgb_max(c);
-		mr->depth[p->depth]++;
-		if (p->depth > mr->max_depth)
-			mr->max_depth = p->depth;
-		if (p->flags & PM_PHOTON_VIA_DIFFUSE)
-			mr->via_diffuse++;
-		if (p->flags & PM_PHOTON_CAUSTIC)
-			mr->caustic++;
-	}
-	for (i = 0; i < 3; i++) {
-		mr->flux[i] = m->emitted > 0 ? sum[i] / (double)m->emitted :
-		    0.0;
-		mr->mean_e[i] = n > 0 ? sum[i] / (double)n : 0.0;
-	}
-	mr->crc = records_crc(m->photons, n);
 }
 
 /* --- TSV --------------------------------------------------------------- */
@@ -399,9 +192,8 @@ print_tsv(const struct report *r)
 	fputs("file\t", stdout);
 	tsv_text(r->name);
 	putchar('\n');
-	printf("file_bytes\t%llu\n", (unsigned long long)r->file_bytes);
-	if (r->have_version)
-		printf("version\t%u.%u\n", r->version_major, r->version_minor);
+	printf("file_bytes\t%llu\n", (unsigned long long)pm->file_bytes);
+	printf("version\t%u.%u\n", pm->version_major, pm->version_minor);
 	printf("scene_hash\t%016llx\n", (unsigned long long)pm->scene_hash);
 	printf("seed\t%llu\n", (unsigned long long)pm->seed);
 	printf("effects\t%s\n", eff);
@@ -409,7 +201,7 @@ print_tsv(const struct report *r)
 	printf("maps\t%d\n", r->n);
 	printf("photons\t%llu\n", (unsigned long long)r->photons);
 	if (r->photons > 0)
-		printf("bytes_per_photon\t%.3f\n", (double)r->file_bytes /
+		printf("bytes_per_photon\t%.3f\n", (double)pm->file_bytes /
 		    (double)r->photons);
 	printf("bytes_per_photon_in_memory\t%zu\n", sizeof(struct pm_photon));
 	if (r->verify)
@@ -417,7 +209,7 @@ print_tsv(const struct report *r)
 	for (i = 0; i < r->n; i++) {
 		const struct map_report *mr = &r->maps[i];
 		const struct pm_map *m = mr->m;
-		const char *k = kind_name(m->kind);
+		const char *k = pm_map_kind_name(m->kind);
 
 		if (m->kind == PM_MAP_IRRADIANCE)
 			printf("%s.records\t%llu\n", k,
@@ -444,20 +236,21 @@ print_tsv(const struct report *r)
 			printf("%s.radius", k);
 			tsv_float(m->radius);
 			printf("\n%s.mean_irradiance\t%.9g\t%.9g\t%.9g\n", k,
-			    mr->mean_e[0], mr->mean_e[1], mr->mean_e[2]);
-			printf("%s.max_irradiance\t%.9g\n", k, mr->max_e);
+			    mr->st.mean_e[0], mr->st.mean_e[1],
+			    mr->st.mean_e[2]);
+			printf("%s.max_irradiance\t%.9g\n", k, mr->st.max_e);
 		} else {
 			printf("%s.flux\t%.9g\t%.9g\t%.9g\n", k,
-			    mr->flux[0], mr->flux[1], mr->flux[2]);
-			for (d = 0; d <= mr->max_depth; d++)
+			    mr->st.flux[0], mr->st.flux[1], mr->st.flux[2]);
+			for (d = 0; d <= mr->st.max_depth; d++)
 				printf("%s.depth.%d\t%llu\n", k, d,
-				    (unsigned long long)mr->depth[d]);
+				    (unsigned long long)mr->st.depth[d]);
 			printf("%s.flag.via_diffuse\t%llu\n", k,
-			    (unsigned long long)mr->via_diffuse);
+			    (unsigned long long)mr->st.via_diffuse);
 			printf("%s.flag.caustic\t%llu\n", k,
-			    (unsigned long long)mr->caustic);
+			    (unsigned long long)mr->st.caustic);
 		}
-		printf("%s.records_crc32\t%08x\n", k, (unsigned)mr->crc);
+		printf("%s.records_crc32\t%08x\n", k, (unsigned)m->records_crc);
 		if (mr->verified) {
 			if (!m->balanced)
 				printf("%s.kdtree\tnot balanced\n", k);
@@ -614,10 +407,9 @@ print_json(const struct report *r)
 	printf("{\n  \"file\": ");
 	json_str(r->name);
 	printf(",\n  \"file_bytes\": %llu,\n",
-	    (unsigned long long)r->file_bytes);
-	if (r->have_version)
-		printf("  \"version\": \"%u.%u\",\n", r->version_major,
-		    r->version_minor);
+	    (unsigned long long)pm->file_bytes);
+	printf("  \"version\": \"%u.%u\",\n", pm->version_major,
+	    pm->version_minor);
 	printf("  \"scene_hash\": \"%016llx\",\n",
 	    (unsigned long long)pm->scene_hash);
 	printf("  \"seed\": %llu,\n", (unsigned long long)pm->seed);
@@ -630,7 +422,7 @@ print_json(const struct report *r)
 	printf("  \"max_depth\": %u,\n", (unsigned)pm->max_depth);
 	printf("  \"photons\": %llu,\n", (unsigned long long)r->photons);
 	printf("  \"bytes_per_photon\": ");
-	json_num(r->photons > 0 ? (double)r->file_bytes / (double)r->photons :
+	json_num(r->photons > 0 ? (double)pm->file_bytes / (double)r->photons :
 	    NAN, 6);
 	printf(",\n  \"bytes_per_photon_in_memory\": %zu,\n",
 	    sizeof(struct pm_photon));
@@ -642,7 +434,7 @@ print_json(const struct report *r)
 		const struct pm_map *m = mr->m;
 
 		printf("%s\n    {\n      \"kind\": \"%s\",\n", i > 0 ? "," : "",
-		    kind_name(m->kind));
+		    pm_map_kind_name(m->kind));
 		if (m->kind == PM_MAP_IRRADIANCE)
 			printf("      \"records\": %llu,\n",
 			    (unsigned long long)m->count);
@@ -664,31 +456,32 @@ print_json(const struct report *r)
 			printf(",\n      \"radius\": ");
 			json_num(m->radius, 9);
 			printf(",\n      \"mean_irradiance\": [");
-			json_num(mr->mean_e[0], 9);
+			json_num(mr->st.mean_e[0], 9);
 			printf(", ");
-			json_num(mr->mean_e[1], 9);
+			json_num(mr->st.mean_e[1], 9);
 			printf(", ");
-			json_num(mr->mean_e[2], 9);
+			json_num(mr->st.mean_e[2], 9);
 			printf("],\n      \"max_irradiance\": ");
-			json_num(mr->max_e, 9);
+			json_num(mr->st.max_e, 9);
 			printf(",\n");
 		} else {
 			printf(",\n      \"flux\": [");
-			json_num(mr->flux[0], 9);
+			json_num(mr->st.flux[0], 9);
 			printf(", ");
-			json_num(mr->flux[1], 9);
+			json_num(mr->st.flux[1], 9);
 			printf(", ");
-			json_num(mr->flux[2], 9);
+			json_num(mr->st.flux[2], 9);
 			printf("],\n      \"depth\": [");
-			for (d = 0; d <= mr->max_depth; d++)
+			for (d = 0; d <= mr->st.max_depth; d++)
 				printf("%s%llu", d > 0 ? ", " : "",
-				    (unsigned long long)mr->depth[d]);
+				    (unsigned long long)mr->st.depth[d]);
 			printf("],\n      \"flags\": {\"via_diffuse\": %llu, "
 			    "\"caustic\": %llu},\n",
-			    (unsigned long long)mr->via_diffuse,
-			    (unsigned long long)mr->caustic);
+			    (unsigned long long)mr->st.via_diffuse,
+			    (unsigned long long)mr->st.caustic);
 		}
-		printf("      \"records_crc32\": \"%08x\"", (unsigned)mr->crc);
+		printf("      \"records_crc32\": \"%08x\"",
+		    (unsigned)m->records_crc);
 		if (mr->verified) {
 			printf(",\n      \"kdtree\": ");
 			if (!m->balanced)
@@ -807,7 +600,7 @@ dump(const struct report *r, enum dump_kind kind)
 		    "depth,flags,normal_x,normal_y,normal_z\n");
 	for (i = 0; i < r->n; i++) {
 		const struct pm_map *m = r->maps[i].m;
-		const char *k = kind_name(m->kind);
+		const char *k = pm_map_kind_name(m->kind);
 		/* Irradiance records hold E, which nothing divides. */
 		double norm = m->emitted > 0 ? 1.0 / (double)m->emitted : 1.0;
 
@@ -953,13 +746,13 @@ main(int argc, char *argv[])
 		    "--knn-check");
 	path = argv[0];
 
-	t = now();
-	if (!load(path, &pm, &r))
+	t = pm_cli_now();
+	if (!load(path, &pm))
 		return 1;
 	loaded = true;
 	if (verbosity >= 2)
 		fprintf(stderr, "%s: %s: read and checked in %.3f s\n", PROG,
-		    path, now() - t);
+		    path, pm_cli_now() - t);
 	r.name = path;
 	r.pm = &pm;
 	r.verify = verify;
@@ -974,7 +767,7 @@ main(int argc, char *argv[])
 	}
 	if (only != 0 && r.n == 0) {
 		fprintf(stderr, "%s: %s: holds no %s map\n", PROG, path,
-		    kind_name((enum pm_map_kind)only));
+		    pm_map_kind_name((enum pm_map_kind)only));
 		goto fail;
 	}
 
@@ -987,7 +780,7 @@ main(int argc, char *argv[])
 	for (i = 0; i < r.n; i++) {
 		const struct pm_map *m = r.maps[i].m;
 
-		map_stats(&r.maps[i], m);
+		pm_map_stats(m, &r.maps[i].st);
 		if (m->kind != PM_MAP_IRRADIANCE)
 			r.photons += m->count;
 	}
@@ -1002,7 +795,7 @@ main(int argc, char *argv[])
 			if (!mr->tree_ok) {
 				fprintf(stderr, "%s: %s: %s map: kd-tree order "
 				    "broken at node %zu\n", PROG, path,
-				    kind_name(m->kind), mr->bad);
+				    pm_map_kind_name(m->kind), mr->bad);
 				failed = true;
 			}
 		}
@@ -1010,25 +803,25 @@ main(int argc, char *argv[])
 			if (verbosity >= 1)
 				fprintf(stderr, "%s: %s: %s map is not "
 				    "balanced; --knn-check skips it\n", PROG,
-				    path, kind_name(m->kind));
+				    path, pm_map_kind_name(m->kind));
 		} else if (queries > 0 && (!verify || mr->tree_ok)) {
-			t = now();
+			t = pm_cli_now();
 			if (pm_knn_check(m->photons, (size_t)m->count,
 			    (size_t)queries, (size_t)k, seed, &mr->knn,
 			    &err) != PM_OK) {
 				fprintf(stderr, "%s: %s: %s map: %s\n", PROG,
-				    path, kind_name(m->kind), err.msg);
+				    path, pm_map_kind_name(m->kind), err.msg);
 				goto fail;
 			}
 			mr->knn_done = true;
 			if (verbosity >= 2)
 				fprintf(stderr, "%s: %s map: knn check took "
-				    "%.3f s\n", PROG, kind_name(m->kind),
-				    now() - t);
+				    "%.3f s\n", PROG, pm_map_kind_name(m->kind),
+				    pm_cli_now() - t);
 			if (mr->knn.mismatches > 0) {
 				fprintf(stderr, "%s: %s: %s map: %zu of %zu "
 				    "k-nearest queries differ from FLANN's\n",
-				    PROG, path, kind_name(m->kind),
+				    PROG, path, pm_map_kind_name(m->kind),
 				    mr->knn.mismatches, mr->knn.queries);
 				failed = true;
 			}

@@ -19,6 +19,7 @@
 
 #include "cli.h"
 #include "../common/parse.h"
+#include "../common/photonmap.h"
 #include "../common/render.h"
 #include "../common/shoot.h"
 #include "../common/world.h"
@@ -263,8 +264,6 @@ preview_tick(void *arg)
 	}
 }
 
-/* Loads a balanced map for this scene into maps; prints and returns 0 on
- * failure. */
 /* Progressive photon mapping's settings from the command line. */
 struct pppm {
 	long pass;		/* 0: not progressive */
@@ -272,6 +271,8 @@ struct pppm {
 	double alpha;
 };
 
+/* Loads a balanced map for this scene into maps, with the lookup radii;
+ * prints and returns 0 on failure. */
 static int
 load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
     const struct pppm *pg, struct pm_pmap *pm, struct pm_photon_maps *maps,
@@ -280,7 +281,7 @@ load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
 	struct pm_error err = {PM_OK, ""};
 	const struct pm_photon_params *pp = &scene->integrator.photon;
 	uint64_t want = pm_scene_hash(scene);
-	int i;
+	struct pm_lookup_radii r;
 
 	if (pm_pmap_read(path, pm, true, &err) != PM_OK) {
 		fprintf(stderr, PROG ": %s\n", err.msg);
@@ -298,7 +299,7 @@ load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
 		 * for a scene's max_depth; records made under another cap
 		 * cannot be corrected here. */
 		int md = scene->integrator.max_depth;
-		uint32_t want_cap = md < 0 ? 0 : (uint32_t)(md > 2 ? md - 2 : 0);
+		uint32_t want_cap = pm_photon_depth_cap(md);
 
 		if (pm->max_depth != want_cap && verbose) {
 			char have[32] = "no limit", want[32] = "no limit";
@@ -313,64 +314,21 @@ load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
 			    have, want, md);
 		}
 	}
-	memset(maps, 0, sizeof(*maps));
-	for (i = 0; i < pm->nmaps; i++) {
-		const struct pm_map *m = &pm->maps[i];
-
-		const char *kind = "";
-
-		switch (m->kind) {
-		case PM_MAP_GLOBAL:
-			kind = "global";
-			maps->global = m->photons;
-			maps->nglobal = (size_t)m->count;
-			maps->global_scale = m->emitted ? 1.0f / (float)m->emitted : 0.0f;
-			break;
-		case PM_MAP_CAUSTIC:
-			kind = "caustic";
-			maps->caustic = m->photons;
-			maps->ncaustic = (size_t)m->count;
-			maps->caustic_scale = m->emitted ? 1.0f / (float)m->emitted : 0.0f;
-			break;
-		case PM_MAP_IRRADIANCE:
-			/* Irradiance, not flux: nothing to divide by. */
-			kind = "irradiance";
-			maps->irradiance = m->photons;
-			maps->nirradiance = (size_t)m->count;
-			break;
-		}
-		if (!m->balanced && m->count > 1) {
-			fprintf(stderr, PROG ": %s: the %s map is not balanced; run "
-			    "pm-balance on it first\n", path, kind);
-			return 0;
-		}
+	if (pm_photon_maps_from_pmap(pm, maps, &err) != PM_OK) {
+		fprintf(stderr, PROG ": %s: %s\n", path, err.msg);
+		return 0;
 	}
-	/* Radii are fractions of the scene's bounding-sphere radius, as in
-	 * Mitsuba 0.6's photon mapper. */
-	maps->global_r2 = pp->global_lookup_radius * scene_radius;
-	maps->global_r2 *= maps->global_r2;
-	maps->caustic_r2 = pp->caustic_lookup_radius * scene_radius;
-	maps->caustic_r2 *= maps->caustic_r2;
-	if (pg->pass > 0) {
-		/* Both radii start where the scene (or --radius, keeping their
-		 * ratio) puts them and shrink together along the schedule. */
-		double f = pm_pppm_radius_scale(pg->pass, pg->alpha);
-
-		if (pg->radius > 0.0f) {
-			double g = pg->radius / pp->global_lookup_radius;
-
-			f *= g;
-		}
-		maps->global_r2 = (float)(maps->global_r2 * f * f);
-		maps->caustic_r2 = (float)(maps->caustic_r2 * f * f);
-		maps->fixed_radius = true;
-		if (verbose >= 2)
-			fprintf(stderr, PROG ": %s: progressive pass %ld, alpha %g: "
-			    "radius scale %.9g, fixed radii %.9g (global) and %.9g "
-			    "(caustic)\n", path, pg->pass, pg->alpha,
-			    pm_pppm_radius_scale(pg->pass, pg->alpha),
-			    sqrt(maps->global_r2), sqrt(maps->caustic_r2));
-	}
+	r = pm_lookup_radii(pp->global_lookup_radius, pp->caustic_lookup_radius,
+	    scene_radius, pg->pass, pg->alpha, pg->radius);
+	maps->global_r2 = r.global_r2;
+	maps->caustic_r2 = r.caustic_r2;
+	maps->fixed_radius = r.fixed;
+	if (pg->pass > 0 && verbose >= 2)
+		fprintf(stderr, PROG ": %s: progressive pass %ld, alpha %g: "
+		    "radius scale %.9g, fixed radii %.9g (global) and %.9g "
+		    "(caustic)\n", path, pg->pass, pg->alpha,
+		    pm_pppm_radius_scale(pg->pass, pg->alpha),
+		    sqrt(maps->global_r2), sqrt(maps->caustic_r2));
 	maps->lookup_size = pp->lookup_size;
 	maps->direct_samples = pp->direct_samples;
 	maps->final_gather = pp->final_gather;
