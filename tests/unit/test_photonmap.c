@@ -29,6 +29,7 @@
 #include "../../common/photonmap.h"
 #include "../../common/render.h"
 #include "../../common/shoot.h"
+#include "../../common/world.h"
 #include "../../formats/pmap.h"
 
 #define PATHS		20000	/* photon paths of the single run */
@@ -38,8 +39,7 @@
 
 struct world {
 	struct pm_scene scene;
-	struct pm_accel *accel;
-	struct pm_lights lights;
+	struct pm_world traced;		/* ray caster and lights */
 	struct pm_shooter shooter;
 };
 
@@ -84,9 +84,8 @@ setup(void **state)
 	s->lights[l].shape = sh;
 	s->shapes[sh].light = l;
 	if (pm_scene_prepare(s, &err) != PM_OK ||
-	    pm_accel_build(s, &w.accel, &err) != PM_OK ||
-	    pm_lights_init(&w.lights, s, pm_v3(0, 0, 0), 10.0f, &err) !=
-	    PM_OK || pm_shooter_init(&w.shooter, s, w.accel, &w.lights,
+	    pm_world_init(&w.traced, s, &err) != PM_OK ||
+	    pm_shooter_init(&w.shooter, s, w.traced.accel, &w.traced.lights,
 	    &err) != PM_OK)
 		return -1;
 	return 0;
@@ -97,8 +96,7 @@ teardown(void **state)
 {
 	(void)state;
 	pm_shooter_free(&w.shooter);
-	pm_lights_free(&w.lights);
-	pm_accel_free(w.accel);
+	pm_world_free(&w.traced);
 	pm_scene_free(&w.scene);
 	rmdir(tmpdir);
 	return 0;
