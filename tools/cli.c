@@ -5,9 +5,9 @@
 /* sched_getaffinity and CPU_COUNT are GNU extensions. */
 #define _GNU_SOURCE
 #include <errno.h>
-#include <sched.h>
 #include <libgen.h>
 #include <pthread.h>
+#include <sched.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -16,6 +16,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "../common/parse.h"
 #include "cli.h"
 
 /* The tool being run, for usage errors, and its command line. */
@@ -209,6 +210,44 @@ pm_cli_join_args(int argc, char **argv)
 	}
 	*q = '\0';
 	return s;
+}
+
+void
+pm_cli_opts_init(struct pm_cli_opts *o)
+{
+	memset(o, 0, sizeof(*o));
+	o->verbosity = 1;
+	o->threads = pm_cli_cores();
+	if (o->threads > 4096)
+		o->threads = 4096;
+}
+
+int
+pm_cli_common(struct pm_cli_opts *o, int c)
+{
+	switch (c) {
+	case 'D':
+		pm_cli_define(optarg, o->defs, &o->ndefs, PM_CLI_MAX_DEFINES);
+		return 1;
+	case 'f':
+		o->force = 1;
+		return 1;
+	case 'o':
+		o->output = optarg;
+		return 1;
+	case 'q':
+		o->verbosity = 0;
+		return 1;
+	case 't':
+		if (!pm_parse_long(optarg, 1, 4096, &o->threads))
+			pm_cli_usage_error("-t wants a thread count from 1 to "
+			    "4096, not '%s'", optarg);
+		return 1;
+	case 'v':
+		o->verbosity = 2;
+		return 1;
+	}
+	return 0;
 }
 
 long

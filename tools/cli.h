@@ -48,6 +48,29 @@ void pm_cli_usage_error(const char *fmt, ...)
  */
 void pm_cli_define(char *arg, struct pm_define *defs, size_t *n, size_t max);
 
+/*
+ * The options the tools share, each meaning the same everywhere: -f
+ * (overwrite an existing output), -o FILE, -q and -v (verbosity 0 and 2;
+ * 1 by default), -t N (threads, 1 to 4096; pm_cli_cores() by default) and
+ * -D NAME=VALUE.  A tool lists in its getopt string only those it takes
+ * and passes every option to pm_cli_common first.
+ */
+#define PM_CLI_MAX_DEFINES 64
+struct pm_cli_opts {
+	int force;
+	const char *output;		/* NULL unless -o */
+	int verbosity;
+	long threads;
+	struct pm_define defs[PM_CLI_MAX_DEFINES];
+	size_t ndefs;
+};
+
+void pm_cli_opts_init(struct pm_cli_opts *o);
+/* Takes option c (with optarg) into o if it is a shared one and returns
+ * 1; returns 0 for the tool's own options.  A bad -t or -D is a usage
+ * error. */
+int pm_cli_common(struct pm_cli_opts *o, int c);
+
 /* Seconds on a monotonic clock, for the timings -v prints. */
 double pm_cli_now(void);
 

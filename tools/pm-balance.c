@@ -26,7 +26,6 @@
 #include "cli.h"
 
 #define PROG		"pm-balance"
-#define MAX_THREADS	4096
 
 static const char usage_line[] =
     "usage: pm-balance [-fqv] [-t THREADS] [--compress] [--irradiance-stride N]\n"
@@ -131,9 +130,10 @@ main(int argc, char *argv[])
 	struct pm_pmap *in = NULL, out;
 	struct pm_shard *shards = NULL;
 	struct pm_irradiance_setup irr;
-	const char *output = NULL;
-	bool force = false, compress = false;
-	long threads = pm_cli_cores();
+	struct pm_cli_opts co;
+	const char *output;
+	bool force, compress = false;
+	long threads;
 	long irr_stride = 8, irr_k = 32, pass = 0;
 	float irr_radius = 0.05f, alpha = 2.0f / 3.0f;
 	int ch, i, j, k, n = 0, nread = 0, nstdin = 0, status = 1;
@@ -144,29 +144,11 @@ main(int argc, char *argv[])
 	_Atomic long pdone, ptotal;
 
 	memset(&out, 0, sizeof(out));
-	if (threads < 1)
-		threads = 1;
-	if (threads > MAX_THREADS)
-		threads = MAX_THREADS;
+	pm_cli_opts_init(&co);
 	while ((ch = pm_cli_getopt(&cli, argc, argv, "fho:qt:v")) != -1) {
+		if (pm_cli_common(&co, ch))
+			continue;
 		switch (ch) {
-		case 'f':
-			force = true;
-			break;
-		case 'o':
-			output = optarg;
-			break;
-		case 'q':
-			verbosity = 0;
-			break;
-		case 't':
-			if (!pm_parse_long(optarg, 1, MAX_THREADS, &threads))
-				usage_error("--threads: expected a count from 1 "
-				    "to %d, got '%s'", MAX_THREADS, optarg);
-			break;
-		case 'v':
-			verbosity = 2;
-			break;
 		case OPT_COMPRESS:
 			compress = true;
 			break;
@@ -199,6 +181,10 @@ main(int argc, char *argv[])
 			usage_error("unhandled option '%s'", argv[optind - 1]);
 		}
 	}
+	output = co.output;
+	force = co.force;
+	verbosity = co.verbosity;
+	threads = co.threads;
 	argc -= optind;
 	argv += optind;
 

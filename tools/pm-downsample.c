@@ -178,9 +178,10 @@ main(int argc, char *argv[])
 	struct pm_exr_attrs attrs = { 0 };
 	struct pm_error err;
 	enum out_kind kind = OUT_EXR;
-	const char *output = NULL, *first = NULL;
+	struct pm_cli_opts co;
+	const char *output, *first = NULL;
 	double exposure = 0.0;
-	bool half = false, exposure_set = false, force = false;
+	bool half = false, exposure_set = false, force;
 	int filter = PM_FILTER_BOX, factor = 1;
 	int ch, i, k, ninputs, width = 0, height = 0;
 	uint8_t *srgb = NULL;
@@ -188,7 +189,10 @@ main(int argc, char *argv[])
 	memset(level, 0, sizeof(level));
 	memset(&sum, 0, sizeof(sum));
 	memset(&out, 0, sizeof(out));
+	pm_cli_opts_init(&co);
 	while ((ch = pm_cli_getopt(&cli, argc, argv, "e:F:fho:qv")) != -1) {
+		if (pm_cli_common(&co, ch))
+			continue;
 		switch (ch) {
 		case 'e':
 			exposure = parse_number("--exposure", optarg,
@@ -201,21 +205,9 @@ main(int argc, char *argv[])
 				    "expected box, tent, gaussian, mitchell "
 				    "or lanczos", optarg);
 			break;
-		case 'f':
-			force = true;
-			break;
 		case OPT_FACTOR:
 			factor = (int)parse_number("--factor", optarg, 1,
 			    MAX_FACTOR, true);
-			break;
-		case 'o':
-			output = optarg;
-			break;
-		case 'q':
-			verbosity = 0;
-			break;
-		case 'v':
-			verbosity = 2;
 			break;
 		case OPT_HALF:
 			half = true;
@@ -224,6 +216,9 @@ main(int argc, char *argv[])
 			usage_error("unhandled option '%s'", argv[optind - 1]);
 		}
 	}
+	output = co.output;
+	force = co.force;
+	verbosity = co.verbosity;
 	argc -= optind;
 	argv += optind;
 

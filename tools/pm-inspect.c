@@ -669,22 +669,20 @@ main(int argc, char *argv[])
 	long queries = 0, k = DEFAULT_K;
 	unsigned long long seed = 1;
 	double t;
+	struct pm_cli_opts co;
 
 	memset(&pm, 0, sizeof(pm));
 	memset(&r, 0, sizeof(r));
+	pm_cli_opts_init(&co);
 	while ((ch = pm_cli_getopt(&cli, argc, argv, "hk:qv")) != -1) {
+		if (pm_cli_common(&co, ch))
+			continue;
 		switch (ch) {
 		case 'k':
 			if (!pm_parse_long(optarg, 1, MAX_K, &k))
 				usage_error("-k: expected a neighbour count "
 				    "from 1 to %ld, got '%s'", MAX_K, optarg);
 			k_set = true;
-			break;
-		case 'q':
-			verbosity = 0;
-			break;
-		case 'v':
-			verbosity = 2;
 			break;
 		case OPT_DUMP:
 			if (strcmp(optarg, "xyz") == 0)
@@ -730,6 +728,7 @@ main(int argc, char *argv[])
 			usage_error("unhandled option '%s'", argv[optind - 1]);
 		}
 	}
+	verbosity = co.verbosity;
 	argc -= optind;
 	argv += optind;
 

@@ -95,22 +95,17 @@ main(int argc, char **argv)
 	static const struct pm_cli cli = {PROG, usage_line, help_text, longopts};
 	struct pm_merl_model mo;
 	struct pm_error err = {PM_OK, ""};
-	const char *out_path = NULL, *what = NULL;
+	struct pm_cli_opts co;
+	const char *out_path, *what = NULL;
 	float alpha = -1.0f, ior = -1.0f;
-	int force = 0, verbose = 0, nmodels = 0, c;
+	int force, verbose, nmodels = 0, c;
 
 	memset(&mo, 0, sizeof(mo));
+	pm_cli_opts_init(&co);
 	while ((c = pm_cli_getopt(&cli, argc, argv, "fho:v")) != -1) {
+		if (pm_cli_common(&co, c))
+			continue;
 		switch (c) {
-		case 'f':
-			force = 1;
-			break;
-		case 'o':
-			out_path = optarg;
-			break;
-		case 'v':
-			verbose = 1;
-			break;
 		case OPT_LAMBERT:
 			mo.type = PM_MERL_LAMBERT;
 			if (!parse_rgb(optarg, &mo.albedo))
@@ -152,6 +147,9 @@ main(int argc, char **argv)
 			usage_error("unhandled option '%s'", argv[optind - 1]);
 		}
 	}
+	out_path = co.output;
+	force = co.force;
+	verbose = co.verbosity >= 2;
 	if (optind != argc)
 		usage_error("unexpected argument '%s'", argv[optind]);
 	if (nmodels != 1)

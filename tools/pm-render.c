@@ -29,7 +29,6 @@
 #include "../formats/scene_xml.h"
 
 #define PROG "pm-render"
-#define MAX_DEFINES 64
 #define MAX_CAMERAS 100000
 
 static const char usage_line[] =
@@ -429,18 +428,17 @@ main(int argc, char **argv)
 		{NULL, 0, NULL, 0},
 	};
 	static const struct pm_cli cli = {PROG, usage_line, help_text, longopts};
-	struct pm_define defs[MAX_DEFINES];
-	size_t ndefs = 0;
-	const char *out_path = NULL, *scene_path, *map_path = NULL;
+	struct pm_cli_opts co;
+	const char *out_path, *scene_path, *map_path = NULL;
 	const char *cameras_path = NULL, *method = NULL;
 	struct cam_override one = {{0, 0, 0}, {0, 0, 0}, {0, 1, 0}, 0.0f};
 	struct cam_override *cams = NULL;
 	long ncams = 0, ci;
 	int have_eye = 0, have_target = 0, width = 0, height = 0, half = 0;
-	int verbose = 1, c, fg = -1, force = 0;
+	int verbose, c, fg = -1, force;
 	struct preview pv = {NULL, NULL, {0, 0, NULL}, NULL, 0, 0};
 	float preview_every = 1.0f;
-	long spp = 0, threads = pm_cli_cores();
+	long spp = 0, threads;
 	long lookup = 0, direct = 0, fg_samples = 0;
 	long cache_step = -1, cache_rays = 0;
 	float cache_acc = 0.0f;
@@ -459,30 +457,11 @@ main(int argc, char **argv)
 	double t0, t_load;
 	int status = 0, have_pmap = 0;
 
-	if (threads < 1)
-		threads = 1;
+	pm_cli_opts_init(&co);
 	while ((c = pm_cli_getopt(&cli, argc, argv, "D:fho:qt:v")) != -1) {
+		if (pm_cli_common(&co, c))
+			continue;
 		switch (c) {
-		case 'D':
-			pm_cli_define(optarg, defs, &ndefs, MAX_DEFINES);
-			break;
-		case 'f':
-			force = 1;
-			break;
-		case 'o':
-			out_path = optarg;
-			break;
-		case 'q':
-			verbose = 0;
-			break;
-		case 't':
-			if (!pm_parse_long(optarg, 1, 4096, &threads))
-				usage_error("-t wants a thread count from 1 to 4096, not '%s'",
-				    optarg);
-			break;
-		case 'v':
-			verbose = 2;
-			break;
 		case OPT_METHOD:
 			if (strcmp(optarg, "path") != 0 && strcmp(optarg, "photon") != 0)
 				usage_error("unknown method '%s' (path or photon)", optarg);
@@ -604,6 +583,10 @@ main(int argc, char **argv)
 			usage_error("unhandled option '%s'", argv[optind - 1]);
 		}
 	}
+	out_path = co.output;
+	force = co.force;
+	verbose = co.verbosity;
+	threads = co.threads;
 	if (optind == argc)
 		usage_error("%s", "no scene file given");
 	if (argc - optind > 2)
@@ -651,7 +634,7 @@ main(int argc, char **argv)
 	}
 
 	t0 = pm_cli_now();
-	if (pm_scene_load(scene_path, defs, ndefs, &scene, &err) != PM_OK) {
+	if (pm_scene_load(scene_path, co.defs, co.ndefs, &scene, &err) != PM_OK) {
 		fprintf(stderr, PROG ": %s\n", err.msg);
 		free(cams);
 		return 1;

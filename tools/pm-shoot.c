@@ -21,7 +21,6 @@
 #include "../formats/scene_xml.h"
 
 #define PROG "pm-shoot"
-#define MAX_DEFINES 64
 
 static const char usage_line[] =
     "usage: pm-shoot [-fqv] [--photons N] [--caustic-photons N] [--seed S]\n"
@@ -168,13 +167,12 @@ main(int argc, char **argv)
 	struct pm_cli_progress *prog;
 	enum pm_err e;
 	_Atomic long done, total;
-	struct pm_define defs[MAX_DEFINES];
-	size_t ndefs = 0;
-	const char *out_path = NULL, *scene_path;
-	long threads = pm_cli_cores(), max_depth = -2;
+	struct pm_cli_opts co;
+	const char *out_path, *scene_path;
+	long threads, max_depth = -2;
 	long long nglobal = -1, ncaustic = -1;
 	unsigned long long seed = 0, first = 0, v;
-	int verbose = 1, force = 0, compress = 0, c, status = 0;
+	int verbose, force, compress = 0, c, status = 0;
 	struct pm_scene scene;
 	struct pm_world world;
 	struct pm_shooter shooter;
@@ -186,30 +184,11 @@ main(int argc, char **argv)
 	double t0;
 	int pass, i;
 
-	if (threads < 1)
-		threads = 1;
+	pm_cli_opts_init(&co);
 	while ((c = pm_cli_getopt(&cli, argc, argv, "D:fho:qt:v")) != -1) {
+		if (pm_cli_common(&co, c))
+			continue;
 		switch (c) {
-		case 'D':
-			pm_cli_define(optarg, defs, &ndefs, MAX_DEFINES);
-			break;
-		case 'f':
-			force = 1;
-			break;
-		case 'o':
-			out_path = optarg;
-			break;
-		case 'q':
-			verbose = 0;
-			break;
-		case 't':
-			if (!pm_parse_long(optarg, 1, 4096, &threads))
-				usage_error("-t wants a thread count from 1 to 4096, not '%s'",
-				    optarg);
-			break;
-		case 'v':
-			verbose = 2;
-			break;
 		case OPT_PHOTONS:
 			if (!pm_parse_u64(optarg, &v) || v > (1ULL << 40))
 				usage_error("--photons wants a count from 0 to 2^40, not '%s'",
@@ -244,6 +223,10 @@ main(int argc, char **argv)
 			usage_error("unhandled option '%s'", argv[optind - 1]);
 		}
 	}
+	out_path = co.output;
+	force = co.force;
+	verbose = co.verbosity;
+	threads = co.threads;
 	if (optind + 1 != argc)
 		usage_error("%s", optind == argc ? "no scene file given" :
 		    "more than one scene file given");
@@ -254,7 +237,7 @@ main(int argc, char **argv)
 		return 1;
 
 	t0 = pm_cli_now();
-	if (pm_scene_load(scene_path, defs, ndefs, &scene, &err) != PM_OK) {
+	if (pm_scene_load(scene_path, co.defs, co.ndefs, &scene, &err) != PM_OK) {
 		fprintf(stderr, PROG ": %s\n", err.msg);
 		return 1;
 	}
