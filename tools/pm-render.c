@@ -76,7 +76,7 @@ static const char help_text[] =
     "      --cache-rays N          gather rays per cache point (default\n"
     "                              4 per spp, from 16 to 256)\n"
     "      --cache-accuracy A      Ward's a: larger trusts points farther\n"
-    "                              (default 0.3)\n"
+    "                              (default 0.6)\n"
     "      --pass I                progressive pass I (1, 2, ...): fixed radii\n"
     "      --radius R              first pass's global radius\n"
     "      --alpha A               progressive radius shrinkage (default 2/3)\n"

@@ -68,10 +68,10 @@ SWEEPS = [
                      ("cache-rays 16", {"render": ["--cache-rays", "16"]}),
                      ("cache-rays 256", {"render": ["--cache-rays",
                                                     "256"]}),
-                     ("cache-accuracy 0.15", {"render": [
-                         "--cache-accuracy", "0.15"]}),
-                     ("cache-accuracy 0.6", {"render": [
-                         "--cache-accuracy", "0.6"]})]),
+                     ("cache-accuracy 0.3 (0.3.0's)", {"render": [
+                         "--cache-accuracy", "0.3"]}),
+                     ("cache-accuracy 1.0", {"render": [
+                         "--cache-accuracy", "1.0"]})]),
     ("no-cache", "pm", [("gather per sample, 4 rays",
                          {"render": ["--cache-step", "0"]})]),
     ("direct", "pm", [("direct-samples 4", {"render": ["--direct-samples",
