@@ -14,7 +14,9 @@
 #     pm-balance and pm-render;
 #   - peak resident memory of pm-shoot and pm-balance (one thread,
 #     caustics.xml, 5M paths) against the size of the map they write;
-#   - bytes per photon in memory and on disk, plain and zlib-compressed.
+#   - bytes per photon in memory and on disk, plain and zlib-compressed;
+#   - camera paths per second on one core in path mode against Mitsuba 3's
+#     path tracer (tests/bench/mitsuba_paths.py, from the accuracy venv).
 #
 # One table on stdout, every figure as JSON in out/bench/bench.json.  No
 # figure passes or fails: the machine decides them.  Knobs (environment):
@@ -75,6 +77,28 @@ emit "{\"what\": \"speedup\", \"tool\": \"pm-balance\", \"threads\": $NCPU, \"on
 t=$(now); $B/pm-render -q -f -t 1 --spp 4 --size 128x128 -o "$OUT/r1.exr" $scene "$OUT/bN.pmap"; a=$(since "$t")
 t=$(now); $B/pm-render -q -f -t "$NCPU" --spp 4 --size 128x128 -o "$OUT/rN.exr" $scene "$OUT/bN.pmap"; b=$(since "$t")
 emit "{\"what\": \"speedup\", \"tool\": \"pm-render\", \"threads\": $NCPU, \"one_s\": $a, \"all_s\": $b}"
+
+# Camera paths per second on one core, path mode, against Mitsuba 3's
+# path tracer on the same scene file (same max_depth and spp), where the
+# accuracy venv (make accuracy-venv) has it: the render's own rate as
+# pm-render -v prints it against Mitsuba's render call, loading excluded
+# from both.
+PY=${BENCH_PY:-build/venv/bin/python}
+PIN=
+command -v taskset >/dev/null 2>&1 && PIN="taskset -c 0"
+for s in cornell-box caustics; do
+	$PIN $B/pm-render -v -f -t 1 --method path --spp 64 --size 128x128 \
+	    -D res=128 -o "$OUT/p.exr" data/$s.xml 2>"$OUT/path.log"
+	pm=$(sed -n 's/.*rendered [0-9]* samples in [0-9.]* s (\([0-9.]*\) Msamples\/s).*/\1/p' "$OUT/path.log")
+	mi=null
+	if [ -x "$PY" ] && "$PY" -c 'import mitsuba' 2>/dev/null; then
+		mi=$($PIN "$PY" tests/bench/mitsuba_paths.py data/$s.xml 128 64 |
+		    sed -n 's/.*"samples_per_s": \([0-9.e+]*\).*/\1/p')
+		[ -n "$mi" ] || mi=null
+	fi
+	emit "{\"what\": \"paths\", \"scene\": \"$s\", \"pm_samples_per_s\": $(awk -v m="$pm" 'BEGIN { print m * 1e6 }'), \"mitsuba_samples_per_s\": $mi}"
+done
+rm -f "$OUT/path.log"
 
 # Peak resident memory of pm-shoot and pm-balance against the map they
 # write (GNU time's %M, in KiB), one thread, caustics.xml.
@@ -153,6 +177,14 @@ for r in rows:
                                           r["disk_bytes"] / r["photons"], "-", "-"))
         print("%-44s %14.2f %14s %8s" % ("bytes per photon on disk, zlib",
                                           r["compressed_bytes"] / r["photons"], "-", "-"))
+    elif w == "paths":
+        if r["mitsuba_samples_per_s"] is None:
+            print("%-44s %14.4g %14s %8s" % (
+                "%s: camera paths/s/core (no Mitsuba)" % r["scene"],
+                r["pm_samples_per_s"], "-", "-"))
+        else:
+            row("%s: camera paths/s/core (Mitsuba)" % r["scene"],
+                r["pm_samples_per_s"], r["mitsuba_samples_per_s"])
     elif w == "shoot-big":
         print("%-44s %14.4g %14s %8s" % ("shot %d photons, all cores, s" % r["photons"],
                                           r["seconds"], "-", "-"))
