@@ -51,8 +51,13 @@ $(BUILD)/%.o: %.c
 	@mkdir -p $(dir $@)
 	$(CC) $(PM_CFLAGS) $(CFLAGS) -MMD -MP -c $< -o $@
 
+# Made afresh each time: ar names members by their base name, so an
+# update in place would keep members of objects since removed (the old
+# formats/scene_xml.o) and replace one of two same-named ones
+# (common/bsdf.o, formats/scene_xml/bsdf.o) by the other.
 $(LIB): $(LIB_OBJ)
 	@mkdir -p $(dir $@)
+	rm -f $@
 	$(AR) rcs $@ $(LIB_OBJ)
 
 # What the tools share (printing, terminals, output checks) but the library

@@ -109,6 +109,9 @@ struct pm_integrator {
 	int rr_depth;			/* Mitsuba default 5 */
 	bool hide_emitters;
 	struct pm_photon_params photon;	/* PM_INTEGRATOR_PHOTONMAPPER */
+	/* Given as Mitsuba's moment wrapper: its nested integrator is the
+	 * one above; the moments are not rendered. */
+	bool moment;
 };
 
 struct pm_scene {

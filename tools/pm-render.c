@@ -723,6 +723,10 @@ main(int argc, char **argv)
 	if (scene.nlights == 0 && verbose)
 		fprintf(stderr, PROG ": %s: warning: the scene has no lights\n",
 		    scene_path);
+	if (scene.integrator.moment && verbose)
+		fprintf(stderr, PROG ": %s: note: integrator \"moment\": its "
+		    "nested integrator's image only, the moments are not "
+		    "written\n", scene_path);
 	if (scene.dropped_triangles > 0 && verbose)
 		fprintf(stderr, PROG ": %s: warning: %zu degenerate triangles "
 		    "(zero area or non-finite vertices) dropped\n", scene_path,

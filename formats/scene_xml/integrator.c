@@ -1,34 +1,94 @@
 /*
  * integrator.c: <integrator>: the path tracer's or the photon mapper's
- * parameters.
+ * parameters, and the Mitsuba 3 integrators that mean one of them here:
+ * volpath and volpathmis (path tracing, pm having no media), direct
+ * (path tracing to depth 2: light seen directly or after one bounce, with
+ * light and BSDF sampling, as Mitsuba's direct integrator computes it)
+ * and the moment wrapper (its nested integrator; the moments themselves
+ * are not written, which the scene records so that pm-render can say so).
  */
 #include "private.h"
+
+static enum pm_err load_type(struct ld *ld, struct xnode *n, int depth);
+
+/* <integrator type="moment">: exactly one nested integrator, loaded in
+ * its place. */
+static enum pm_err
+load_moment(struct ld *ld, struct xnode *n, struct plist *pl, int depth)
+{
+	enum pm_err e;
+
+	if ((e = sx_finish(ld, pl)) != PM_OK)
+		return e;
+	if (pl->nobj != 1 || strcmp(pl->obj[0]->tag, "integrator") != 0)
+		return sx_fail(ld, n, PM_ERR_UNSUPPORTED, "%s: pm renders one "
+		    "nested <integrator>, found %zu nested elements", pl->what,
+		    pl->nobj);
+	if (depth > 0)
+		return sx_fail(ld, pl->obj[0], PM_ERR_UNSUPPORTED,
+		    "%s: a moment integrator inside another", pl->what);
+	ld->s->integrator.moment = true;
+	return load_type(ld, pl->obj[0], depth + 1);
+}
+
+/* The path tracer's parameters, shared by path, volpath and volpathmis. */
+static enum pm_err
+path_params(struct ld *ld, struct plist *pl, long *md, long *rr)
+{
+	enum pm_err e;
+
+	if ((e = sx_get_int(ld, pl, "max_depth", -1, -1, INT_MAX, md))
+	    != PM_OK ||
+	    (e = sx_get_int(ld, pl, "rr_depth", 5, 1, INT_MAX, rr))
+	    != PM_OK)
+		return e;
+	return sx_get_bool(ld, pl, "hide_emitters", false,
+	    &ld->s->integrator.hide_emitters);
+}
 
 enum pm_err
 sx_load_integrator(struct ld *ld, struct xnode *n)
 {
-	struct pm_integrator *it = &ld->s->integrator;
-	struct pm_photon_params *ph = &it->photon;
-	struct plist pl;
-	const char *type;
-	long md, rr, v;
-	double r;
-	enum pm_err e;
-
 	if (ld->integrator != NULL)
 		return sx_fail(ld, n, PM_ERR_UNSUPPORTED, "more than one "
 		    "<integrator> (the first is at %s:%d)",
 		    ld->integrator->file, ld->integrator->line);
 	ld->integrator = n;
+	return load_type(ld, n, 0);
+}
+
+static enum pm_err
+load_type(struct ld *ld, struct xnode *n, int depth)
+{
+	struct pm_integrator *it = &ld->s->integrator;
+	struct pm_photon_params *ph = &it->photon;
+	struct plist pl;
+	const char *type;
+	long md, rr, v, shading;
+	double r;
+	enum pm_err e;
+
 	if ((e = sx_object_type(ld, n, &type)) != PM_OK ||
 	    (e = sx_collect(ld, n, "integrator", type, &pl)) != PM_OK)
 		return e;
-	if (strcmp(type, "path") == 0) {
+	if (strcmp(type, "moment") == 0)
+		return load_moment(ld, n, &pl, depth);
+	if (strcmp(type, "path") == 0 || strcmp(type, "volpath") == 0 ||
+	    strcmp(type, "volpathmis") == 0) {
 		it->type = PM_INTEGRATOR_PATH;
-		if ((e = sx_get_int(ld, &pl, "max_depth", -1, -1, INT_MAX, &md))
-		    != PM_OK ||
-		    (e = sx_get_int(ld, &pl, "rr_depth", 5, 1, INT_MAX, &rr))
-		    != PM_OK ||
+		if ((e = path_params(ld, &pl, &md, &rr)) != PM_OK)
+			return e;
+	} else if (strcmp(type, "direct") == 0) {
+		/* The sample counts change the noise, not the image. */
+		it->type = PM_INTEGRATOR_PATH;
+		md = 2;
+		rr = 5;
+		if ((e = sx_get_int(ld, &pl, "shading_samples", 1, 1, 1 << 20,
+		    &shading)) != PM_OK ||
+		    (e = sx_get_int(ld, &pl, "emitter_samples", shading, 0,
+		    1 << 20, &v)) != PM_OK ||
+		    (e = sx_get_int(ld, &pl, "bsdf_samples", shading, 0, 1 << 20,
+		    &v)) != PM_OK ||
 		    (e = sx_get_bool(ld, &pl, "hide_emitters", false,
 		    &it->hide_emitters)) != PM_OK)
 			return e;
@@ -78,7 +138,8 @@ sx_load_integrator(struct ld *ld, struct xnode *n)
 			return e;
 		ph->final_gather_samples = (int)v;
 	} else {
-		return sx_unknown_plugin(ld, n, type, "path and photonmapper");
+		return sx_unknown_plugin(ld, n, type, "path, volpath, volpathmis, "
+		    "direct, photonmapper and moment");
 	}
 	it->max_depth = (int)md;
 	it->rr_depth = (int)rr;

@@ -30,6 +30,15 @@ check "-D overrides a default" status 0 $R -q -D spp=1 -D res=8 -o "$tmp/b.exr" 
 check "1 and 4 threads give identical pixels" sh -c "$R -q -t 1 --spp 2 --size 20x20 -o $tmp/t1.exr data/cornell-box.xml && $R -q -t 4 --spp 2 --size 20x20 -o $tmp/t4.exr data/cornell-box.xml && $EXRUTIL same $tmp/t1.exr $tmp/t4.exr >/dev/null"
 check "different seeds give different images" sh -c "$R -q --seed 1 --spp 2 --size 20x20 -o $tmp/s1.exr data/cornell-box.xml && ! $EXRUTIL same $tmp/s1.exr $tmp/t1.exr 2>/dev/null"
 
+# Mitsuba's moment wrapper renders its nested integrator, and says that the
+# moments are not written, in one line.
+sed 's|<integrator type="path">|<integrator type="moment"><integrator type="path">|; s|</integrator>|</integrator></integrator>|' \
+    data/cornell-box.xml >"$tmp/moment.xml"
+check "a scene under the moment integrator renders" status 0 $R --seed 1 --spp 2 --size 20x20 -o "$tmp/mo.exr" "$tmp/moment.xml"
+check "...the nested integrator's image" sh -c "$EXRUTIL same $tmp/mo.exr $tmp/s1.exr >/dev/null"
+check "...with one line saying the moments are not written" sh -c \
+    "test \"\$(wc -l <$tmp/err)\" -eq 1 && grep -q 'moments are not written' $tmp/err"
+
 # Photon maps: the map must come from the scene; several cameras, one load.
 B=$BIN
 if $B/pm-shoot -q -f --photons 2000 --caustic-photons 0 -o "$tmp/cb-shot.pmap" data/cornell-box.xml &&

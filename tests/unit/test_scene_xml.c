@@ -613,6 +613,52 @@ test_integrators(void **state)
 	load_fails("<scene version=\"3.0.0\">\n<integrator type=\"photonmapper\">"
 	    "<integer name=\"granularity\" value=\"x\"/>"
 	    "</integrator></scene>", 2, "granularity");
+
+	/* Mitsuba 3's integrators that mean one of pm's: volpath and
+	 * volpathmis are path tracing (no media here), direct is path
+	 * tracing to depth 2, moment renders its nested integrator. */
+	load_ok("<scene version=\"3.0.0\"><integrator type=\"volpath\">"
+	    "<integer name=\"max_depth\" value=\"6\"/>"
+	    "<boolean name=\"hide_emitters\" value=\"true\"/>"
+	    "</integrator></scene>", &s);
+	assert_int_equal(s.integrator.type, PM_INTEGRATOR_PATH);
+	assert_int_equal(s.integrator.max_depth, 6);
+	assert_true(s.integrator.hide_emitters);
+	assert_false(s.integrator.moment);
+	pm_scene_free(&s);
+	load_ok("<scene version=\"3.0.0\"><integrator type=\"volpathmis\"/>"
+	    "</scene>", &s);
+	assert_int_equal(s.integrator.type, PM_INTEGRATOR_PATH);
+	assert_int_equal(s.integrator.max_depth, -1);
+	pm_scene_free(&s);
+	load_ok("<scene version=\"3.0.0\"><integrator type=\"direct\">"
+	    "<integer name=\"shading_samples\" value=\"4\"/>"
+	    "<integer name=\"bsdf_samples\" value=\"0\"/>"
+	    "</integrator></scene>", &s);
+	assert_int_equal(s.integrator.type, PM_INTEGRATOR_PATH);
+	assert_int_equal(s.integrator.max_depth, 2);
+	pm_scene_free(&s);
+	load_ok("<scene version=\"3.0.0\"><integrator type=\"moment\">"
+	    "<integrator type=\"photonmapper\">"
+	    "<integer name=\"maxDepth\" value=\"5\"/></integrator>"
+	    "</integrator></scene>", &s);
+	assert_int_equal(s.integrator.type, PM_INTEGRATOR_PHOTONMAPPER);
+	assert_int_equal(s.integrator.max_depth, 5);
+	assert_true(s.integrator.moment);
+	pm_scene_free(&s);
+	load_fails("<scene version=\"3.0.0\">\n<integrator type=\"moment\"/>"
+	    "</scene>", 2, "one nested <integrator>, found 0");
+	load_fails("<scene version=\"3.0.0\">\n<integrator type=\"moment\">"
+	    "<integrator type=\"path\"/><integrator type=\"direct\"/>"
+	    "</integrator></scene>", 2, "found 2");
+	load_fails("<scene version=\"3.0.0\">\n<integrator type=\"moment\">"
+	    "<bsdf type=\"diffuse\"/></integrator></scene>", 2, "found 1");
+	load_fails("<scene version=\"3.0.0\">\n<integrator type=\"moment\">"
+	    "\n<integrator type=\"moment\"><integrator type=\"path\"/>"
+	    "</integrator></integrator></scene>", 3, "inside another");
+	load_fails("<scene version=\"3.0.0\">\n<integrator type=\"direct\">"
+	    "<integer name=\"shading_samples\" value=\"0\"/>"
+	    "</integrator></scene>", 2, "shading_samples");
 }
 
 /* ------------------------------------------------------------ parameters */
@@ -833,8 +879,8 @@ test_errors(void **state)
 		    "</shape></scene>", 2, "unknown bsdf type \"roughplastic\""},
 		{HEAD "<emitter type=\"envmap\"/></scene>", 2,
 		    "unknown emitter type \"envmap\""},
-		{HEAD "<integrator type=\"direct\"/></scene>", 2,
-		    "unknown integrator type \"direct\""},
+		{HEAD "<integrator type=\"aov\"/></scene>", 2,
+		    "unknown integrator type \"aov\""},
 		{HEAD "<sensor type=\"thinlens\"/></scene>", 2,
 		    "unknown sensor type \"thinlens\""},
 		{HEAD "<shape type=\"sphere\">\n"
