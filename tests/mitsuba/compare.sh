@@ -190,6 +190,14 @@ for scene in point-lights sky bunny; do
 	fi
 done
 
+# Mitsuba's direct integrator, which pm renders as the path tracer to
+# depth 2: the box under Mitsuba's own direct against pm's reading of it.
+if [ -f data/cornell-box.xml ]; then
+	sed 's|<integrator type="path">|<integrator type="direct">|; /name="max_depth"/d' \
+	    data/cornell-box.xml >"$OUT/cornell-direct.xml"
+	run cornell-direct "$OUT/cornell-direct.xml"
+fi
+
 if [ -f ../shared/scenes/mitsuba-cbox/cbox-rgb.xml ]; then
 	run mitsuba-cbox ../shared/scenes/mitsuba-cbox/cbox-rgb.xml
 else
