@@ -135,6 +135,10 @@ struct plist {
 	size_t n;
 	struct xnode *obj[16];	/* nested objects and refs */
 	size_t nobj;
+	/* The first nested <texture>: unsupported, but reported only once
+	 * the plugin's type is known to be one pm reads (sx_finish,
+	 * sx_missing), so that an unknown plugin is named first. */
+	const struct xnode *texture;
 };
 
 /* doc.c */

@@ -986,6 +986,21 @@ test_errors(void **state)
 		{HEAD "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n"
 		    "<texture name=\"reflectance\" type=\"bitmap\"/></bsdf>"
 		    "</shape></scene>", 3, "textures are not supported"},
+		/* an unknown plugin is named before the texture inside it */
+		{HEAD "<shape type=\"rectangle\">\n<bsdf type=\"roughplastic\">"
+		    "<texture name=\"diffuse_reflectance\" type=\"bitmap\"/>"
+		    "</bsdf></shape></scene>", 3,
+		    "unknown bsdf type \"roughplastic\""},
+		/* a texture by reference is a texture */
+		{HEAD "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n"
+		    "<ref name=\"reflectance\" id=\"t\"/></bsdf></shape>\n"
+		    "<texture type=\"checkerboard\" id=\"t\"/></scene>", 3,
+		    "textures are not supported (<ref id=\"t\"> names the "
+		    "<texture> at line 4)"},
+		/* a required parameter given as a texture */
+		{HEAD "<shape type=\"rectangle\"><emitter type=\"area\">\n"
+		    "<texture name=\"radiance\" type=\"bitmap\"/></emitter>"
+		    "</shape></scene>", 3, "textures are not supported"},
 		{HEAD "<shape type=\"rectangle\">\n"
 		    "<bsdf type=\"roughconductor\"/></shape></scene>", 3,
 		    "distribution \"beckmann\" is not supported"},
