@@ -19,6 +19,8 @@ pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
 	ls->tris = NULL;
 	ls->pick.cdf = NULL;
 	ls->pick.n = 0;
+	ls->nee.cdf = NULL;
+	ls->nee.n = 0;
 	if (s->nlights == 0)
 		return PM_OK;
 	for (i = 0; i < s->nshapes; i++)
@@ -36,6 +38,12 @@ pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
 		w[i] = l->power;
 	}
 	rc = pm_distrib_init(&ls->pick, w, s->nlights, err);
+	if (rc != PM_OK)
+		goto out;
+	for (i = 0; i < s->nlights; i++)
+		w[i] = 0.5 * pm_distrib_prob(&ls->pick, i) +
+		    0.5 / (double)s->nlights;
+	rc = pm_distrib_init(&ls->nee, w, s->nlights, err);
 	if (rc != PM_OK)
 		goto out;
 	for (i = 0; i < s->nlights; i++) {
@@ -76,6 +84,7 @@ pm_lights_free(struct pm_lights *ls)
 	free(ls->tris);
 	ls->tris = NULL;
 	pm_distrib_free(&ls->pick);
+	pm_distrib_free(&ls->nee);
 }
 
 float
@@ -105,9 +114,9 @@ pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
 
 	if (ls->n == 0)
 		return false;
-	li = pm_distrib_sample(&ls->pick, u0, NULL);
+	li = pm_distrib_sample(&ls->nee, u0, NULL);
 	l = &s->lights[li];
-	psel = (float)pm_distrib_prob(&ls->pick, li);
+	psel = (float)pm_distrib_prob(&ls->nee, li);
 	o->light = (int)li;
 	o->delta = false;
 	switch (l->type) {
@@ -204,7 +213,7 @@ pm_lights_pdf_area(const struct pm_lights *ls, const struct pm_scene *s,
 
 	if (cos_l <= 0.0f || d2 <= 0.0f)
 		return 0.0f;
-	return (float)pm_distrib_prob(&ls->pick, (size_t)light) * d2 /
+	return (float)pm_distrib_prob(&ls->nee, (size_t)light) * d2 /
 	    (cos_l * (float)l->area);
 }
 
@@ -213,7 +222,7 @@ pm_lights_pdf_env(const struct pm_lights *ls, const struct pm_scene *s)
 {
 	if (s->env_light < 0)
 		return 0.0f;
-	return (float)pm_distrib_prob(&ls->pick, (size_t)s->env_light) *
+	return (float)pm_distrib_prob(&ls->nee, (size_t)s->env_light) *
 	    pm_uniform_sphere_pdf();
 }
 

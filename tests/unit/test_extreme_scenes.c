@@ -308,6 +308,43 @@ test_tiny_light_is_point_light(void **state)
 	}
 }
 
+/* A dim point light under a bright environment, whose power is taken over
+ * the scene's bounding sphere: light samples still pick the point light at
+ * a quarter of the time (half by power, half uniformly over the two; by
+ * power alone, well under 1%), and every sample's density is the one
+ * the MIS weights use. */
+static void
+test_small_light_beside_environment(void **state)
+{
+	struct world w;
+	struct pm_light_sample ls;
+	int n = 4000, i, picked = 0, env = -1;
+
+	(void)state;
+	world_load(&w, lit_floor_xml("<emitter type=\"point\"><point "
+	    "name=\"position\" x=\"0\" y=\"1\" z=\"0\"/><rgb name=\"intensity\" "
+	    "value=\"0.05\"/></emitter><emitter type=\"constant\">"
+	    "<rgb name=\"radiance\" value=\"2\"/></emitter>"));
+	for (i = 0; i < (int)w.scene.nlights; i++)
+		if (w.scene.lights[i].type == PM_LIGHT_CONSTANT)
+			env = i;
+	assert_true(env >= 0);
+	for (i = 0; i < n; i++) {
+		float u0 = ((float)i + 0.5f) / (float)n;
+
+		assert_true(pm_lights_sample(&w.world.lights, &w.scene,
+		    pm_v3(0.1f, 0.0f, 0.2f), u0, 0.3f, 0.7f, &ls));
+		if (ls.light != env)
+			picked++;
+		else
+			assert_true(fabsf(ls.pdf - pm_lights_pdf_env(
+			    &w.world.lights, &w.scene)) <= 1e-6f * ls.pdf);
+	}
+	print_message("point light picked %d of %d times\n", picked, n);
+	assert_true(picked >= (int)(0.24 * n));
+	world_free(&w);
+}
+
 /* An emitting sphere of radius 1e5 around a diffuse sphere of albedo 0.5:
  * the sphere reflects exactly half the emitted radiance. */
 static void
@@ -666,6 +703,7 @@ main(void)
 		cmocka_unit_test(test_dielectric_furnace),
 		cmocka_unit_test(test_tiny_light_is_point_light),
 		cmocka_unit_test(test_huge_light),
+		cmocka_unit_test(test_small_light_beside_environment),
 		cmocka_unit_test(test_light_inside_glass),
 		cmocka_unit_test(test_bsdfs_grazing),
 		cmocka_unit_test(test_tir_and_index_one),
