@@ -203,6 +203,68 @@ ggx_sample_all(float alpha, float u1, float u2)
 	return pm_v3(sin_t * cosf(phi), sin_t * sinf(phi), cos_t);
 }
 
+/* ---- Beckmann, isotropic, as Mitsuba 3 writes it ---- */
+
+static float
+beckmann_d(float alpha, struct pm_vec3 m)
+{
+	float a2 = alpha * alpha, c2 = m.z * m.z, d;
+
+	if (m.z <= 0.0f)
+		return 0.0f;
+	d = expf(-(m.x * m.x + m.y * m.y) / (a2 * c2)) / (PM_PI * a2 * c2 * c2);
+	return d * m.z > 1e-20f ? d : 0.0f;
+}
+
+/* Smith's masking with Walter et al.'s rational fit, as Mitsuba uses. */
+static float
+beckmann_g1(float alpha, struct pm_vec3 v, struct pm_vec3 m)
+{
+	float xy, a;
+
+	if (pm_dot(v, m) * v.z <= 0.0f)
+		return 0.0f;
+	xy = alpha * alpha * (v.x * v.x + v.y * v.y);
+	if (xy == 0.0f)
+		return 1.0f;
+	a = fabsf(v.z) / sqrtf(xy);
+	if (a >= 1.6f)
+		return 1.0f;
+	return (3.535f * a + 2.181f * a * a) / (1.0f + 2.276f * a + 2.577f * a * a);
+}
+
+/* A normal from D(m) cos(theta_m): tan^2 theta = -alpha^2 log(1 - u). */
+static struct pm_vec3
+beckmann_sample_all(float alpha, float u1, float u2)
+{
+	float tan2 = -alpha * alpha * logf(1.0f - u1);
+	float cos_t = 1.0f / sqrtf(1.0f + tan2);
+	float sin_t = sqrtf(fmaxf(0.0f, 1.0f - cos_t * cos_t));
+	float phi = 2.0f * PM_PI * u2;
+
+	return pm_v3(sin_t * cosf(phi), sin_t * sinf(phi), cos_t);
+}
+
+/* The rough conductor's distribution and masking; visible-normal sampling
+ * is GGX's only (Beckmann draws from D(m) cos, its own density). */
+static float
+md_d(const struct pm_bsdf *b, float alpha, struct pm_vec3 m)
+{
+	return b->beckmann ? beckmann_d(alpha, m) : ggx_d(alpha, m);
+}
+
+static float
+md_g1(const struct pm_bsdf *b, float alpha, struct pm_vec3 v, struct pm_vec3 m)
+{
+	return b->beckmann ? beckmann_g1(alpha, v, m) : ggx_g1(alpha, v, m);
+}
+
+static bool
+md_visible(const struct pm_bsdf *b)
+{
+	return b->sample_visible && !b->beckmann;
+}
+
 /* ---- per type ---- */
 
 static struct pm_rgb
@@ -297,10 +359,10 @@ pm_bsdf_eval(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo,
 			break;
 		alpha = fmaxf(b->alpha, PM_MIN_ALPHA);
 		h = pm_normalize(pm_add(wi, wo));
-		d = ggx_d(alpha, h);
+		d = md_d(b, alpha, h);
 		if (d == 0.0f)
 			break;
-		g = ggx_g1(alpha, wi, h) * ggx_g1(alpha, wo, h);
+		g = md_g1(b, alpha, wi, h) * md_g1(b, alpha, wo, h);
 		f = pm_fresnel_conductor(pm_dot(wi, h), b->eta, b->k);
 		/* D G F / (4 cos_i cos_o), times cos_o */
 		return pm_rgb_scale(pm_rgb_mul(f, b->specular),
@@ -350,10 +412,10 @@ pm_bsdf_pdf(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo)
 		if (pm_dot(wi, m) <= 0.0f || pm_dot(wo, m) <= 0.0f)
 			break;
 		alpha = fmaxf(b->alpha, PM_MIN_ALPHA);
-		if (b->sample_visible)
+		if (md_visible(b))
 			return ggx_d(alpha, m) * ggx_g1(alpha, wi, m) /
 			    (4.0f * wi.z);
-		return ggx_d(alpha, m) * m.z / (4.0f * pm_dot(wo, m));
+		return md_d(b, alpha, m) * m.z / (4.0f * pm_dot(wo, m));
 	case PM_BSDF_PLASTIC:
 		if (wi.z <= 0.0f || wo.z <= 0.0f)
 			break;
@@ -382,15 +444,16 @@ sample_roughconductor(const struct pm_bsdf *b, struct pm_vec3 wi, float u2,
 
 	if (wi.z <= 0.0f)
 		return false;
-	if (b->sample_visible) {
+	if (md_visible(b)) {
 		m = ggx_sample_visible(alpha, wi, u2, u3);
 		dim = pm_dot(wi, m);
 		pdf_m = ggx_g1(alpha, wi, m) * fmaxf(dim, 0.0f) *
 		    ggx_d(alpha, m) / wi.z;
 	} else {
-		m = ggx_sample_all(alpha, u2, u3);
+		m = b->beckmann ? beckmann_sample_all(alpha, u2, u3) :
+		    ggx_sample_all(alpha, u2, u3);
 		dim = pm_dot(wi, m);
-		pdf_m = ggx_d(alpha, m) * m.z;
+		pdf_m = md_d(b, alpha, m) * m.z;
 	}
 	/* a facet facing away from wi cannot reflect it */
 	if (dim <= 0.0f || pdf_m <= 0.0f)
@@ -400,10 +463,10 @@ sample_roughconductor(const struct pm_bsdf *b, struct pm_vec3 wi, float u2,
 		return false;
 	/* Jacobian of the half-vector map; wo.m = wi.m for a reflection */
 	s->pdf = pdf_m / (4.0f * dim);
-	if (b->sample_visible)
+	if (md_visible(b))
 		w = ggx_g1(alpha, s->wo, m);
 	else
-		w = ggx_g1(alpha, wi, m) * ggx_g1(alpha, s->wo, m) * dim /
+		w = md_g1(b, alpha, wi, m) * md_g1(b, alpha, s->wo, m) * dim /
 		    (wi.z * m.z);
 	s->weight = pm_rgb_scale(pm_rgb_mul(pm_fresnel_conductor(dim, b->eta,
 	    b->k), b->specular), w);

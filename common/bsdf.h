@@ -64,9 +64,11 @@ struct pm_bsdf {
 	struct pm_rgb eta, k;
 	/* dielectrics and plastic: int_ior / ext_ior */
 	float ior;
-	/* roughconductor: GGX alpha (isotropic) */
+	/* roughconductor: the microfacet alpha (isotropic), GGX or Beckmann */
 	float alpha;
-	bool sample_visible;	/* roughconductor: sample visible normals */
+	bool beckmann;		/* roughconductor: Beckmann's distribution */
+	bool sample_visible;	/* roughconductor: sample visible normals
+				 * (GGX; Beckmann samples D(m) cos) */
 	bool nonlinear;		/* plastic */
 	/* plastic: precomputed internal diffuse Fresnel reflectance and the
 	 * probability of choosing the specular lobe; set by pm_bsdf_prepare */

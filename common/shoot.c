@@ -661,6 +661,10 @@ pm_scene_hash(const struct pm_scene *s)
 		h = fnv_f(h, b->ior);
 		h = fnv_f(h, b->alpha);
 		h = fnv_i(h, b->sample_visible);
+		/* only when set, so that the scenes hashed before it keep
+		 * their hashes */
+		if (b->beckmann)
+			h = fnv_i(h, 1);
 		h = fnv_i(h, b->nonlinear);
 		/* a measured table by its file's size and crc32: the same
 		 * bytes under another name are the same material */

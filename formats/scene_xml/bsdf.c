@@ -167,14 +167,13 @@ sx_build_bsdf(struct ld *ld, struct xnode *n, struct pm_bsdf *b)
 		    (e = sx_get_bool(ld, &pl, "sample_visible", true,
 		    &b->sample_visible)) != PM_OK)
 			goto out;
-		if (strcmp(s, "ggx") != 0) {
-			e = sx_fail(ld, sx_has(&pl, "distribution") ?
-			    sx_prop_find(&pl, "distribution")->n : n,
+		if (strcmp(s, "beckmann") == 0)
+			b->beckmann = true;
+		else if (strcmp(s, "ggx") != 0) {
+			e = sx_fail(ld, sx_prop_find(&pl, "distribution")->n,
 			    PM_ERR_UNSUPPORTED, "%s: distribution \"%s\" is "
-			    "not supported, only \"ggx\"%s", pl.what, s,
-			    sx_has(&pl, "distribution") ? "" : " (Mitsuba's "
-			    "default is beckmann: say <string "
-			    "name=\"distribution\" value=\"ggx\"/>)");
+			    "not supported (\"beckmann\" or \"ggx\")", pl.what,
+			    s);
 			goto out;
 		}
 		if (sx_has(&pl, "alpha_u") || sx_has(&pl, "alpha_v")) {

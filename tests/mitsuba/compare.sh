@@ -190,6 +190,14 @@ for scene in point-lights sky bunny; do
 	fi
 done
 
+# The rough metals of materials.xml under Mitsuba's default distribution,
+# Beckmann's, instead of GGX.
+if [ -f data/materials.xml ]; then
+	sed 's|<string name="distribution" value="ggx"/>|<string name="distribution" value="beckmann"/>|' \
+	    data/materials.xml >"$OUT/materials-beckmann.xml"
+	run materials-beckmann "$OUT/materials-beckmann.xml"
+fi
+
 # Mitsuba's direct integrator, which pm renders as the path tracer to
 # depth 2: the box under Mitsuba's own direct against pm's reading of it.
 if [ -f data/cornell-box.xml ]; then

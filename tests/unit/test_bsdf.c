@@ -437,6 +437,53 @@ test_rough_analytic(void **state)
 	}
 }
 
+/* Beckmann's rough conductor against its textbook form: D(m) =
+ * exp(-tan^2 / a^2) / (pi a^2 cos^4), Smith's G1 by Walter et al.'s
+ * rational fit (what Mitsuba 3 evaluates). */
+static double
+beckmann_g1_ref(double a2, double tan_t)
+{
+	double a = 1.0 / (sqrt(a2) * tan_t);
+
+	if (tan_t == 0.0 || a >= 1.6)
+		return 1.0;
+	return (3.535 * a + 2.181 * a * a) / (1.0 + 2.276 * a + 2.577 * a * a);
+}
+
+static void
+test_rough_beckmann_analytic(void **state)
+{
+	static const float alphas[] = { 0.05f, 0.3f, 0.8f };
+	struct pm_bsdf b;
+	struct pm_vec3 wi, wo, h;
+	struct pm_rgb f, fr;
+	double a2, th, d, expect;
+	size_t i;
+	int k;
+
+	(void)state;
+	for (i = 0; i < sizeof(alphas) / sizeof(alphas[0]); i++) {
+		b = mk_rough(alphas[i], true, "Cu");
+		b.beckmann = true;
+		a2 = (double)alphas[i] * alphas[i];
+		for (k = 0; k < 10; k++) {
+			wi = dir(0.1 + 0.15 * k, 0.3);
+			wo = dir(1.3 - 0.1 * k, 0.3 + 0.4 * k);
+			h = pm_normalize(pm_add(wi, wo));
+			th = acos(h.z);
+			d = exp(-tan(th) * tan(th) / a2) /
+			    (M_PI * a2 * pow(cos(th), 4.0));
+			fr = pm_fresnel_conductor(pm_dot(wi, h), b.eta, b.k);
+			expect = fr.r * d * beckmann_g1_ref(a2, tan(acos(wi.z))) *
+			    beckmann_g1_ref(a2, tan(acos(wo.z))) / (4.0 * wi.z);
+			f = pm_bsdf_eval(&b, wi, wo, PM_RADIANCE);
+			if (!close_to(f.r, expect, 1e-4 * expect + 1e-12,
+			    "beckmann eval"))
+				fail();
+		}
+	}
+}
+
 /* ---- energy and consistency ---- */
 
 struct albedo {
@@ -618,6 +665,11 @@ test_albedo(void **state)
 		    alphas[i]);
 		b = mk_rough(alphas[i], false, "Au");
 		check_albedo(&b, name, -1.0f);
+		snprintf(name, sizeof(name), "rough none %g beckmann",
+		    alphas[i]);
+		b = mk_rough(alphas[i], true, "none");
+		b.beckmann = true;
+		check_albedo(&b, name, -1.0f);
 	}
 	b = mk_plastic(1.49f, pm_rgb(0.5f, 0.5f, 0.5f), false);
 	check_albedo(&b, "plastic", 1.0f);
@@ -743,6 +795,9 @@ test_reciprocity(void **state)
 	check_reciprocity(&b, "rough 0.3", false);
 	b = mk_rough(0.8f, false, "Al");
 	check_reciprocity(&b, "rough 0.8", false);
+	b = mk_rough(0.3f, true, "Cu");
+	b.beckmann = true;
+	check_reciprocity(&b, "beckmann 0.3", false);
 	b.twosided = true;
 	check_reciprocity(&b, "rough 0.8 twosided", true);
 	b = mk_plastic(1.49f, pm_rgb(0.3f, 0.5f, 0.7f), false);
@@ -826,6 +881,12 @@ test_sampling_rough(void **state)
 	check_sampling(&b, dir(1.3, 2.0), 23, "rough 0.8 visible");
 	b = mk_rough(0.2f, false, "Cu");
 	check_sampling(&b, dir(1.0, -1.0), 24, "rough 0.2 all normals");
+	b = mk_rough(0.3f, true, "Au");
+	b.beckmann = true;
+	check_sampling(&b, dir(0.9, 0.4), 26, "beckmann 0.3");
+	b = mk_rough(0.7f, false, "none");
+	b.beckmann = true;
+	check_sampling(&b, dir(1.2, 1.0), 27, "beckmann 0.7");
 	/* twosided, seen from below */
 	b = mk_rough(0.5f, true, "Ag");
 	b.twosided = true;
@@ -1019,6 +1080,7 @@ main(void)
 		cmocka_unit_test(test_plastic_tables),
 		cmocka_unit_test(test_lobes),
 		cmocka_unit_test(test_rough_analytic),
+		cmocka_unit_test(test_rough_beckmann_analytic),
 		cmocka_unit_test(test_albedo),
 		cmocka_unit_test(test_coating_only_plastic),
 		cmocka_unit_test(test_furnace),

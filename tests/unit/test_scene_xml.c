@@ -1001,9 +1001,10 @@ test_errors(void **state)
 		{HEAD "<shape type=\"rectangle\"><emitter type=\"area\">\n"
 		    "<texture name=\"radiance\" type=\"bitmap\"/></emitter>"
 		    "</shape></scene>", 3, "textures are not supported"},
-		{HEAD "<shape type=\"rectangle\">\n"
-		    "<bsdf type=\"roughconductor\"/></shape></scene>", 3,
-		    "distribution \"beckmann\" is not supported"},
+		{HEAD "<shape type=\"rectangle\"><bsdf type=\"roughconductor\">\n"
+		    "<string name=\"distribution\" value=\"phong\"/></bsdf>"
+		    "</shape></scene>", 3,
+		    "distribution \"phong\" is not supported"},
 		{HEAD "<shape type=\"rectangle\"><bsdf type=\"roughconductor\">\n"
 		    "<string name=\"distribution\" value=\"ggx\"/>"
 		    "<float name=\"alpha_u\" value=\"0.1\"/>"
