@@ -145,11 +145,13 @@ ggx_d(float alpha, struct pm_vec3 m)
 	return d * m.z > 1e-20f ? d : 0.0f;
 }
 
-/* Smith's masking for one direction v seen against microfacet m. */
+/* Smith's masking for one direction v seen against microfacet m: GGX's
+ * exact form, or Beckmann's by Walter et al.'s rational fit (both as
+ * Mitsuba 3 evaluates them). */
 static float
-ggx_g1(float alpha, struct pm_vec3 v, struct pm_vec3 m)
+smith_g1(bool beckmann, float alpha, struct pm_vec3 v, struct pm_vec3 m)
 {
-	float xy, tan2;
+	float xy, tan2, a;
 
 	/* a facet seen from behind masks everything */
 	if (pm_dot(v, m) * v.z <= 0.0f)
@@ -158,7 +160,12 @@ ggx_g1(float alpha, struct pm_vec3 v, struct pm_vec3 m)
 	if (xy == 0.0f)
 		return 1.0f;
 	tan2 = xy / (v.z * v.z);
-	return 2.0f / (1.0f + sqrtf(1.0f + tan2));
+	if (!beckmann)
+		return 2.0f / (1.0f + sqrtf(1.0f + tan2));
+	a = 1.0f / sqrtf(tan2);
+	if (a >= 1.6f)
+		return 1.0f;
+	return (3.535f * a + 2.181f * a * a) / (1.0f + 2.276f * a + 2.577f * a * a);
 }
 
 /*
@@ -191,16 +198,23 @@ ggx_sample_visible(float alpha, struct pm_vec3 wi, float u1, float u2)
 	    fmaxf(0.0f, nh.z)));
 }
 
+/* The microfacet normal of polar angle tan^2 theta = tan2 and azimuth
+ * 2 pi u. */
+static struct pm_vec3
+normal_from_tan2(float tan2, float u)
+{
+	float cos_t = 1.0f / sqrtf(1.0f + tan2);
+	float sin_t = sqrtf(fmaxf(0.0f, 1.0f - cos_t * cos_t));
+	float phi = 2.0f * PM_PI * u;
+
+	return pm_v3(sin_t * cosf(phi), sin_t * sinf(phi), cos_t);
+}
+
 /* A normal from D(m) cos(theta_m): tan^2 theta = alpha^2 u / (1 - u). */
 static struct pm_vec3
 ggx_sample_all(float alpha, float u1, float u2)
 {
-	float tan2 = alpha * alpha * u1 / (1.0f - u1);
-	float cos_t = 1.0f / sqrtf(1.0f + tan2);
-	float sin_t = sqrtf(fmaxf(0.0f, 1.0f - cos_t * cos_t));
-	float phi = 2.0f * PM_PI * u2;
-
-	return pm_v3(sin_t * cosf(phi), sin_t * sinf(phi), cos_t);
+	return normal_from_tan2(alpha * alpha * u1 / (1.0f - u1), u2);
 }
 
 /* ---- Beckmann, isotropic, as Mitsuba 3 writes it ---- */
@@ -216,47 +230,19 @@ beckmann_d(float alpha, struct pm_vec3 m)
 	return d * m.z > 1e-20f ? d : 0.0f;
 }
 
-/* Smith's masking with Walter et al.'s rational fit, as Mitsuba uses. */
-static float
-beckmann_g1(float alpha, struct pm_vec3 v, struct pm_vec3 m)
-{
-	float xy, a;
-
-	if (pm_dot(v, m) * v.z <= 0.0f)
-		return 0.0f;
-	xy = alpha * alpha * (v.x * v.x + v.y * v.y);
-	if (xy == 0.0f)
-		return 1.0f;
-	a = fabsf(v.z) / sqrtf(xy);
-	if (a >= 1.6f)
-		return 1.0f;
-	return (3.535f * a + 2.181f * a * a) / (1.0f + 2.276f * a + 2.577f * a * a);
-}
-
 /* A normal from D(m) cos(theta_m): tan^2 theta = -alpha^2 log(1 - u). */
 static struct pm_vec3
 beckmann_sample_all(float alpha, float u1, float u2)
 {
-	float tan2 = -alpha * alpha * logf(1.0f - u1);
-	float cos_t = 1.0f / sqrtf(1.0f + tan2);
-	float sin_t = sqrtf(fmaxf(0.0f, 1.0f - cos_t * cos_t));
-	float phi = 2.0f * PM_PI * u2;
-
-	return pm_v3(sin_t * cosf(phi), sin_t * sinf(phi), cos_t);
+	return normal_from_tan2(-alpha * alpha * logf(1.0f - u1), u2);
 }
 
-/* The rough conductor's distribution and masking; visible-normal sampling
+/* The rough conductor's distribution; visible-normal sampling
  * is GGX's only (Beckmann draws from D(m) cos, its own density). */
 static float
 md_d(const struct pm_bsdf *b, float alpha, struct pm_vec3 m)
 {
 	return b->beckmann ? beckmann_d(alpha, m) : ggx_d(alpha, m);
-}
-
-static float
-md_g1(const struct pm_bsdf *b, float alpha, struct pm_vec3 v, struct pm_vec3 m)
-{
-	return b->beckmann ? beckmann_g1(alpha, v, m) : ggx_g1(alpha, v, m);
 }
 
 static bool
@@ -362,7 +348,8 @@ pm_bsdf_eval(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo,
 		d = md_d(b, alpha, h);
 		if (d == 0.0f)
 			break;
-		g = md_g1(b, alpha, wi, h) * md_g1(b, alpha, wo, h);
+		g = smith_g1(b->beckmann, alpha, wi, h) *
+		    smith_g1(b->beckmann, alpha, wo, h);
 		f = pm_fresnel_conductor(pm_dot(wi, h), b->eta, b->k);
 		/* D G F / (4 cos_i cos_o), times cos_o */
 		return pm_rgb_scale(pm_rgb_mul(f, b->specular),
@@ -413,7 +400,7 @@ pm_bsdf_pdf(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo)
 			break;
 		alpha = fmaxf(b->alpha, PM_MIN_ALPHA);
 		if (md_visible(b))
-			return ggx_d(alpha, m) * ggx_g1(alpha, wi, m) /
+			return ggx_d(alpha, m) * smith_g1(false, alpha, wi, m) /
 			    (4.0f * wi.z);
 		return md_d(b, alpha, m) * m.z / (4.0f * pm_dot(wo, m));
 	case PM_BSDF_PLASTIC:
@@ -447,7 +434,7 @@ sample_roughconductor(const struct pm_bsdf *b, struct pm_vec3 wi, float u2,
 	if (md_visible(b)) {
 		m = ggx_sample_visible(alpha, wi, u2, u3);
 		dim = pm_dot(wi, m);
-		pdf_m = ggx_g1(alpha, wi, m) * fmaxf(dim, 0.0f) *
+		pdf_m = smith_g1(false, alpha, wi, m) * fmaxf(dim, 0.0f) *
 		    ggx_d(alpha, m) / wi.z;
 	} else {
 		m = b->beckmann ? beckmann_sample_all(alpha, u2, u3) :
@@ -464,9 +451,10 @@ sample_roughconductor(const struct pm_bsdf *b, struct pm_vec3 wi, float u2,
 	/* Jacobian of the half-vector map; wo.m = wi.m for a reflection */
 	s->pdf = pdf_m / (4.0f * dim);
 	if (md_visible(b))
-		w = ggx_g1(alpha, s->wo, m);
+		w = smith_g1(false, alpha, s->wo, m);
 	else
-		w = md_g1(b, alpha, wi, m) * md_g1(b, alpha, s->wo, m) * dim /
+		w = smith_g1(b->beckmann, alpha, wi, m) *
+		    smith_g1(b->beckmann, alpha, s->wo, m) * dim /
 		    (wi.z * m.z);
 	s->weight = pm_rgb_scale(pm_rgb_mul(pm_fresnel_conductor(dim, b->eta,
 	    b->k), b->specular), w);

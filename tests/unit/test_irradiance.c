@@ -214,6 +214,22 @@ test_grid_lookup(void **state)
 	free(p);
 }
 
+/* The photon render's context over a world inside a sphere of radius 10,
+ * every path length allowed. */
+static void
+photon_ctx(struct pm_render_ctx *ctx, const struct pm_scene *s,
+    const struct pm_world *w, const struct pm_photon_maps *maps)
+{
+	memset(ctx, 0, sizeof(*ctx));
+	ctx->scene = s;
+	ctx->accel = w->accel;
+	ctx->lights = &w->lights;
+	ctx->max_depth = -1;
+	ctx->rr_depth = 5;
+	ctx->maps = maps;
+	ctx->scene_radius = 10.0f;
+}
+
 /* Inside a sphere of radius 10 that emits Le inward and reflects rho. */
 static void
 test_furnace_final_gather(void **state)
@@ -301,14 +317,7 @@ test_furnace_final_gather(void **state)
 	maps.icache_step = 4;
 	maps.icache_rays = 64;
 	maps.icache_a = 0.3f;
-	memset(&ctx, 0, sizeof(ctx));
-	ctx.scene = &s;
-	ctx.accel = world.accel;
-	ctx.lights = &world.lights;
-	ctx.max_depth = -1;
-	ctx.rr_depth = 5;
-	ctx.maps = &maps;
-	ctx.scene_radius = 10.0f;
+	photon_ctx(&ctx, &s, &world, &maps);
 	memset(&ro, 0, sizeof(ro));
 	ro.method = PM_METHOD_PHOTON;
 	ro.spp = s.camera.spp;
@@ -390,14 +399,7 @@ test_stratified_light_points(void **state)
 	maps.caustic_r2 = 1.0f;
 	maps.lookup_size = 16;
 	maps.direct_samples = 1;
-	memset(&ctx, 0, sizeof(ctx));
-	ctx.scene = &s;
-	ctx.accel = world.accel;
-	ctx.lights = &world.lights;
-	ctx.max_depth = -1;
-	ctx.rr_depth = 5;
-	ctx.maps = &maps;
-	ctx.scene_radius = 10.0f;
+	photon_ctx(&ctx, &s, &world, &maps);
 	ctx.hide_emitters = true;
 	d = pm_normalize(pm_v3(0.1f, 0.12f, -1.0f));
 	for (mode = 0; mode < 2; mode++)
