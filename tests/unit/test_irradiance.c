@@ -214,6 +214,30 @@ test_grid_lookup(void **state)
 	free(p);
 }
 
+/* A fresh scene: a sphere of radius 10 at the origin, seen from inside,
+ * that reflects rho diffusely and emits Le inward. */
+static void
+emitting_sphere(struct pm_scene *s, float rho, struct pm_rgb Le)
+{
+	int b, shp, l;
+
+	pm_scene_init(s);
+	b = pm_scene_add_bsdf(s);
+	s->bsdfs[b].type = PM_BSDF_DIFFUSE;
+	s->bsdfs[b].diffuse = pm_rgb1(rho);
+	shp = pm_scene_add_shape(s);
+	s->shapes[shp].type = PM_SHAPE_SPHERE;
+	s->shapes[shp].center = pm_v3(0, 0, 0);
+	s->shapes[shp].radius = 10.0f;
+	s->shapes[shp].flip_normals = true;
+	s->shapes[shp].bsdf = b;
+	l = pm_scene_add_light(s);
+	s->lights[l].type = PM_LIGHT_AREA;
+	s->lights[l].radiance = Le;
+	s->lights[l].shape = shp;
+	s->shapes[shp].light = l;
+}
+
 /* The photon render's context over a world inside a sphere of radius 10,
  * every path length allowed. */
 static void
@@ -254,24 +278,10 @@ test_furnace_final_gather(void **state)
 	struct pm_error err;
 	double mean[3] = {0, 0, 0};
 	size_t nrec, i, npix;
-	int b, shp, l, c;
+	int c;
 
 	(void)state;
-	pm_scene_init(&s);
-	b = pm_scene_add_bsdf(&s);
-	s.bsdfs[b].type = PM_BSDF_DIFFUSE;
-	s.bsdfs[b].diffuse = pm_rgb1(rho);
-	shp = pm_scene_add_shape(&s);
-	s.shapes[shp].type = PM_SHAPE_SPHERE;
-	s.shapes[shp].center = pm_v3(0, 0, 0);
-	s.shapes[shp].radius = 10.0f;
-	s.shapes[shp].flip_normals = true;
-	s.shapes[shp].bsdf = b;
-	l = pm_scene_add_light(&s);
-	s.lights[l].type = PM_LIGHT_AREA;
-	s.lights[l].radiance = Le;
-	s.lights[l].shape = shp;
-	s.shapes[shp].light = l;
+	emitting_sphere(&s, rho, Le);
 	s.integrator.max_depth = -1;
 	s.has_camera = true;
 	s.camera.to_world = pm_mat4_lookat(pm_v3(0, 0, 5), pm_v3(0, 0, 0),
@@ -362,24 +372,10 @@ test_stratified_light_points(void **state)
 	struct pm_error err;
 	struct pm_vec3 o = pm_v3(0, 0, 5), d;
 	double m[2] = {0, 0}, m2[2] = {0, 0}, var[2];
-	int b, shp, l, r, j, mode;
+	int b, shp, r, j, mode;
 
 	(void)state;
-	pm_scene_init(&s);
-	b = pm_scene_add_bsdf(&s);
-	s.bsdfs[b].type = PM_BSDF_DIFFUSE;
-	s.bsdfs[b].diffuse = pm_rgb1(0.0f);
-	shp = pm_scene_add_shape(&s);
-	s.shapes[shp].type = PM_SHAPE_SPHERE;
-	s.shapes[shp].center = pm_v3(0, 0, 0);
-	s.shapes[shp].radius = 10.0f;
-	s.shapes[shp].flip_normals = true;
-	s.shapes[shp].bsdf = b;
-	l = pm_scene_add_light(&s);
-	s.lights[l].type = PM_LIGHT_AREA;
-	s.lights[l].radiance = pm_rgb1(Le);
-	s.lights[l].shape = shp;
-	s.shapes[shp].light = l;
+	emitting_sphere(&s, 0.0f, pm_rgb1(Le));
 	b = pm_scene_add_bsdf(&s);
 	s.bsdfs[b].type = PM_BSDF_DIFFUSE;
 	s.bsdfs[b].diffuse = pm_rgb1(a);
