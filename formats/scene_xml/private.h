@@ -29,12 +29,14 @@
 #include "../merl.h"
 #include "../obj.h"
 #include "../ply.h"
+#include "../serialized.h"
 #include "../scene_xml.h"
 
 #define MAX_DEPTH		64	/* element nesting */
 #define MAX_INCLUDE_DEPTH	32
 #define MAX_FILE_SIZE		((size_t)256 << 20)
 #define DISK_SEGMENTS		256
+#define CYLINDER_SEGMENTS	1024
 #define PI_D			3.14159265358979323846
 
 /* Default indices of refraction (Mitsuba's table). */

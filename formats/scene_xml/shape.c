@@ -1,6 +1,7 @@
 /*
- * shape.c: <shape> elements: meshes from OBJ and PLY files and the
- * analytic shapes, baked into world space with their BSDF and emitter.
+ * shape.c: <shape> elements: meshes from OBJ, PLY and Mitsuba's serialized
+ * files and the analytic shapes, baked into world space with their BSDF and
+ * emitter.
  */
 #include "private.h"
 
@@ -70,6 +71,63 @@ finish_mesh(struct ld *ld, const struct xnode *n, const char *what,
 	return PM_OK;
 }
 
+static float
+comp(struct pm_vec3 v, int i)
+{
+	return i == 0 ? v.x : (i == 1 ? v.y : v.z);
+}
+
+/*
+ * Mitsuba's cylinder: to_world * translate(p0) * frame(p1 - p0) *
+ * scale(radius, radius, |p1 - p0|) on the unit cylinder.  Like Mitsuba,
+ * the result must scale x and y alike without shear (Mitsuba warns and
+ * renders something else; pm refuses), and a negative radius flips the
+ * normals.
+ */
+static enum pm_err
+cylinder_frame(struct ld *ld, struct plist *pl, struct pm_vec3 p0,
+    struct pm_vec3 p1, double *radius, struct pm_mat4 *M, bool *flip)
+{
+	struct pm_vec3 d = pm_sub(p1, p0), c[3];
+	struct pm_frame fr;
+	struct pm_mat4 L = pm_mat4_identity();
+	float len = pm_length(d), r, lx, ly;
+	int i;
+
+	if (!(len > 0.0f))
+		return sx_fail(ld, pl->owner, PM_ERR_INVALID, "%s: p0 and p1 "
+		    "must differ", pl->what);
+	if (!(*radius != 0.0))
+		return sx_fail(ld, sx_prop_find(pl, "radius")->n,
+		    PM_ERR_INVALID, "%s: radius must not be 0", pl->what);
+	if (*radius < 0.0) {
+		*radius = -*radius;
+		*flip = !*flip;
+	}
+	r = (float)*radius;
+	fr = pm_frame_from_normal(pm_scale(d, 1.0f / len));
+	for (i = 0; i < 3; i++) {
+		L.m[i][0] = comp(fr.s, i) * r;
+		L.m[i][1] = comp(fr.t, i) * r;
+		L.m[i][2] = comp(fr.n, i) * len;
+		L.m[i][3] = comp(p0, i);
+	}
+	*M = pm_mat4_mul(*M, L);
+	for (i = 0; i < 3; i++)
+		c[i] = pm_v3(M->m[0][i], M->m[1][i], M->m[2][i]);
+	lx = pm_length(c[0]);
+	ly = pm_length(c[1]);
+	if (!(lx > 0.0f) || fabsf(lx - ly) > 1e-4f * lx ||
+	    fabsf(pm_dot(c[0], c[1])) > 1e-4f * lx * ly ||
+	    fabsf(pm_dot(c[0], c[2])) > 1e-4f * lx * pm_length(c[2]) ||
+	    fabsf(pm_dot(c[1], c[2])) > 1e-4f * ly * pm_length(c[2]))
+		return sx_fail(ld, pl->owner, PM_ERR_UNSUPPORTED, "%s: to_world "
+		    "must keep the cross-section round (no shear, the same "
+		    "scale across the axis), as Mitsuba's cylinder needs",
+		    pl->what);
+	return PM_OK;
+}
+
 /* The BSDF and area light of a shape, from nested elements or refs. */
 static enum pm_err
 shape_objects(struct ld *ld, struct plist *pl, int *bsdf, struct xnode **em)
@@ -124,8 +182,10 @@ sx_load_shape(struct ld *ld, struct xnode *n, const char *naming_dir)
 	struct xnode *em;
 	const char *type, *fname = NULL, *path, *id;
 	double radius = 1.0;
+	struct pm_vec3 p0, p1;
 	bool face_normals = false, flip = false, flip_tc = true;
-	bool is_file, is_obj;
+	bool is_file, is_obj, is_ser, file_face_normals = false;
+	long shape_index = 0;
 	float scale;
 	int idx, bsdf = -1, li;
 	uint32_t v;
@@ -136,12 +196,13 @@ sx_load_shape(struct ld *ld, struct xnode *n, const char *naming_dir)
 	    (e = sx_collect(ld, n, "shape", type, &pl)) != PM_OK)
 		return e;
 	is_obj = strcmp(type, "obj") == 0;
-	is_file = is_obj || strcmp(type, "ply") == 0;
+	is_ser = strcmp(type, "serialized") == 0;
+	is_file = is_obj || is_ser || strcmp(type, "ply") == 0;
 	if (!is_file && strcmp(type, "sphere") != 0 &&
 	    strcmp(type, "rectangle") != 0 && strcmp(type, "cube") != 0 &&
-	    strcmp(type, "disk") != 0)
-		return sx_unknown_plugin(ld, n, type, "obj, ply, sphere, "
-		    "rectangle, cube and disk");
+	    strcmp(type, "disk") != 0 && strcmp(type, "cylinder") != 0)
+		return sx_unknown_plugin(ld, n, type, "obj, ply, serialized, "
+		    "sphere, rectangle, cube, disk and cylinder");
 
 	if ((e = sx_get_transform(ld, &pl, "to_world", &M)) != PM_OK ||
 	    (e = sx_get_bool(ld, &pl, "flip_normals", false, &flip)) != PM_OK)
@@ -156,6 +217,19 @@ sx_load_shape(struct ld *ld, struct xnode *n, const char *naming_dir)
 			return e;
 		if (is_obj && (e = sx_get_bool(ld, &pl, "flip_tex_coords", true,
 		    &flip_tc)) != PM_OK)
+			return e;
+		if (is_ser && (e = sx_get_int(ld, &pl, "shape_index", 0, 0,
+		    LONG_MAX, &shape_index)) != PM_OK)
+			return e;
+	} else if (strcmp(type, "cylinder") == 0) {
+		if ((e = sx_get_point(ld, &pl, "p0", pm_v3(0, 0, 0), &p0))
+		    != PM_OK ||
+		    (e = sx_get_point(ld, &pl, "p1", pm_v3(0, 0, 1), &p1))
+		    != PM_OK ||
+		    (e = sx_get_float(ld, &pl, "radius", 1.0, -3.4e38, 3.4e38,
+		    &radius)) != PM_OK ||
+		    (e = cylinder_frame(ld, &pl, p0, p1, &radius, &M, &flip))
+		    != PM_OK)
 			return e;
 	} else if (strcmp(type, "sphere") == 0) {
 		if ((e = sx_get_point(ld, &pl, "center", pm_v3(0, 0, 0), &center))
@@ -175,8 +249,15 @@ sx_load_shape(struct ld *ld, struct xnode *n, const char *naming_dir)
 	if (is_file) {
 		if ((e = sx_resolve(ld, n, naming_dir, fname, &path)) != PM_OK)
 			return e;
-		e = is_obj ? pm_obj_read(path, &mesh, ld->err) :
-		    pm_ply_read(path, &mesh, ld->err);
+		if (is_ser) {
+			e = pm_serialized_read(path, shape_index, &mesh,
+			    &file_face_normals, ld->err);
+			/* the file's flag means face_normals="true" */
+			face_normals = face_normals || file_face_normals;
+		} else {
+			e = is_obj ? pm_obj_read(path, &mesh, ld->err) :
+			    pm_ply_read(path, &mesh, ld->err);
+		}
 		if (e == PM_OK && is_obj && flip_tc && mesh.uv != NULL)
 			for (v = 0; v < mesh.nverts; v++)
 				mesh.uv[2 * v + 1] = 1.0f - mesh.uv[2 * v + 1];
@@ -186,6 +267,8 @@ sx_load_shape(struct ld *ld, struct xnode *n, const char *naming_dir)
 		e = pm_mesh_cube(&mesh, ld->err);
 	} else if (strcmp(type, "disk") == 0) {
 		e = pm_mesh_disk(&mesh, DISK_SEGMENTS, ld->err);
+	} else if (strcmp(type, "cylinder") == 0) {
+		e = pm_mesh_cylinder(&mesh, CYLINDER_SEGMENTS, ld->err);
 	}
 	if (e != PM_OK) {
 		pm_mesh_free(&mesh);
