@@ -165,8 +165,17 @@ shape_objects(struct ld *ld, struct plist *pl, int *bsdf, struct xnode **em)
 			    "inside %s", o->tag, pl->what);
 		}
 	}
-	if (bnode == NULL && (*bsdf = sx_default_bsdf(ld)) < 0)
+	/* Mitsuba's default BSDF is diffuse with reflectance 0.5, but 0 on
+	 * a shape that emits (Shape's constructor): an emitter given no
+	 * BSDF reflects nothing. */
+	if (bnode == NULL && *em != NULL) {
+		if ((*bsdf = pm_scene_add_bsdf(ld->s)) < 0)
+			return sx_nomem(ld);
+		ld->s->bsdfs[*bsdf].type = PM_BSDF_DIFFUSE;
+		ld->s->bsdfs[*bsdf].diffuse = pm_rgb1(0.0f);
+	} else if (bnode == NULL && (*bsdf = sx_default_bsdf(ld)) < 0) {
 		return sx_nomem(ld);
+	}
 	return PM_OK;
 }
 

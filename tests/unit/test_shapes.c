@@ -10,6 +10,7 @@
  * single and double precision, with and without normals, uv and colours,
  * several meshes per file) read back exactly, and every truncation,
  * corrupt byte, bad header or impossible count is refused with a message.
+ * An emitting shape given no BSDF reflects nothing, as in Mitsuba.
  */
 #include <stdarg.h>
 #include <stddef.h>
@@ -608,6 +609,27 @@ test_sensors_in_scene(void **state)
 	    "thinlens");
 }
 
+/* Mitsuba's default BSDF: diffuse 0.5, but black on an emitting shape. */
+static void
+test_default_bsdf_of_emitters(void **state)
+{
+	struct pm_scene s;
+	const struct pm_bsdf *b;
+
+	(void)state;
+	load_ok("<scene version=\"3.0.0\"><shape type=\"cylinder\">"
+	    "<emitter type=\"area\"><rgb name=\"radiance\" value=\"1\"/>"
+	    "</emitter></shape><shape type=\"cylinder\"/>"
+	    "</scene>", &s);
+	b = &s.bsdfs[s.shapes[0].bsdf];
+	assert_int_equal(b->type, PM_BSDF_DIFFUSE);
+	NEAR(b->diffuse.r + b->diffuse.g + b->diffuse.b, 0, 0);
+	b = &s.bsdfs[s.shapes[1].bsdf];
+	assert_int_equal(b->type, PM_BSDF_DIFFUSE);
+	NEAR(b->diffuse.g, 0.5, 0);
+	pm_scene_free(&s);
+}
+
 int
 main(void)
 {
@@ -620,6 +642,7 @@ main(void)
 		cmocka_unit_test(test_cylinder_mesh),
 		cmocka_unit_test(test_cylinder_in_scene),
 		cmocka_unit_test(test_sensors_in_scene),
+		cmocka_unit_test(test_default_bsdf_of_emitters),
 	};
 
 	return cmocka_run_group_tests(tests, setup, teardown);
