@@ -98,6 +98,9 @@ struct ld {
 	int default_bsdf;
 	struct xnode *sensor, *integrator;
 	int seq;
+	/* While the shapes of a shapegroup are built for an instance: the
+	 * instance's to_world, applied after each shape's own. */
+	const struct pm_mat4 *instance_to_world;
 };
 
 struct doc {				/* one file being read by expat */

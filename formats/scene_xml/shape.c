@@ -179,6 +179,75 @@ shape_objects(struct ld *ld, struct plist *pl, int *bsdf, struct xnode **em)
 	return PM_OK;
 }
 
+/* Mitsuba's shapegroup holds shapes only, and no groups or instances. */
+static enum pm_err
+check_group(struct ld *ld, struct xnode *g)
+{
+	struct xnode *k;
+	const char *type;
+	enum pm_err e;
+
+	for (k = g->kids; k != NULL; k = k->next) {
+		if (strcmp(k->tag, "shape") != 0)
+			return sx_fail(ld, k, PM_ERR_INVALID, "shape "
+			    "\"shapegroup\" holds only <shape> elements, found "
+			    "<%s>", k->tag);
+		if ((e = sx_object_type(ld, k, &type)) != PM_OK)
+			return e;
+		if (strcmp(type, "shapegroup") == 0 ||
+		    strcmp(type, "instance") == 0)
+			return sx_fail(ld, k, PM_ERR_INVALID, "a shapegroup "
+			    "cannot hold a shape \"%s\" (nor can Mitsuba's)",
+			    type);
+	}
+	return PM_OK;
+}
+
+/*
+ * An instance of a shapegroup: the group's shapes are built once more
+ * each, with the instance's to_world after their own.  pm flattens
+ * instances into world-space copies rather than using Embree's instancing:
+ * every later stage (light sampling, photon shooting, normals, the scene's
+ * hash) then sees plain meshes and spheres, at the cost of memory per copy.
+ */
+static enum pm_err
+load_instance(struct ld *ld, struct xnode *n, struct plist *pl)
+{
+	struct pm_mat4 M;
+	struct xnode *g, *k;
+	const char *gtype;
+	enum pm_err e;
+
+	if ((e = sx_get_transform(ld, pl, "to_world", &M)) != PM_OK ||
+	    (e = sx_finish(ld, pl)) != PM_OK)
+		return e;
+	if (pl->nobj != 1 || strcmp(pl->obj[0]->tag, "ref") != 0)
+		return sx_fail(ld, pl->nobj > 0 ? pl->obj[pl->nobj - 1] : n,
+		    PM_ERR_INVALID, "%s takes exactly one <ref> to a "
+		    "shapegroup", pl->what);
+	if ((e = sx_deref(ld, pl->obj[0], &g)) != PM_OK)
+		return e;
+	if (strcmp(g->tag, "shape") != 0 ||
+	    sx_object_type(ld, g, &gtype) != PM_OK ||
+	    strcmp(gtype, "shapegroup") != 0)
+		return sx_fail(ld, pl->obj[0], PM_ERR_INVALID, "%s: <ref "
+		    "id=\"%s\"> names a <%s>, expected a shape \"shapegroup\"",
+		    pl->what, sx_attr(pl->obj[0], "id"), g->tag);
+	if (g->busy || ld->instance_to_world != NULL)
+		return sx_fail(ld, n, PM_ERR_INVALID, "%s: instances cannot "
+		    "nest", pl->what);
+	if ((e = check_group(ld, g)) != PM_OK)
+		return e;
+	g->busy = true;
+	ld->instance_to_world = &M;
+	for (k = g->kids; k != NULL; k = k->next)
+		if ((e = sx_load_shape(ld, k, k->dir)) != PM_OK)
+			break;
+	ld->instance_to_world = NULL;
+	g->busy = false;
+	return e;
+}
+
 enum pm_err
 sx_load_shape(struct ld *ld, struct xnode *n, const char *naming_dir)
 {
@@ -201,9 +270,15 @@ sx_load_shape(struct ld *ld, struct xnode *n, const char *naming_dir)
 	enum pm_err e;
 
 	memset(&mesh, 0, sizeof(mesh));
-	if ((e = sx_object_type(ld, n, &type)) != PM_OK ||
-	    (e = sx_collect(ld, n, "shape", type, &pl)) != PM_OK)
+	if ((e = sx_object_type(ld, n, &type)) != PM_OK)
 		return e;
+	/* A group is drawn only through its instances. */
+	if (strcmp(type, "shapegroup") == 0)
+		return check_group(ld, n);
+	if ((e = sx_collect(ld, n, "shape", type, &pl)) != PM_OK)
+		return e;
+	if (strcmp(type, "instance") == 0)
+		return load_instance(ld, n, &pl);
 	is_obj = strcmp(type, "obj") == 0;
 	is_ser = strcmp(type, "serialized") == 0;
 	is_file = is_obj || is_ser || strcmp(type, "ply") == 0;
@@ -211,11 +286,14 @@ sx_load_shape(struct ld *ld, struct xnode *n, const char *naming_dir)
 	    strcmp(type, "rectangle") != 0 && strcmp(type, "cube") != 0 &&
 	    strcmp(type, "disk") != 0 && strcmp(type, "cylinder") != 0)
 		return sx_unknown_plugin(ld, n, type, "obj, ply, serialized, "
-		    "sphere, rectangle, cube, disk and cylinder");
+		    "sphere, rectangle, cube, disk, cylinder, shapegroup and "
+		    "instance");
 
 	if ((e = sx_get_transform(ld, &pl, "to_world", &M)) != PM_OK ||
 	    (e = sx_get_bool(ld, &pl, "flip_normals", false, &flip)) != PM_OK)
 		return e;
+	if (ld->instance_to_world != NULL)
+		M = pm_mat4_mul(*ld->instance_to_world, M);
 	if (is_file) {
 		if (!sx_has(&pl, "filename"))
 			return sx_missing(ld, &pl, "filename", "a <string>");
@@ -313,6 +391,10 @@ sx_load_shape(struct ld *ld, struct xnode *n, const char *naming_dir)
 	}
 
 	if (em != NULL) {
+		if (ld->instance_to_world != NULL)
+			return sx_fail(ld, n, PM_ERR_UNSUPPORTED, "%s: a shape "
+			    "in a shapegroup cannot emit (Mitsuba does not "
+			    "instance emitters either)", pl.what);
 		if (em->inst >= 0)
 			return sx_fail(ld, n, PM_ERR_INVALID, "%s: emitter at "
 			    "line %d is already attached to shape %s", pl.what,

@@ -11,6 +11,7 @@
  * several meshes per file) read back exactly, and every truncation,
  * corrupt byte, bad header or impossible count is refused with a message.
  * An emitting shape given no BSDF reflects nothing, as in Mitsuba.
+ * Instances copy a shapegroup's shapes under their own to_world.
  */
 #include <stdarg.h>
 #include <stddef.h>
@@ -609,6 +610,80 @@ test_sensors_in_scene(void **state)
 	    "thinlens");
 }
 
+/* A shapegroup is drawn only through instances, each a copy of the
+ * group's shapes with the instance's to_world after the shape's own. */
+static void
+test_shapegroup_instances(void **state)
+{
+	char xml[8192];
+	struct pm_scene s;
+	size_t len, i;
+
+	(void)state;
+	load_ok("<scene version=\"3.0.0\">"
+	    "<bsdf type=\"diffuse\" id=\"grey\"/>"
+	    "<shape type=\"shapegroup\" id=\"g\">"
+	    "<shape type=\"rectangle\"><transform name=\"to_world\">"
+	    "<scale value=\"2\"/></transform><ref id=\"grey\"/></shape>"
+	    "<shape type=\"sphere\"><point name=\"center\" x=\"1\" y=\"0\""
+	    " z=\"0\"/></shape></shape>"
+	    "<shape type=\"instance\"><ref id=\"g\"/></shape>"
+	    "<shape type=\"instance\"><ref id=\"g\"/>"
+	    "<transform name=\"to_world\"><rotate z=\"1\" angle=\"90\"/>"
+	    "<translate z=\"5\"/></transform></shape>"
+	    "</scene>", &s);
+	assert_int_equal(s.nshapes, 4);
+	assert_int_equal(s.shapes[0].type, PM_SHAPE_MESH);
+	assert_int_equal(s.shapes[1].type, PM_SHAPE_SPHERE);
+	/* the rectangle's corner (-1, -1, 0), scaled by 2 */
+	NEAR(s.shapes[0].mesh.pos[0], -2, 1e-6);
+	NEAR(s.shapes[0].mesh.pos[1], -2, 1e-6);
+	NEAR(s.shapes[0].mesh.pos[2], 0, 1e-6);
+	/* ...then turned about z and moved up 5: (2, -2, 5) */
+	NEAR(s.shapes[2].mesh.pos[0], 2, 1e-5);
+	NEAR(s.shapes[2].mesh.pos[1], -2, 1e-5);
+	NEAR(s.shapes[2].mesh.pos[2], 5, 1e-6);
+	assert_int_equal(s.shapes[0].bsdf, s.shapes[2].bsdf);
+	NEAR(s.shapes[1].center.x, 1, 1e-6);
+	NEAR(s.shapes[3].center.x, 0, 1e-5);
+	NEAR(s.shapes[3].center.y, 1, 1e-5);
+	NEAR(s.shapes[3].center.z, 5, 1e-6);
+	pm_scene_free(&s);
+
+	/* a group alone draws nothing; a large one is fine */
+	len = (size_t)snprintf(xml, sizeof(xml), "<scene version=\"3.0.0\">"
+	    "<shape type=\"shapegroup\" id=\"g\">");
+	for (i = 0; i < 40; i++)
+		len += (size_t)snprintf(xml + len, sizeof(xml) - len,
+		    "<shape type=\"cube\"/>");
+	snprintf(xml + len, sizeof(xml) - len, "</shape></scene>");
+	load_ok(xml, &s);
+	assert_int_equal(s.nshapes, 0);
+	pm_scene_free(&s);
+	snprintf(xml + len, sizeof(xml) - len, "</shape><shape type="
+	    "\"instance\"><ref id=\"g\"/></shape></scene>");
+	load_ok(xml, &s);
+	assert_int_equal(s.nshapes, 40);
+	pm_scene_free(&s);
+
+	load_fails("<scene version=\"3.0.0\"><shape type=\"instance\"/>"
+	    "</scene>", PM_ERR_INVALID, "exactly one <ref> to a shapegroup");
+	load_fails("<scene version=\"3.0.0\"><bsdf type=\"diffuse\" "
+	    "id=\"b\"/><shape type=\"instance\"><ref id=\"b\"/></shape>"
+	    "</scene>", PM_ERR_INVALID, "expected a shape \"shapegroup\"");
+	load_fails("<scene version=\"3.0.0\"><shape type=\"shapegroup\" "
+	    "id=\"g\"><shape type=\"cube\"><emitter type=\"area\">"
+	    "<rgb name=\"radiance\" value=\"1\"/></emitter></shape></shape>"
+	    "<shape type=\"instance\"><ref id=\"g\"/></shape></scene>",
+	    PM_ERR_UNSUPPORTED, "cannot emit");
+	load_fails("<scene version=\"3.0.0\"><shape type=\"shapegroup\" "
+	    "id=\"g\"><shape type=\"shapegroup\"/></shape></scene>",
+	    PM_ERR_INVALID, "cannot hold a shape \"shapegroup\"");
+	load_fails("<scene version=\"3.0.0\"><shape type=\"shapegroup\" "
+	    "id=\"g\"><bsdf type=\"diffuse\"/></shape></scene>",
+	    PM_ERR_INVALID, "holds only <shape> elements");
+}
+
 /* Mitsuba's default BSDF: diffuse 0.5, but black on an emitting shape. */
 static void
 test_default_bsdf_of_emitters(void **state)
@@ -643,6 +718,7 @@ main(void)
 		cmocka_unit_test(test_cylinder_in_scene),
 		cmocka_unit_test(test_sensors_in_scene),
 		cmocka_unit_test(test_default_bsdf_of_emitters),
+		cmocka_unit_test(test_shapegroup_instances),
 	};
 
 	return cmocka_run_group_tests(tests, setup, teardown);
