@@ -11,14 +11,17 @@
 # first run only pm-render's cost remains. Outputs land in build/mitsuba-out/.
 # The scenes: data/cornell-box.xml (ours, must exist) and Mitsuba's own
 # Cornell box from ../shared/scenes/mitsuba-cbox (skipped when ../shared is
-# absent). Results are TAP-like lines and a closing "mitsuba cli: N passed,
-# N failed"; the exit status is non-zero when anything failed, including
-# the set-up of Mitsuba itself (no network means failure, never a pass).
+# absent), and the scenes tests/mitsuba/shapes_scene.py writes (the newer
+# shapes and sensors, also in photon mode). Results are TAP-like lines and
+# a closing "mitsuba cli: N passed, N failed"; the exit status is non-zero
+# when anything failed, including the set-up of Mitsuba itself (no network
+# means failure, never a pass).
 #
 # Knobs (environment): MITSUBA_RES (256), MITSUBA_SPP (256, per Mitsuba
 # render), PM_SPP (64, per pm-render render), PM_RENDER (bin/pm-render),
 # PM_THREADS (pm-render's -t, unset: its default), MITSUBA_VARIANT,
-# PM_VENV (build/venv).
+# PM_VENV (build/venv), PM_PHOTONS (500000, photon paths per photon-mode
+# render).
 
 set -u
 
@@ -90,6 +93,26 @@ pmrender() {
 	return $_rc
 }
 
+# pmphoton NAME SCENE SEED: pm-shoot, pm-balance and pm-render with the
+# map, to $OUT/NAME-pm-SEED.exr: photon mode against the same reference.
+pmphoton() {
+	_t0=$(now)
+	_seed=$3
+	"$(dirname "$PM_RENDER")/pm-shoot" -q -f --seed "$_seed" \
+	    --photons "${PM_PHOTONS:-500000}" -D "res=$RES" \
+	    -o "$OUT/$1-shot.pmap" "$2" >"$OUT/log" 2>&1 &&
+	"$(dirname "$PM_RENDER")/pm-balance" -q -f -o "$OUT/$1.pmap" \
+	    "$OUT/$1-shot.pmap" >>"$OUT/log" 2>&1 &&
+	"$PM_RENDER" "$2" "$OUT/$1.pmap" -o "$OUT/$1-pm-$_seed.exr" \
+	    --spp "$PM_SPP" --size "${RES}x${RES}" -D "res=$RES" \
+	    --seed "$_seed" -q -f >>"$OUT/log" 2>&1
+	_rc=$?
+	tail -n 20 "$OUT/log" | diag
+	echo "pm photon: $1 seed $_seed spp $PM_SPP in $(($(now) - _t0)) s (exit $_rc)" |
+	    diag
+	return $_rc
+}
+
 # compare NAME WHAT A A2 B B2: runs compare.py; 0 when it passed.
 compare() {
 	"$PY" "$HERE/compare.py" "$3" "$5" --a2 "$4" --b2 "$6" \
@@ -99,10 +122,17 @@ compare() {
 	return $_rc
 }
 
-# against NAME SCENE: pm-render against Mitsuba.
+# against NAME SCENE [photon]: pm-render (path tracing, or with a photon
+# map) against Mitsuba; a photon run's name ends in -photon (its Mitsuba
+# references come from the same cache entries).
 against() {
 	name=$1
 	scene=$2
+	pm=pmrender
+	if [ "${3:-}" = photon ]; then
+		pm=pmphoton
+		name=$name-photon
+	fi
 	if ! mitsuba "$name" mi-1 "$scene" "$MI_SPP" 1 ||
 	    ! mitsuba "$name" mi-2 "$scene" "$MI_SPP" 2; then
 		check "$name: Mitsuba cannot render $scene" false
@@ -112,11 +142,11 @@ against() {
 		check "$name: $PM_RENDER not built" false
 		return
 	fi
-	if ! pmrender "$name" "$scene" 1; then
+	if ! $pm "$name" "$scene" 1; then
 		check "$name: pm-render failed on $scene" false
 		return
 	fi
-	if ! pmrender "$name" "$scene" 2; then
+	if ! $pm "$name" "$scene" 2; then
 		check "$name: pm-render failed on $scene" false
 		return
 	fi
@@ -204,6 +234,22 @@ if [ -f data/cornell-box.xml ]; then
 	sed 's|<integrator type="path">|<integrator type="direct">|; /name="max_depth"/d' \
 	    data/cornell-box.xml >"$OUT/cornell-direct.xml"
 	run cornell-direct "$OUT/cornell-direct.xml"
+fi
+
+# Shapes and sensors: an open cylinder (and a cylinder light), two meshes
+# of a .serialized file written here and two instances of a shapegroup,
+# under an orthographic and a thin-lens camera, path traced and from
+# photon maps.  In a directory of their own,
+# so that Mitsuba's cached references stay valid between runs.
+if "$PY" "$HERE/shapes_scene.py" "$OUT/shapes" >"$OUT/log" 2>&1; then
+	for cam in ortho thinlens; do
+		run shapes-$cam "$OUT/shapes/shapes-$cam.xml"
+		[ "$selftest" = 1 ] ||
+		    run shapes-$cam "$OUT/shapes/shapes-$cam.xml" photon
+	done
+else
+	diag <"$OUT/log"
+	check "shapes: tests/mitsuba/shapes_scene.py failed" false
 fi
 
 if [ -f ../shared/scenes/mitsuba-cbox/cbox-rgb.xml ]; then
