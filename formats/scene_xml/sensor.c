@@ -252,6 +252,10 @@ sx_load_sensor(struct ld *ld, struct xnode *n)
 	c->near_clip = (float)near;
 	c->far_clip = (float)far;
 	c->focus_distance = (float)focus;
+	if (c->type == PM_SENSOR_THINLENS && !(focus > 0.0))
+		return sx_fail(ld, sx_prop_find(&pl, "focus_distance")->n,
+		    PM_ERR_INVALID, "%s: focus_distance must be positive",
+		    pl.what);
 	if (c->type != PM_SENSOR_ORTHOGRAPHIC &&
 	    (e = load_fov(ld, &pl, n, c)) != PM_OK)
 		return e;

@@ -600,6 +600,10 @@ test_sensors_in_scene(void **state)
 	    "</scene>", PM_ERR_INVALID, "aperture_radius");
 	load_fails("<scene version=\"3.0.0\"><sensor type=\"thinlens\">"
 	    "<float name=\"aperture_radius\" value=\"0.1\"/>"
+	    "<float name=\"focus_distance\" value=\"0\"/></sensor></scene>",
+	    PM_ERR_INVALID, "focus_distance must be positive");
+	load_fails("<scene version=\"3.0.0\"><sensor type=\"thinlens\">"
+	    "<float name=\"aperture_radius\" value=\"0.1\"/>"
 	    "<transform name=\"to_world\"><scale value=\"2\"/></transform>"
 	    "</sensor></scene>", PM_ERR_INVALID, "must not scale");
 	load_fails("<scene version=\"3.0.0\"><sensor type=\"orthographic\">"
