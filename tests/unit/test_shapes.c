@@ -443,7 +443,11 @@ test_serialized_in_scene(void **state)
 	    "<string name=\"filename\" value=\"two.serialized\"/>"
 	    "<integer name=\"shape_index\" value=\"7\"/>"
 	    "</shape></scene>", PM_ERR_INVALID, "shape_index 7 is out of range");
-	write_file("junk.serialized", "PK\003\004 not a mesh", 18);
+	{
+		static const char junk[] = "PK\003\004 not a mesh";
+
+		write_file("junk.serialized", junk, sizeof(junk) - 1);
+	}
 	load_fails("<scene version=\"3.0.0\"><shape type=\"serialized\">"
 	    "<string name=\"filename\" value=\"junk.serialized\"/>"
 	    "</shape></scene>", PM_ERR_FORMAT, "not a Mitsuba serialized mesh");
