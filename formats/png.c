@@ -159,3 +159,56 @@ pm_png_write_fast(const char *path, const uint8_t *rgb, int width,
 {
 	return write_png(path, rgb, width, height, true, err);
 }
+
+/* The largest image a texture may be: 2^28 texels (3 GiB of float RGB). */
+#define PNG_MAX_PIXELS ((size_t)1 << 28)
+
+/*
+ * Reads through libpng's simplified interface, which does the colour
+ * conversions (palette, grey, 16 bits) itself and reports errors in the
+ * image's message rather than through a handler.
+ */
+enum pm_err
+pm_png_read(const char *path, uint8_t **rgba, int *width, int *height,
+    struct pm_error *err)
+{
+	png_image im;
+	size_t n;
+	uint8_t *buf;
+
+	*rgba = NULL;
+	memset(&im, 0, sizeof(im));
+	im.version = PNG_IMAGE_VERSION;
+	if (!png_image_begin_read_from_file(&im, path)) {
+		enum pm_err e = pm_fail(err, errno == ENOENT ? PM_ERR_IO :
+		    PM_ERR_FORMAT, "%s: %s", path, im.message);
+
+		png_image_free(&im);
+		return e;
+	}
+	n = (size_t)im.width * (size_t)im.height;
+	if (im.width < 1 || im.height < 1 || im.width > INT32_MAX ||
+	    im.height > INT32_MAX || n > PNG_MAX_PIXELS) {
+		png_image_free(&im);
+		return pm_fail(err, PM_ERR_LIMIT, "%s: %ux%u pixels is more "
+		    "than pm reads", path, im.width, im.height);
+	}
+	im.format = PNG_FORMAT_RGBA;
+	if ((buf = malloc(n * 4)) == NULL) {
+		png_image_free(&im);
+		return pm_fail(err, PM_ERR_NOMEM, "%s: no memory for %ux%u "
+		    "pixels", path, im.width, im.height);
+	}
+	if (!png_image_finish_read(&im, NULL, buf, 0, NULL)) {
+		enum pm_err e = pm_fail(err, PM_ERR_FORMAT, "%s: %s", path,
+		    im.message);
+
+		free(buf);
+		png_image_free(&im);
+		return e;
+	}
+	*width = (int)im.width;
+	*height = (int)im.height;
+	*rgba = buf;
+	return PM_OK;
+}
