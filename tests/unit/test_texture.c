@@ -5,9 +5,11 @@
  * the texel centres; bilinear interpolation, nearest lookups and the three
  * wrap modes against their definitions; sRGB decoding against the
  * formula; the checkerboard's pattern and to_uv; the uv of a hit on the
- * built-in shapes; the scene loader's textured BSDFs; and a furnace: a
+ * built-in shapes; the scene loader's textured BSDFs; a furnace: a
  * checkerboard sphere under uniform light reflects, at each point, its
- * reflectance there times the light.
+ * reflectance there times the light; and photons: off a floor white on
+ * one half and black on the other, every photon that bounced came from
+ * the white half.
  */
 #include <math.h>
 #include <setjmp.h>
@@ -25,6 +27,7 @@
 #include "../../common/image.h"
 #include "../../common/integrator.h"
 #include "../../common/rng.h"
+#include "../../common/shoot.h"
 #include "../../common/texture.h"
 #include "../../common/world.h"
 #include "../../formats/exr.h"
@@ -578,6 +581,96 @@ test_furnace(void **state)
 	pm_scene_free(&s);
 }
 
+/* A rectangle mesh [-10, 10]^2 at height z, facing +z or, flipped, -z. */
+static int
+add_plane(struct pm_scene *s, float z, bool down, int bsdf)
+{
+	struct pm_error err;
+	struct pm_mat4 M = pm_mat4_mul(pm_mat4_translate(pm_v3(0, 0, z)),
+	    pm_mat4_scale(pm_v3(10, 10, 10)));
+	int sh = pm_scene_add_shape(s);
+
+	s->shapes[sh].type = PM_SHAPE_MESH;
+	s->shapes[sh].bsdf = bsdf;
+	assert_int_equal(pm_mesh_rectangle(&s->shapes[sh].mesh, &err), PM_OK);
+	pm_mesh_transform(&s->shapes[sh].mesh, &M);
+	if (down)
+		pm_mesh_flip(&s->shapes[sh].mesh);
+	return sh;
+}
+
+/* pm-shoot's photons see the texture: under a point light midway between
+ * a floor (a 2 x 1 bitmap: white where x < 0, black where x > 0) and a
+ * ceiling, every photon stored on the ceiling after one bounce came from
+ * the white half; with the floor's mean albedo instead, half would come
+ * from the black one. */
+static void
+test_photons_see_texture(void **state)
+{
+	struct pm_scene s;
+	struct pm_world w;
+	struct pm_shooter sh;
+	struct pm_error err;
+	struct pm_texture t;
+	struct pm_photon_buf buf = {NULL, 0, 0};
+	struct pm_shoot_opts o = {PM_PASS_GLOBAL, 5, 0, 100000, -1, 1};
+	struct pm_shoot_stats st;
+	size_t i, bounced = 0, from_black = 0;
+	int b, l;
+
+	(void)state;
+	pm_scene_init(&s);
+	pm_texture_init(&t, PM_TEXTURE_BITMAP);
+	t.width = 2;
+	t.height = 1;
+	t.nearest = true;
+	t.wrap = PM_WRAP_CLAMP;
+	t.rgb = calloc(6, sizeof(float));
+	assert_non_null(t.rgb);
+	t.rgb[0] = t.rgb[1] = t.rgb[2] = 1.0f;
+	assert_int_equal(pm_scene_add_texture(&s, &t), 0);
+	b = pm_scene_add_bsdf(&s);
+	s.bsdfs[b].type = PM_BSDF_DIFFUSE;
+	s.bsdfs[b].tex_diffuse = 1;
+	s.bsdfs[b].diffuse = pm_texture_mean(&t);
+	add_plane(&s, 0.0f, false, b);
+	b = pm_scene_add_bsdf(&s);
+	s.bsdfs[b].type = PM_BSDF_DIFFUSE;
+	s.bsdfs[b].diffuse = pm_rgb1(0.5f);
+	add_plane(&s, 1.0f, true, b);
+	l = pm_scene_add_light(&s);
+	s.lights[l].type = PM_LIGHT_POINT;
+	s.lights[l].position = pm_v3(0, 0, 0.5f);
+	s.lights[l].intensity = pm_rgb1(1.0f);
+	assert_int_equal(pm_scene_prepare(&s, &err), PM_OK);
+	assert_int_equal(pm_world_init(&w, &s, &err), PM_OK);
+	assert_int_equal(pm_shooter_init(&sh, &s, w.accel, &w.lights, &err),
+	    PM_OK);
+	assert_int_equal(pm_shoot(&sh, &o, &buf, &st, &err), PM_OK);
+	for (i = 0; i < buf.n; i++) {
+		const struct pm_photon *p = &buf.p[i];
+		struct pm_vec3 d = pm_dir_unpack(p->dir);
+		float x0;
+
+		/* on the ceiling, after the one bounce on the floor, and
+		 * steep enough that 8-bit directions trace back closely */
+		if (p->depth != 1 || p->pos[2] < 0.5f || d.z > -0.5f)
+			continue;
+		bounced++;
+		x0 = p->pos[0] + d.x * (p->pos[2] / -d.z);
+		if (x0 > 0.05f)
+			from_black++;
+	}
+	print_message("%zu photons on the ceiling after one bounce, %zu "
+	    "from the black half\n", bounced, from_black);
+	assert_true(bounced > 1000);
+	assert_int_equal(from_black, 0);
+	pm_photon_buf_free(&buf);
+	pm_shooter_free(&sh);
+	pm_world_free(&w);
+	pm_scene_free(&s);
+}
+
 int
 main(void)
 {
@@ -591,6 +684,7 @@ main(void)
 		cmocka_unit_test(test_hit_uv),
 		cmocka_unit_test(test_scene_textures),
 		cmocka_unit_test(test_furnace),
+		cmocka_unit_test(test_photons_see_texture),
 	};
 
 	return cmocka_run_group_tests(tests, setup, teardown);
