@@ -165,16 +165,18 @@ pm_png_write_fast(const char *path, const uint8_t *rgb, int width,
 
 /*
  * Reads through libpng's simplified interface, which does the colour
- * conversions (palette, grey, 16 bits) itself and reports errors in the
- * image's message rather than through a handler.
+ * conversions (palette, grey) itself and reports errors in the image's
+ * message rather than through a handler.  16-bit files come as its
+ * "linear" 16-bit samples, which for a file without a gamma chunk are the
+ * file's own, with the colour premultiplied by alpha, undone here.
  */
 enum pm_err
-pm_png_read(const char *path, uint8_t **rgba, int *width, int *height,
-    struct pm_error *err)
+pm_png_read(const char *path, void **rgba, int *bits, int *width,
+    int *height, struct pm_error *err)
 {
 	png_image im;
-	size_t n;
-	uint8_t *buf;
+	size_t n, i;
+	void *buf;
 
 	*rgba = NULL;
 	memset(&im, 0, sizeof(im));
@@ -193,8 +195,9 @@ pm_png_read(const char *path, uint8_t **rgba, int *width, int *height,
 		return pm_fail(err, PM_ERR_LIMIT, "%s: %ux%u pixels is more "
 		    "than pm reads", path, im.width, im.height);
 	}
-	im.format = PNG_FORMAT_RGBA;
-	if ((buf = malloc(n * 4)) == NULL) {
+	*bits = (im.format & PNG_FORMAT_FLAG_LINEAR) ? 16 : 8;
+	im.format = *bits == 16 ? PNG_FORMAT_LINEAR_RGB_ALPHA : PNG_FORMAT_RGBA;
+	if ((buf = malloc(n * 4 * (size_t)(*bits / 8))) == NULL) {
 		png_image_free(&im);
 		return pm_fail(err, PM_ERR_NOMEM, "%s: no memory for %ux%u "
 		    "pixels", path, im.width, im.height);
@@ -206,6 +209,21 @@ pm_png_read(const char *path, uint8_t **rgba, int *width, int *height,
 		free(buf);
 		png_image_free(&im);
 		return e;
+	}
+	if (*bits == 16) {
+		uint16_t *p = buf;
+
+		for (i = 0; i < n; i++, p += 4)
+			if (p[3] > 0 && p[3] < 65535) {
+				int c;
+
+				for (c = 0; c < 3; c++) {
+					unsigned v = ((unsigned)p[c] * 65535u +
+					    p[3] / 2u) / p[3];
+
+					p[c] = (uint16_t)(v > 65535u ? 65535u : v);
+				}
+			}
 	}
 	*width = (int)im.width;
 	*height = (int)im.height;

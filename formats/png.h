@@ -1,5 +1,5 @@
 /*
- * png.h: 8-bit RGB PNG output, and 8-bit RGBA input, through libpng.
+ * png.h: 8-bit RGB PNG output, and 8- or 16-bit RGBA input, through libpng.
  */
 #ifndef PM_PNG_H
 #define PM_PNG_H
@@ -18,11 +18,12 @@ enum pm_err pm_png_write(const char *path, const uint8_t *rgb, int width,
 enum pm_err pm_png_write_fast(const char *path, const uint8_t *rgb,
     int width, int height, struct pm_error *err);
 
-/* Reads any PNG as 8-bit RGBA (grey is repeated, a missing alpha is
- * opaque, 16-bit samples are rounded to 8 bits, the bytes keep the file's
- * encoding): 4 * width * height bytes in *rgba, top row first, which the
- * caller frees. */
-enum pm_err pm_png_read(const char *path, uint8_t **rgba, int *width,
-    int *height, struct pm_error *err);
+/* Reads any PNG as RGBA, 4 * width * height samples in *rgba, top row
+ * first, which the caller frees: 8-bit files (grey and palettes
+ * expanded) as uint8_t, in the file's encoding; 16-bit ones as uint16_t
+ * (*bits says which), the samples as the file has them (without a gamma
+ * chunk).  A missing alpha is opaque. */
+enum pm_err pm_png_read(const char *path, void **rgba, int *bits,
+    int *width, int *height, struct pm_error *err);
 
 #endif

@@ -36,6 +36,26 @@ from_8bit(const uint8_t *px, size_t n, int stride, bool raw)
 	return out;
 }
 
+/* 16-bit RGBA samples into linear floats: sRGB-encoded like 8-bit ones,
+ * as Mitsuba reads PNG. */
+static float *
+from_16bit(const uint16_t *px, size_t n, bool raw)
+{
+	float *out;
+	size_t i;
+	int c;
+
+	if ((out = malloc(n * 3 * sizeof(float))) == NULL)
+		return NULL;
+	for (i = 0; i < n; i++)
+		for (c = 0; c < 3; c++) {
+			float v = (float)px[4 * i + (size_t)c] / 65535.0f;
+
+			out[3 * i + c] = raw ? v : pm_srgb_to_linear(v);
+		}
+	return out;
+}
+
 enum pm_err
 pm_bitmap_read(const char *path, bool raw, struct pm_texture *t,
     struct pm_error *err)
@@ -66,7 +86,17 @@ pm_bitmap_read(const char *path, bool raw, struct pm_texture *t,
 		return PM_OK;
 	}
 	if (got == sizeof(head) && memcmp(head, png_magic, 4) == 0) {
-		e = pm_png_read(path, &px, &w, &h, err);
+		void *raw_px;
+		int bits;
+
+		if ((e = pm_png_read(path, &raw_px, &bits, &w, &h, err)) != PM_OK)
+			return e;
+		if (bits == 16) {
+			rgb = from_16bit(raw_px, (size_t)w * (size_t)h, raw);
+			free(raw_px);
+			goto done;
+		}
+		px = raw_px;
 		stride = 4;
 	} else if (got >= 3 && memcmp(head, jpeg_magic, 3) == 0) {
 		e = pm_jpeg_read(path, &px, &w, &h, err);
@@ -79,6 +109,7 @@ pm_bitmap_read(const char *path, bool raw, struct pm_texture *t,
 		return e;
 	rgb = from_8bit(px, (size_t)w * (size_t)h, stride, raw);
 	free(px);
+done:
 	if (rgb == NULL)
 		return pm_fail(err, PM_ERR_NOMEM, "%s: no memory for %dx%d "
 		    "texels", path, w, h);

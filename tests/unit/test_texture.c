@@ -23,6 +23,7 @@
 
 #include <cmocka.h>
 #include <jpeglib.h>
+#include <png.h>
 
 #include "../../common/image.h"
 #include "../../common/integrator.h"
@@ -135,6 +136,37 @@ test_png_round_trip(void **state)
 	assert_near(pm_srgb_to_linear(0.5f), srgb_decode(0.5), 1e-6);
 	pm_texture_free(&t);
 	pm_texture_free(&r);
+}
+
+/* A 16-bit PNG: its samples sRGB-decoded as the 8-bit ones are (as
+ * Mitsuba reads PNG), at 16 bits' precision. */
+static void
+test_png16(void **state)
+{
+	static const uint16_t px[3 * 2] = {32768, 16384, 65535, 0, 1000, 50000};
+	png_image im;
+	struct pm_texture t;
+	struct pm_error err;
+	char path[256];
+	int i;
+
+	(void)state;
+	path_of(path, sizeof(path), "p16.png");
+	memset(&im, 0, sizeof(im));
+	im.version = PNG_IMAGE_VERSION;
+	im.width = 2;
+	im.height = 1;
+	im.format = PNG_FORMAT_LINEAR_RGB;
+	assert_true(png_image_write_to_file(&im, path, 0, px, 0, NULL));
+	pm_texture_init(&t, PM_TEXTURE_BITMAP);
+	assert_int_equal(pm_bitmap_read(path, false, &t, &err), PM_OK);
+	assert_int_equal(t.width, 2);
+	for (i = 0; i < 6; i++)
+		assert_near(t.rgb[i], srgb_decode(px[i] / 65535.0), 2e-6);
+	assert_int_equal(pm_bitmap_read(path, true, &t, &err), PM_OK);
+	for (i = 0; i < 6; i++)
+		assert_near(t.rgb[i], px[i] / 65535.0, 1e-7);
+	pm_texture_free(&t);
 }
 
 /* OpenEXR is linear: floats come back exactly, raw or not. */
@@ -676,6 +708,7 @@ main(void)
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_png_round_trip),
+		cmocka_unit_test(test_png16),
 		cmocka_unit_test(test_exr_round_trip),
 		cmocka_unit_test(test_jpeg),
 		cmocka_unit_test(test_bilinear),
