@@ -202,7 +202,12 @@ check-man:
 	@for m in $(MANS); do mandoc -T lint -W warning $$m || exit 1; done; \
 	echo "man pages: $(words $(MANS)) linted clean"
 
-check-mitsuba: $(BINS)
+# pm's bitmap lookups, for tests/mitsuba/texture_lookup.py.
+$(BUILD)/tests/texlookup: tests/mitsuba/texlookup.c $(LIB)
+	@mkdir -p $(dir $@)
+	$(CC) $(PM_CFLAGS) $(CFLAGS) -o $@ tests/mitsuba/texlookup.c $(LIB) $(PM_LIBS)
+
+check-mitsuba: $(BINS) $(BUILD)/tests/texlookup
 	@sh tests/mitsuba/compare.sh
 
 install: all

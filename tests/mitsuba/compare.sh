@@ -231,6 +231,20 @@ if [ -f data/cornell-box.xml ]; then
 	run cornell-direct "$OUT/cornell-direct.xml"
 fi
 
+# Bitmap lookups, point by point, against Mitsuba's (texture_lookup.py).
+if [ "$selftest" = 0 ]; then
+	if [ ! -x build/tests/texlookup ]; then
+		check "texture lookups: build/tests/texlookup not built" false
+	elif "$PY" "$HERE/texture_lookup.py" build/tests/texlookup \
+	    "$OUT/texture-lookup" >"$OUT/log" 2>&1; then
+		diag <"$OUT/log"
+		check "texture lookups: pm's bitmap lookups equal Mitsuba's" true
+	else
+		diag <"$OUT/log"
+		check "texture lookups: pm's bitmap lookups differ from Mitsuba's" false
+	fi
+fi
+
 # Textures: tests/mitsuba/textures.xml with its bitmap written here, in a
 # folder of their own (Mitsuba's cache key hashes the scene's folder), by
 # path tracing and by photon mapping.
