@@ -32,6 +32,7 @@ PM_RENDER=${PM_RENDER:-bin/pm-render}
 PM_SHOOT=${PM_SHOOT:-bin/pm-shoot}
 PM_BALANCE=${PM_BALANCE:-bin/pm-balance}
 PM_PHOTONS=${PM_PHOTONS:-1000000}
+PM_MAP=			# set by pmphoton only
 OUT=build/mitsuba-out
 VENV=${PM_VENV:-build/venv}
 PY=$VENV/bin/python
@@ -109,7 +110,13 @@ pmphoton() {
 		diag <"$OUT/log"
 		return 1
 	fi
-	PM_MAP=$_map pmrender "$@"
+	# not as a prefix assignment: whether one outlives a function call
+	# is up to the shell
+	PM_MAP=$_map
+	pmrender "$@"
+	_rc=$?
+	PM_MAP=
+	return $_rc
 }
 
 # compare NAME WHAT A A2 B B2: runs compare.py; 0 when it passed.
