@@ -94,9 +94,10 @@ enum pm_integrator_type {
  * photon tools use them, the path tracer ignores them.
  */
 struct pm_photon_params {
-	long global_photons;		/* globalPhotons, 100000 (Mitsuba 0.6:
-				 * 250000): photon paths emitted */
-	long caustic_photons;		/* causticPhotons, 100000 (250000) */
+	long global_photons;		/* globalPhotons, 250000 as in Mitsuba
+				 * 0.6: photon paths emitted; -1 (no
+				 * photonmapper): pm_shoot_default_paths */
+	long caustic_photons;		/* causticPhotons, likewise */
 	float global_lookup_radius;	/* globalLookupRadius, 0.05: a fraction */
 	float caustic_lookup_radius;	/* causticLookupRadius, 0.0125: of the
 					 * scene's bounding-sphere radius */

@@ -288,6 +288,31 @@ test_scene_hash(void **state)
 	world_free(&b);
 }
 
+/* The default photon count follows the scene's own film and sampler. */
+static void
+test_default_paths(void **state)
+{
+	struct pm_scene s;
+
+	(void)state;
+	pm_scene_init(&s);
+	assert_int_equal(pm_shoot_default_paths(&s), PM_PATHS_NO_CAMERA);
+	s.has_camera = true;
+	s.camera.width = s.camera.height = 128;
+	s.camera.spp = 16;		/* 262144 samples */
+	assert_int_equal(pm_shoot_default_paths(&s), 26214);
+	s.camera.spp = 2;		/* below the floor */
+	assert_int_equal(pm_shoot_default_paths(&s), PM_PATHS_MIN);
+	s.camera.width = s.camera.height = 512;
+	s.camera.spp = 64;		/* above the ceiling */
+	assert_int_equal(pm_shoot_default_paths(&s), PM_PATHS_MAX);
+	s.camera.width = 640;
+	s.camera.height = 480;
+	s.camera.spp = 1;
+	assert_int_equal(pm_shoot_default_paths(&s), 30720);
+	pm_scene_free(&s);
+}
+
 int
 main(void)
 {
@@ -297,6 +322,7 @@ main(void)
 		cmocka_unit_test(test_caustic_aiming_is_unbiased),
 		cmocka_unit_test(test_effects),
 		cmocka_unit_test(test_scene_hash),
+		cmocka_unit_test(test_default_paths),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);
