@@ -11,6 +11,7 @@
 #include <string.h>
 
 #include <jpeglib.h>
+#include <jerror.h>
 
 #include "jpeg.h"
 
@@ -31,10 +32,18 @@ jpeg_on_error(j_common_ptr c)
 	longjmp(je->jmp, 1);
 }
 
+/* Warnings: a file that ends early is an error (libjpeg would fill the
+ * rest with grey); other damage libjpeg recovers from is let pass, as
+ * Mitsuba's reader does. */
 static void
-jpeg_on_message(j_common_ptr c)
+jpeg_on_emit(j_common_ptr c, int level)
 {
-	(void)c;	/* warnings of a damaged file: the data still decodes */
+	struct jpeg_err *je = (struct jpeg_err *)c->err;
+
+	if (level < 0 && je->mgr.msg_code == JWRN_JPEG_EOF) {
+		je->mgr.format_message(c, je->msg);
+		longjmp(je->jmp, 1);
+	}
 }
 
 /* Decodes fp into *out; kept apart so that its setjmp guards only the
@@ -53,7 +62,7 @@ jpeg_decode(FILE *fp, struct jpeg_state *st, int *w, int *h)
 
 	st->d.err = jpeg_std_error(&st->je.mgr);
 	st->je.mgr.error_exit = jpeg_on_error;
-	st->je.mgr.output_message = jpeg_on_message;
+	st->je.mgr.emit_message = jpeg_on_emit;
 	if (setjmp(st->je.jmp)) {
 		jpeg_destroy_decompress(&st->d);
 		return -1;

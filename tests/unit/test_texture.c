@@ -199,45 +199,57 @@ test_exr_round_trip(void **state)
 	pm_image_free(&im);
 }
 
-/* A JPEG of flat colour blocks: lossy, but a block's middle comes back
- * within a few levels, decoded by the sRGB formula. */
+enum { JW = 32, JH = 16 };
+static const uint8_t jpeg_col[2][3] = {{200, 40, 90}, {30, 160, 250}};
+
+/* Writes a JW x JH JPEG: the left half jpeg_col[0], the right jpeg_col[1]. */
 static void
-test_jpeg(void **state)
+write_jpeg(const char *path)
 {
-	enum { W = 32, H = 16 };
-	static const uint8_t col[2][3] = {{200, 40, 90}, {30, 160, 250}};
 	struct jpeg_compress_struct cj;
 	struct jpeg_error_mgr jerr;
-	uint8_t row[3 * W];
+	uint8_t row[3 * JW];
 	JSAMPROW rp = row;
-	struct pm_texture t;
-	struct pm_error err;
-	char path[256];
 	FILE *fp;
-	int x, b, c;
+	int x, c;
 
-	(void)state;
-	path_of(path, sizeof(path), "j.jpg");
 	fp = fopen(path, "wb");
 	assert_non_null(fp);
 	cj.err = jpeg_std_error(&jerr);
 	jpeg_create_compress(&cj);
 	jpeg_stdio_dest(&cj, fp);
-	cj.image_width = W;
-	cj.image_height = H;
+	cj.image_width = JW;
+	cj.image_height = JH;
 	cj.input_components = 3;
 	cj.in_color_space = JCS_RGB;
 	jpeg_set_defaults(&cj);
 	jpeg_set_quality(&cj, 100, TRUE);
 	jpeg_start_compress(&cj, TRUE);
-	for (x = 0; x < W; x++)
+	for (x = 0; x < JW; x++)
 		for (c = 0; c < 3; c++)
-			row[3 * x + c] = col[x >= W / 2][c];
+			row[3 * x + c] = jpeg_col[x >= JW / 2][c];
 	while (cj.next_scanline < cj.image_height)
 		jpeg_write_scanlines(&cj, &rp, 1);
 	jpeg_finish_compress(&cj);
 	jpeg_destroy_compress(&cj);
 	assert_int_equal(fclose(fp), 0);
+}
+
+/* A JPEG of flat colour blocks: lossy, but a block's middle comes back
+ * within a few levels, decoded by the sRGB formula. */
+static void
+test_jpeg(void **state)
+{
+	enum { W = JW, H = JH };
+	const uint8_t (*col)[3] = jpeg_col;
+	struct pm_texture t;
+	struct pm_error err;
+	char path[256];
+	int b, c;
+
+	(void)state;
+	path_of(path, sizeof(path), "j.jpg");
+	write_jpeg(path);
 
 	pm_texture_init(&t, PM_TEXTURE_BITMAP);
 	assert_int_equal(pm_bitmap_read(path, false, &t, &err), PM_OK);
@@ -270,6 +282,83 @@ small_texture(struct pm_texture *t)
 		t->rgb[3 * i] = (float)i;		/* texel index */
 		t->rgb[3 * i + 1] = (float)(i % 3);	/* column */
 		t->rgb[3 * i + 2] = (float)(i / 3);	/* row */
+	}
+}
+
+/* Reads path's first n bytes, with byte flip (if < n) inverted, back
+ * into a file of its own; returns its name in out. */
+static void
+damaged_copy(const char *path, size_t n, long flip, char *out, size_t len)
+{
+	static uint8_t buf[1 << 16];
+	FILE *f = fopen(path, "rb");
+	size_t got;
+
+	assert_non_null(f);
+	got = fread(buf, 1, sizeof(buf), f);
+	fclose(f);
+	assert_true(got < sizeof(buf));
+	if (n > got)
+		n = got;
+	if (flip >= 0 && (size_t)flip < n)
+		buf[flip] ^= 0xff;
+	snprintf(out, len, "%s.bad", path);
+	f = fopen(out, "wb");
+	assert_non_null(f);
+	assert_int_equal(fwrite(buf, 1, n, f), n);
+	assert_int_equal(fclose(f), 0);
+}
+
+/* Damaged bitmaps: every truncation of a PNG, JPEG and OpenEXR file
+ * before its end marker (PNG's 12-byte IEND chunk, JPEG's 2-byte EOI,
+ * after which the image is whole) fails with a message naming the file
+ * and leaves the texture as it was; flipped bytes never crash (a JPEG may
+ * still decode to something). */
+static void
+test_damaged_files(void **state)
+{
+	static const uint8_t px[3 * 4] = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11,
+	    12};
+	struct pm_image im;
+	struct pm_texture t;
+	struct pm_error err;
+	char files[3][256], bad[300];
+	static const long tail[3] = {12, 2, 0};
+	long size, n, flip;
+	int k;
+	FILE *f;
+
+	(void)state;
+	path_of(files[0], sizeof(files[0]), "d.png");
+	path_of(files[1], sizeof(files[1]), "d.jpg");
+	path_of(files[2], sizeof(files[2]), "d.exr");
+	assert_int_equal(pm_png_write(files[0], px, 2, 2, &err), PM_OK);
+	write_jpeg(files[1]);
+	assert_int_equal(pm_image_alloc(&im, 3, 2, &err), PM_OK);
+	memset(im.rgb, 0, 3 * 6 * sizeof(float));
+	assert_int_equal(pm_exr_write(files[2], &im, false, &err), PM_OK);
+	pm_image_free(&im);
+	pm_texture_init(&t, PM_TEXTURE_BITMAP);
+	for (k = 0; k < 3; k++) {
+		f = fopen(files[k], "rb");
+		assert_non_null(f);
+		assert_int_equal(fseek(f, 0, SEEK_END), 0);
+		size = ftell(f);
+		fclose(f);
+		for (n = 0; n < size - tail[k]; n += n < 64 ? 1 : 7) {
+			damaged_copy(files[k], (size_t)n, -1, bad, sizeof(bad));
+			memset(&err, 0, sizeof(err));
+			if (pm_bitmap_read(bad, false, &t, &err) == PM_OK)
+				fail_msg("%s cut to %ld of %ld bytes: read", files[k],
+				    n, size);
+			assert_non_null(strstr(err.msg, bad));
+			assert_null(t.rgb);
+		}
+		for (flip = 0; flip < size; flip += 3) {
+			damaged_copy(files[k], (size_t)size, flip, bad, sizeof(bad));
+			if (pm_bitmap_read(bad, false, &t, &err) == PM_OK)
+				pm_texture_free(&t);
+		}
 	}
 }
 
@@ -711,6 +800,7 @@ main(void)
 		cmocka_unit_test(test_png16),
 		cmocka_unit_test(test_exr_round_trip),
 		cmocka_unit_test(test_jpeg),
+		cmocka_unit_test(test_damaged_files),
 		cmocka_unit_test(test_bilinear),
 		cmocka_unit_test(test_wrap_modes),
 		cmocka_unit_test(test_checkerboard),
