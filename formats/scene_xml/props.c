@@ -206,9 +206,11 @@ texture_error(struct ld *ld, struct plist *pl)
 {
 	const char *nm = sx_attr(pl->tex[0], "name");
 
+	if (nm == NULL)
+		return sx_fail(ld, pl->tex[0], PM_ERR_INVALID, "%s: a nested "
+		    "<texture> needs a name, the parameter it gives", pl->what);
 	return sx_fail(ld, pl->tex[0], PM_ERR_UNSUPPORTED, "%s: textures are "
-	    "not supported here (<texture%s%s%s>)", pl->what,
-	    nm ? " name=\"" : "", nm ? nm : "", nm ? "\"" : "");
+	    "not supported here (<texture name=\"%s\">)", pl->what, nm);
 }
 
 enum pm_err

@@ -996,6 +996,9 @@ test_errors(void **state)
 		    "<texture name=\"color0\" type=\"checkerboard\"/></texture>"
 		    "</scene>", 3, "textures are not supported here"},
 		{HEAD "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n"
+		    "<texture type=\"checkerboard\"/></bsdf></shape></scene>", 3,
+		    "a nested <texture> needs a name"},
+		{HEAD "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n"
 		    "<texture name=\"reflectance\" type=\"noise\"/></bsdf>"
 		    "</shape></scene>", 3, "unknown texture type \"noise\""},
 		{HEAD "<texture type=\"bitmap\" id=\"t\">\n"
