@@ -15,7 +15,8 @@
 
 #include "jpeg.h"
 
-#define JPEG_MAX_PIXELS ((size_t)1 << 28)
+/* as PNG_MAX_PIXELS: 2^27 texels, 1.5 GiB of float RGB */
+#define JPEG_MAX_PIXELS ((size_t)1 << 27)
 
 struct jpeg_err {
 	struct jpeg_error_mgr mgr;	/* first: libjpeg passes this pointer */

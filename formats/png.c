@@ -160,8 +160,9 @@ pm_png_write_fast(const char *path, const uint8_t *rgb, int width,
 	return write_png(path, rgb, width, height, true, err);
 }
 
-/* The largest image a texture may be: 2^28 texels (3 GiB of float RGB). */
-#define PNG_MAX_PIXELS ((size_t)1 << 28)
+/* The largest image a texture may be: 2^27 texels (16384 x 8192, 1.5 GiB
+ * of float RGB). */
+#define PNG_MAX_PIXELS ((size_t)1 << 27)
 
 /*
  * Reads through libpng's simplified interface, which does the colour
