@@ -9,9 +9,15 @@
  *     followed every time, weighted by its Fresnel reflectance, beside the
  *     estimates of its diffuse base (choosing it with probability P would
  *     turn the light's reflection in it into noise);
- *   - glossy surfaces (rough conductors, shiny measured BRDFs) are path
- *     traced: light sampling and BSDF sampling with multiple importance
- *     sampling;
+ *   - glossy surfaces (rough conductors, rough dielectrics, shiny
+ *     measured BRDFs) are path traced: light sampling and BSDF sampling
+ *     with multiple importance sampling; roughplastic's rough coating is
+ *     traced the same way, every time, beside the estimates of its
+ *     diffuse base (as plastic's smooth coating is followed);
+ *   - rough dielectrics hold no photons: pm-shoot passes photons through
+ *     them as through glass, into the caustic map, so light through
+ *     frosted glass reaches diffuse surfaces as caustics; gather rays
+ *     follow them by sampling;
  *   - at a diffuse surface the path ends with four estimates:
  *       direct light, exactly, from `direct_samples` light samples;
  *       caustics (light, specular+, here) from the caustic map with a cone
@@ -42,21 +48,39 @@
 
 #define CONE_K 1.1f
 
+/* Surfaces that hold photons (pm-shoot's rule): a rough dielectric holds
+ * none, since light crosses it as it crosses glass (photons pass through
+ * into the caustic map), so gather rays follow it as they follow glass. */
 static bool
 has_nonspecular(const struct pm_bsdf *b)
 {
-	return b->type != PM_BSDF_NULL &&
+	return b->type != PM_BSDF_NULL && b->type != PM_BSDF_ROUGHDIELECTRIC &&
 	    (b->lobes & (PM_LOBE_DIFFUSE | PM_LOBE_GLOSSY | PM_LOBE_GLOSSY_TRANSMISSION));
 }
 
-/* Rough conductors, and measured materials with a peak (merl.c decides),
- * are traced rather than estimated: photon density estimates blur glossy
- * reflections beyond use.  Matte measured materials use the maps. */
+/* Rough conductors and dielectrics, and measured materials with a peak
+ * (merl.c decides), are traced rather than estimated: photon density
+ * estimates blur glossy reflections beyond use.  Matte measured
+ * materials use the maps.  (Roughplastic is split: its base uses the
+ * maps, its coating is traced; see pm_photon_li_px.) */
 static bool
 is_glossy(const struct pm_bsdf *b)
 {
 	return b->type == PM_BSDF_ROUGHCONDUCTOR ||
+	    b->type == PM_BSDF_ROUGHDIELECTRIC ||
 	    (b->type == PM_BSDF_MERL && b->merl != NULL && b->merl->glossy);
+}
+
+/* Roughplastic's diffuse base alone, or its rough coating alone, as a
+ * BSDF of their own (a copy with `only` set); other types as they are. */
+static const struct pm_bsdf *
+split_lobe(const struct pm_bsdf *b, unsigned lobe, struct pm_bsdf *tmp)
+{
+	if (b->type != PM_BSDF_ROUGHPLASTIC)
+		return b;
+	*tmp = *b;
+	tmp->only = lobe;
+	return tmp;
 }
 
 /* The shading normal turned to the side a ray of direction d arrives
@@ -273,7 +297,7 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 		if (!pm_bsdf_sample(b, wi, u1, u2, u3, PM_RADIANCE, &bs))
 			break;
 		beta = pm_rgb_mul(beta, bs.weight);
-		if (!(bs.lobe & PM_LOBE_DELTA)) {
+		if (!(bs.lobe & PM_LOBE_DELTA) && has_nonspecular(b)) {
 			struct pm_rgb E;
 
 			if (!pm_irradiance_lookup(m->irradiance_grid, h.p, nrm, &E)) {
@@ -401,7 +425,12 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			    1, true, lu, rng));
 			lu = NULL;
 		} else if (has_nonspecular(b)) {
-			struct pm_rgb E = direct_light(ctx, b, &h, fr, wi,
+			/* roughplastic: its diffuse base here, its coating
+			 * below */
+			struct pm_bsdf base_tmp;
+			const struct pm_bsdf *bb = split_lobe(b,
+			    PM_LOBE_DIFFUSE, &base_tmp);
+			struct pm_rgb E = direct_light(ctx, bb, &h, fr, wi,
 			    m->direct_samples, false, lu, rng);
 
 			lu = NULL;
@@ -415,7 +444,7 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			E = pm_rgb_add(E, estimate(m->caustic, m->ncaustic,
 			    m->caustic_scale, m->caustic_r2, m->lookup_size,
 			    m->fixed_radius, 0, 0, true,
-			    b, h.p, nrm, dcap, fr, wi));
+			    bb, h.p, nrm, dcap, fr, wi));
 			/* A gather ray adds a segment and its surface's
 			 * photons at least one more. */
 			bool gather_fits = ctx->max_depth < 0 ||
@@ -423,19 +452,35 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 
 			if (m->final_gather) {
 				if (gather_fits)
-					E = pm_rgb_add(E, indirect(ctx, b, &h, fr,
+					E = pm_rgb_add(E, indirect(ctx, bb, &h, fr,
 					    wi, nrm, depth, fx, fy, rng));
 			} else
 				E = pm_rgb_add(E, estimate(m->global, m->nglobal,
 				    m->global_scale, m->global_r2, m->lookup_size,
 				    m->fixed_radius, PM_PHOTON_VIA_DIFFUSE, PM_PHOTON_VIA_DIFFUSE, false,
-				    b, h.p, nrm, dcap, fr, wi));
+				    bb, h.p, nrm, dcap, fr, wi));
 			L = pm_rgb_madd(L, pa.beta, E);
-			if (!(b->lobes & PM_LOBE_DELTA))
+			if (!(b->lobes & (PM_LOBE_DELTA | PM_LOBE_GLOSSY)))
 				break;
 		}
 
-		if (!is_glossy(b) && has_nonspecular(b)) {
+		if (b->type == PM_BSDF_ROUGHPLASTIC) {
+			/* A diffuse base with a rough coating: the base is
+			 * estimated above, the coating path traced as a rough
+			 * conductor is (light sampling with MIS here, then
+			 * a sample of the coating alone), every time. */
+			struct pm_bsdf coat_tmp;
+			const struct pm_bsdf *bc = split_lobe(b,
+			    PM_LOBE_GLOSSY, &coat_tmp);
+
+			L = pm_rgb_madd(L, pa.beta, direct_light(ctx, bc, &h, fr,
+			    wi, 1, true, NULL, rng));
+			u1 = pm_rng_float(rng);
+			u2 = pm_rng_float(rng);
+			u3 = pm_rng_float(rng);
+			if (!pm_bsdf_sample(bc, wi, u1, u2, u3, PM_RADIANCE, &bs))
+				break;
+		} else if (!is_glossy(b) && has_nonspecular(b)) {
 			/* A diffuse base with a smooth coating: the base is
 			 * estimated above, the coating followed every time
 			 * (one path, so no splitting blow-up). */
