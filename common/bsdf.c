@@ -1,16 +1,19 @@
 /*
  * bsdf.c: evaluation, sampling and densities of pm's closed set of
  * materials, each meaning what the Mitsuba 3 plugin of the same name means
- * (diffuse, conductor, roughconductor, dielectric, thindielectric, plastic,
- * null, and the twosided adapter for the non-transmissive ones), in RGB,
+ * (diffuse, conductor, roughconductor, dielectric, thindielectric,
+ * roughdielectric, plastic, roughplastic, null, and the twosided adapter
+ * for the non-transmissive ones), in RGB,
  * and measured MERL BRDFs, whose lookup and sampling live in merl.c.
  *
  * One switch per operation; no allocation; nothing here prints.  The
- * formulas are the textbook ones (Walter et al. 2007 for GGX, Heitz 2014
- * and 2018 for Smith masking and visible-normal sampling, Moeller's
- * "Optics" for the conductor Fresnel term; plastic is a Lambertian base
- * under a smooth dielectric coat, its internal bounces summed in closed
- * form), arranged so that every edge case behaves as Mitsuba 3 does.
+ * formulas are the textbook ones (Walter et al. 2007 for GGX and for rough
+ * dielectrics, Heitz 2014 and 2018 for Smith masking and visible-normal
+ * sampling, Moeller's "Optics" for the conductor Fresnel term; plastic is
+ * a Lambertian base under a smooth dielectric coat, roughplastic under a
+ * rough one with Mitsuba's tables of the coating's transmittance, their
+ * internal bounces summed in closed form), arranged so that every edge
+ * case behaves as Mitsuba 3 does.
  *
  * Departures from Mitsuba, none visible in images: the pdf of a sampled
  * delta component is 1 (bsdf.h's contract) where Mitsuba stores the
@@ -18,7 +21,11 @@
  * when u1 < P rather than u1 <= P, so that one of probability zero is
  * never returned; visible normals are drawn with Heitz's 2018 map rather
  * than the 2014 one Mitsuba uses (the same density, other sample points);
- * and GGX's alpha is clamped to 1e-4, below which float breaks down.
+ * Beckmann's normals are drawn from D(m) cos even with sample_visible,
+ * and roughdielectric without it does not widen alpha for sampling
+ * (other densities, the same integrals); roughplastic's tables are the
+ * same integrals by another quadrature; and alpha is clamped to 1e-4,
+ * below which float breaks down.
  */
 #include <math.h>
 #include <string.h>
@@ -1131,7 +1138,10 @@ pm_ior_lookup(const char *name, float *ior)
  *                   specular_reflectance 1; giving eta/k and a material
  *                   together is an error.
  *   roughconductor: as conductor, plus alpha 0.1, sample_visible true,
- *                   distribution "beckmann" (pm implements "ggx" only).
+ *                   distribution "beckmann" (or "ggx").
+ *   roughdielectric: as dielectric, plus alpha, distribution, sample_visible
+ *                   as roughconductor.
+ *   roughplastic:   as plastic, plus alpha, distribution, sample_visible.
  *   dielectric, thindielectric: int_ior "bk7" (1.5046), ext_ior "air"
  *                   (1.000277), specular_reflectance and
  *                   specular_transmittance 1; b->ior = int_ior / ext_ior.

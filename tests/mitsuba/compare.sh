@@ -18,7 +18,8 @@
 # Knobs (environment): MITSUBA_RES (256), MITSUBA_SPP (256, per Mitsuba
 # render), PM_SPP (64, per pm-render render), PM_RENDER (bin/pm-render),
 # PM_THREADS (pm-render's -t, unset: its default), MITSUBA_VARIANT,
-# PM_VENV (build/venv).
+# PM_VENV (build/venv); for the photon-mapped renders PM_SHOOT, PM_BALANCE
+# (bin/) and PM_PHOTONS (1000000 global and as many caustic paths).
 
 set -u
 
@@ -26,6 +27,10 @@ RES=${MITSUBA_RES:-256}
 MI_SPP=${MITSUBA_SPP:-256}
 PM_SPP=${PM_SPP:-64}
 PM_RENDER=${PM_RENDER:-bin/pm-render}
+PM_SHOOT=${PM_SHOOT:-bin/pm-shoot}
+PM_BALANCE=${PM_BALANCE:-bin/pm-balance}
+PM_PHOTONS=${PM_PHOTONS:-1000000}
+map_photons=
 OUT=build/mitsuba-out
 VENV=${PM_VENV:-build/venv}
 PY=$VENV/bin/python
@@ -75,12 +80,24 @@ mitsuba() {
 	return $_rc
 }
 
-# pmrender NAME SCENE SEED: one pm-render render to $OUT/NAME-pm-SEED.exr.
+# pmrender NAME SCENE SEED: one pm-render render to $OUT/NAME-pm-SEED.exr;
+# with map_photons set, by photon mapping from a map of that many global
+# and caustic paths shot (and balanced) with the same seed.
 pmrender() {
 	_t0=$(now)
 	_seed=$3
+	_map=
+	if [ -n "$map_photons" ]; then
+		_map=$OUT/$1-$3.pmap
+		"$PM_SHOOT" -q -f --photons "$map_photons" \
+		    --caustic-photons "$map_photons" --seed "$3" \
+		    -D "res=$RES" -o "$OUT/$1-$3.shot" "$2" >"$OUT/log" 2>&1 &&
+		    "$PM_BALANCE" -q -f -o "$_map" "$OUT/$1-$3.shot" \
+		    >>"$OUT/log" 2>&1 || { diag <"$OUT/log"; return 1; }
+	fi
 	set -- "$2" -o "$OUT/$1-pm-$3.exr" --spp "$PM_SPP" \
 	    --size "${RES}x${RES}" -D "res=$RES" --seed "$3" -q -f
+	[ -n "$_map" ] && set -- "$@" --method photon "$_map"
 	[ -n "${PM_THREADS:-}" ] && set -- "$@" -t "$PM_THREADS"
 	"$PM_RENDER" "$@" >"$OUT/log" 2>&1
 	_rc=$?
@@ -204,6 +221,19 @@ if [ -f data/cornell-box.xml ]; then
 	sed 's|<integrator type="path">|<integrator type="direct">|; /name="max_depth"/d' \
 	    data/cornell-box.xml >"$OUT/cornell-direct.xml"
 	run cornell-direct "$OUT/cornell-direct.xml"
+fi
+
+# Rough glass and rough plastic, by path tracing and by photon mapping
+# (soft caustics through the rough glass come from the caustic map there).
+if [ -f data/rough.xml ]; then
+	run rough data/rough.xml
+	if [ "$selftest" = 0 ]; then
+		map_photons=$PM_PHOTONS
+		run rough-photon data/rough.xml
+		map_photons=
+	fi
+else
+	check "rough: data/rough.xml is missing" false
 fi
 
 if [ -f ../shared/scenes/mitsuba-cbox/cbox-rgb.xml ]; then
