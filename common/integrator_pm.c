@@ -94,6 +94,8 @@ side_normal(const struct pm_hit *h, struct pm_vec3 d)
 
 /* The photon's contribution before the density division: BSDF for its
  * incident direction over the cosine, times its power; false for none,
+ * for photons of more than max_depth bounces (a negative max_depth: no
+ * limit, as pm-render's gather_max_depth says for unlimited depth),
  * and for photons on a surface of another orientation (the other side of
  * a wall, a surface meeting this one at a corner): they never reach here. */
 static inline bool
@@ -104,7 +106,7 @@ photon_term(const struct pm_photon *x, const struct pm_bsdf *b,
 	struct pm_vec3 wo;
 	struct pm_rgb f;
 
-	if (x->depth > max_depth ||
+	if ((max_depth >= 0 && x->depth > max_depth) ||
 	    pm_dot(pm_dir_unpack(x->normal), nrm) <= PM_IRR_COS)
 		return false;
 	wo = pm_to_local(fr, pm_dir_unpack(x->dir));
@@ -255,10 +257,12 @@ direct_light(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
  * specular surfaces on the way are followed.  With irradiance records
  * the surface's radiance is its reflectance times E / pi, E from the
  * nearest record of compatible normal (exact for a Lambertian surface
- * under any light; for plastic and measured BRDFs, one BSDF sample
- * weighs E / pi, which is exact when the light arriving there is
+ * under any light; for plastic and matte measured BRDFs, one BSDF
+ * sample weighs E / pi, which is exact when the light arriving there is
  * uniform, and a sample of a specular coating goes on as a gather ray).
- * Without records, the whole global map is looked up there.
+ * Glossy lobes (rough conductors, shiny measured BRDFs, roughplastic's
+ * coating) and, without records, every surface take the radiance the
+ * whole global map's photons give there.
  */
 struct pm_rgb
 pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
@@ -266,7 +270,8 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 {
 	const struct pm_photon_maps *m = ctx->maps;
 	const struct pm_scene *s = ctx->scene;
-	struct pm_rgb beta = pm_rgb1(1.0f);
+	struct pm_rgb beta = pm_rgb1(1.0f), L = pm_rgb1(0.0f);
+	struct pm_bsdf glossy_tmp, base_tmp;
 	int bounce;
 
 	if (t != NULL)
@@ -291,6 +296,25 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			return pm_rgb_mul(beta, estimate(m->global, m->nglobal,
 			    m->global_scale, m->global_r2, m->lookup_size, m->fixed_radius,
 			    0, 0, false, b, h.p, nrm, m->gather_max_depth, fr, wi));
+		if (has_nonspecular(b) && (is_glossy(b) ||
+		    b->type == PM_BSDF_ROUGHPLASTIC)) {
+			/* A glossy lobe reflects the light around it as
+			 * unevenly as that light arrives (a rough coat
+			 * mirrors the lamp), which E / pi cannot stand for:
+			 * its radiance comes from the photons, each weighted
+			 * by the lobe for its own direction.  Roughplastic's
+			 * base goes on to E / pi below. */
+			const struct pm_bsdf *bg = split_lobe(b, PM_LOBE_GLOSSY,
+			    &glossy_tmp);
+
+			L = pm_rgb_mul(beta, estimate(m->global, m->nglobal,
+			    m->global_scale, m->global_r2, m->lookup_size,
+			    m->fixed_radius, 0, 0, false, bg, h.p, nrm,
+			    m->gather_max_depth, fr, wi));
+			if (b->type != PM_BSDF_ROUGHPLASTIC)
+				return L;
+			b = split_lobe(b, PM_LOBE_DIFFUSE, &base_tmp);
+		}
 		u1 = pm_rng_float(rng);
 		u2 = pm_rng_float(rng);
 		u3 = pm_rng_float(rng);
@@ -314,12 +338,12 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 				E = pm_irradiance_estimate(m->global, m->nglobal,
 				    m->global_scale, h.p, nrm, &io);
 			}
-			return pm_rgb_mul(beta, pm_rgb_scale(E, 1.0f / PM_PI));
+			return pm_rgb_madd(L, beta, pm_rgb_scale(E, 1.0f / PM_PI));
 		}
 		d = pm_normalize(pm_to_world(fr, bs.wo));
 		o = pm_hit_origin(&h, d);
 	}
-	return pm_rgb1(0.0f);
+	return L;
 }
 
 /* Indirect light at a diffuse hit by final gathering: BSDF-sampled rays;
