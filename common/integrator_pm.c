@@ -25,7 +25,9 @@
  *       the rest of the indirect light, either from the global map's
  *       photons that had a non-specular bounce before arriving (so neither
  *       direct light nor caustics count twice), or by final gathering:
- *       BSDF-sampled rays whose hits are looked up in the whole global map.
+ *       BSDF-sampled rays that end in the irradiance records (or the
+ *       whole global map) at the first surface that holds photons, and
+ *       path trace the glossy lobes they meet on the way.
  *
  * Radiance estimate: the k nearest photons within the maximum radius, each
  * weighted by the BSDF for its incident direction, over the disc area
@@ -252,17 +254,41 @@ direct_light(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 	return pm_rgb_scale(L, 1.0f / (float)n);
 }
 
+/* Irradiance at p (normal nrm) from the nearest compatible record, or
+ * estimated there from the global map where no record is near (rare:
+ * small or thin features between records). */
+static struct pm_rgb
+records_irradiance(const struct pm_photon_maps *m, struct pm_vec3 p,
+    struct pm_vec3 nrm)
+{
+	struct pm_irradiance_opts io = {
+		.stride = 1, .k = m->lookup_size, .max_r2 = m->global_r2,
+		.fixed_radius = m->fixed_radius,
+		.max_depth = m->gather_max_depth, .threads = 1,
+	};
+	struct pm_rgb E;
+
+	if (pm_irradiance_lookup(m->irradiance_grid, p, nrm, &E))
+		return E;
+	return pm_irradiance_estimate(m->global, m->nglobal, m->global_scale, p,
+	    nrm, &io);
+}
+
 /*
- * Radiance leaving the first non-specular surface along a gather ray;
- * specular surfaces on the way are followed.  With irradiance records
- * the surface's radiance is its reflectance times E / pi, E from the
- * nearest record of compatible normal (exact for a Lambertian surface
- * under any light; for plastic and matte measured BRDFs, one BSDF
- * sample weighs E / pi, which is exact when the light arriving there is
- * uniform, and a sample of a specular coating goes on as a gather ray).
- * Glossy lobes (rough conductors, shiny measured BRDFs, roughplastic's
- * coating) and, without records, every surface take the radiance the
- * whole global map's photons give there.
+ * Radiance arriving along a gather ray: from the first surface that holds
+ * photons, specular surfaces on the way followed.  With irradiance
+ * records the surface's radiance is its reflectance times E / pi, E from
+ * the nearest record of compatible normal (exact for a Lambertian surface
+ * under any light; for plastic and matte measured BRDFs, one BSDF sample
+ * weighs E / pi, which is exact when the light arriving there is uniform,
+ * and a sample of a specular coating goes on as a gather ray).  Glossy
+ * lobes (rough conductors, shiny measured BRDFs, roughplastic's coating)
+ * reflect the light around them as unevenly as it arrives (a rough coat
+ * mirrors the lamp), which E / pi cannot stand for: the gather ray path
+ * traces them as camera paths do, a light sample with multiple importance
+ * sampling and a BSDF sample that goes on, counting the emitters it meets
+ * (roughplastic's base still takes E / pi).  Without records, the whole
+ * global map is looked up at the first surface that holds photons.
  */
 struct pm_rgb
 pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
@@ -272,6 +298,9 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 	const struct pm_scene *s = ctx->scene;
 	struct pm_rgb beta = pm_rgb1(1.0f), L = pm_rgb1(0.0f);
 	struct pm_bsdf glossy_tmp, base_tmp;
+	struct pm_vec3 prev_p = o;
+	float prev_pdf = 0.0f;
+	bool traced = false, prev_delta = false;
 	int bounce;
 
 	if (t != NULL)
@@ -282,9 +311,16 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 		struct pm_frame fr;
 		struct pm_vec3 wi, nrm;
 		struct pm_bsdf_sample bs;
+		bool hit;
 		float u1, u2, u3;
 
-		if (!pm_accel_intersect(ctx->accel, o, d, 0.0f, INFINITY, &h))
+		hit = pm_accel_intersect(ctx->accel, o, d, 0.0f, INFINITY, &h);
+		/* light met after a glossy bounce: the light sample there
+		 * took the rest of it (MIS) */
+		if (traced)
+			L = pm_rgb_madd(L, beta, pm_lights_emitted(ctx->lights, s,
+			    hit ? &h : NULL, d, prev_p, prev_pdf, prev_delta));
+		if (!hit)
 			break;
 		if (t != NULL && bounce == 0)
 			*t = h.t;
@@ -293,27 +329,30 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 		wi = pm_to_local(fr, pm_neg(d));
 		nrm = side_normal(&h, d);
 		if (has_nonspecular(b) && m->irradiance_grid == NULL)
-			return pm_rgb_mul(beta, estimate(m->global, m->nglobal,
+			return pm_rgb_madd(L, beta, estimate(m->global, m->nglobal,
 			    m->global_scale, m->global_r2, m->lookup_size, m->fixed_radius,
 			    0, 0, false, b, h.p, nrm, m->gather_max_depth, fr, wi));
 		if (has_nonspecular(b) && (is_glossy(b) ||
 		    b->type == PM_BSDF_ROUGHPLASTIC)) {
-			/* A glossy lobe reflects the light around it as
-			 * unevenly as that light arrives (a rough coat
-			 * mirrors the lamp), which E / pi cannot stand for:
-			 * its radiance comes from the photons, each weighted
-			 * by the lobe for its own direction.  Roughplastic's
-			 * base goes on to E / pi below. */
 			const struct pm_bsdf *bg = split_lobe(b, PM_LOBE_GLOSSY,
 			    &glossy_tmp);
 
-			L = pm_rgb_mul(beta, estimate(m->global, m->nglobal,
-			    m->global_scale, m->global_r2, m->lookup_size,
-			    m->fixed_radius, 0, 0, false, bg, h.p, nrm,
-			    m->gather_max_depth, fr, wi));
-			if (b->type != PM_BSDF_ROUGHPLASTIC)
-				return L;
-			b = split_lobe(b, PM_LOBE_DIFFUSE, &base_tmp);
+			if (b->type == PM_BSDF_ROUGHPLASTIC) {
+				const struct pm_bsdf *bb = split_lobe(b,
+				    PM_LOBE_DIFFUSE, &base_tmp);
+
+				u1 = pm_rng_float(rng);
+				u2 = pm_rng_float(rng);
+				u3 = pm_rng_float(rng);
+				if (pm_bsdf_sample(bb, wi, u1, u2, u3, PM_RADIANCE,
+				    &bs))
+					L = pm_rgb_madd(L, pm_rgb_mul(beta,
+					    bs.weight), pm_rgb_scale(records_irradiance(m,
+					    h.p, nrm), 1.0f / PM_PI));
+			}
+			L = pm_rgb_madd(L, beta, direct_light(ctx, bg, &h, fr, wi,
+			    1, true, NULL, rng));
+			b = bg;
 		}
 		u1 = pm_rng_float(rng);
 		u2 = pm_rng_float(rng);
@@ -321,25 +360,17 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 		if (!pm_bsdf_sample(b, wi, u1, u2, u3, PM_RADIANCE, &bs))
 			break;
 		beta = pm_rgb_mul(beta, bs.weight);
-		if (!(bs.lobe & PM_LOBE_DELTA) && has_nonspecular(b)) {
-			struct pm_rgb E;
-
-			if (!pm_irradiance_lookup(m->irradiance_grid, h.p, nrm, &E)) {
-				/* No record near: estimate here (rare: small or
-				 * thin features between records). */
-				struct pm_irradiance_opts io = {
-					.stride = 1, .k = m->lookup_size,
-					.max_r2 = m->global_r2,
-					.fixed_radius = m->fixed_radius,
-					.max_depth = m->gather_max_depth,
-					.threads = 1,
-				};
-
-				E = pm_irradiance_estimate(m->global, m->nglobal,
-				    m->global_scale, h.p, nrm, &io);
-			}
-			return pm_rgb_madd(L, beta, pm_rgb_scale(E, 1.0f / PM_PI));
-		}
+		if (!(bs.lobe & PM_LOBE_DELTA) && has_nonspecular(b) &&
+		    !is_glossy(b) && b->type != PM_BSDF_ROUGHPLASTIC)
+			return pm_rgb_madd(L, beta, pm_rgb_scale(records_irradiance(m,
+			    h.p, nrm), 1.0f / PM_PI));
+		if (!(bs.lobe & PM_LOBE_DELTA) && has_nonspecular(b))
+			traced = true;
+		prev_p = h.p;
+		prev_pdf = bs.pdf;
+		/* no light sample was taken at glass, clear or rough: what
+		 * it lets through counts in full */
+		prev_delta = (bs.lobe & PM_LOBE_DELTA) || !has_nonspecular(b);
 		d = pm_normalize(pm_to_world(fr, bs.wo));
 		o = pm_hit_origin(&h, d);
 	}

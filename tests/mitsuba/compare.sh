@@ -85,8 +85,8 @@ mitsuba() {
 # and caustic paths shot (and balanced) with the same seed, every camera
 # sample gathering for itself: the image-space irradiance cache
 # (--cache-step) shares gathers between pixels, which the per-block test
-# sees as bias (at 256x256 and 64 spp, 1.0% of rough.xml's blocks beyond
-# 4 sigma, 1.2% of materials.xml's, 2.5% of cornell-box.xml's; without it
+# sees as bias (at 256x256 and 64 spp, 0.9% of rough.xml's blocks beyond
+# 4 sigma, 0.5% of materials.xml's, 2.5% of cornell-box.xml's; without it
 # 0.0%, 0.0% and 0.1%).
 pmrender() {
 	_t0=$(now)
