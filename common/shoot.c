@@ -10,6 +10,9 @@
  * weight as survival probability keeps surviving photons' flux similar
  * (Jensen 2004, sec. 5.3).
  *
+ * Rough dielectrics count as specular here: photons are not stored on
+ * them and cross them on caustic paths (the camera pass traces them).
+ *
  * Caustic pass: photons are aimed at the bounding spheres of the specular
  * shapes, the direction drawn from the mixture of the cones they subtend,
  * and the flux divided by that mixture's true density, so that nothing is
@@ -33,10 +36,12 @@
 #define HARD_MAX_BOUNCES 1000
 #define CHUNK 2048
 
+/* Surfaces that hold photons.  Not a rough dielectric: light crosses it as
+ * it crosses glass, and it passes photons on as glass does (below). */
 static bool
 bsdf_has_nonspecular(const struct pm_bsdf *b)
 {
-	return b->type != PM_BSDF_NULL &&
+	return b->type != PM_BSDF_NULL && b->type != PM_BSDF_ROUGHDIELECTRIC &&
 	    (b->lobes & (PM_LOBE_DIFFUSE | PM_LOBE_GLOSSY | PM_LOBE_GLOSSY_TRANSMISSION));
 }
 
@@ -51,10 +56,23 @@ bsdf_reflects(const struct pm_bsdf *b)
 	    pm_rgb1(0) : b->specular)) > 0.0f;
 }
 
+/* Surfaces that make caustics: a delta component, or a rough dielectric,
+ * whose every scattering keeps a photon on a caustic path (frosted glass
+ * focuses light less sharply than clear glass, but the camera pass can
+ * only see light through it in the caustic map: it traces the glass and
+ * estimates the diffuse surface behind). */
 static bool
 bsdf_has_specular(const struct pm_bsdf *b)
 {
-	return b->type != PM_BSDF_NULL && (b->lobes & PM_LOBE_DELTA);
+	return b->type != PM_BSDF_NULL && ((b->lobes & PM_LOBE_DELTA) ||
+	    b->type == PM_BSDF_ROUGHDIELECTRIC);
+}
+
+/* Whether a sampled event keeps a photon's path specular. */
+static bool
+event_specular(const struct pm_bsdf *b, const struct pm_bsdf_sample *bs)
+{
+	return (bs->lobe & PM_LOBE_DELTA) || b->type == PM_BSDF_ROUGHDIELECTRIC;
 }
 
 void
@@ -71,7 +89,9 @@ pm_shoot_effects(const struct pm_scene *s, struct pm_effects *e)
 			nrefl++;
 		if (bsdf_has_specular(b))
 			nspec++;
-		if (b->type == PM_BSDF_DIELECTRIC || b->type == PM_BSDF_THINDIELECTRIC)
+		if (b->type == PM_BSDF_DIELECTRIC ||
+		    b->type == PM_BSDF_THINDIELECTRIC ||
+		    b->type == PM_BSDF_ROUGHDIELECTRIC)
 			nrefr++;
 	}
 	e->nspecular = nspec;
@@ -447,7 +467,7 @@ trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 		u3 = pm_rng_float(&rng);
 		if (!pm_bsdf_sample(b, wi_local, u1, u2, u3, PM_IMPORTANCE, &bs))
 			break;
-		if (opts->pass == PM_PASS_CAUSTIC && !(bs.lobe & PM_LOBE_DELTA))
+		if (opts->pass == PM_PASS_CAUSTIC && !event_specular(b, &bs))
 			break;
 		/* Russian roulette: survive with the probability the surface
 		 * scatters this photon, so survivors keep their flux. */
@@ -455,7 +475,7 @@ trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 		if (!(q > 0.0f) || pm_rng_float(&rng) >= q)
 			break;
 		flux = pm_rgb_scale(pm_rgb_mul(flux, bs.weight), 1.0f / q);
-		if (!(bs.lobe & PM_LOBE_DELTA)) {
+		if (!event_specular(b, &bs)) {
 			specular_only = false;
 			via_diffuse = true;
 		}
