@@ -9,7 +9,8 @@
 # with different seeds (the second render tells compare.py how noisy each side
 # is); Mitsuba's renders are cached under build/mitsuba-cache/, so after the
 # first run only pm-render's cost remains. Outputs land in build/mitsuba-out/.
-# The scenes: data/cornell-box.xml (ours, must exist) and Mitsuba's own
+# The scenes: data/cornell-box.xml and the others of data/ listed below
+# (ours, must exist; fog-box and glass-medium have media) and Mitsuba's own
 # Cornell box from ../shared/scenes/mitsuba-cbox (skipped when ../shared is
 # absent). Results are TAP-like lines and a closing "mitsuba cli: N passed,
 # N failed"; the exit status is non-zero when anything failed, including
@@ -205,6 +206,16 @@ if [ -f data/cornell-box.xml ]; then
 	    data/cornell-box.xml >"$OUT/cornell-direct.xml"
 	run cornell-direct "$OUT/cornell-direct.xml"
 fi
+
+# Participating media, under Mitsuba's volpath: fog filling the box and
+# the camera's surroundings, and a glass ball holding a medium.
+for scene in fog-box glass-medium; do
+	if [ -f data/$scene.xml ]; then
+		run $scene data/$scene.xml
+	else
+		check "$scene: data/$scene.xml is missing" false
+	fi
+done
 
 if [ -f ../shared/scenes/mitsuba-cbox/cbox-rgb.xml ]; then
 	run mitsuba-cbox ../shared/scenes/mitsuba-cbox/cbox-rgb.xml
