@@ -43,11 +43,14 @@ pm_volume_shadow(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 {
 	const struct pm_scene *s = ctx->scene;
 	struct pm_rgb tr = pm_rgb1(1.0f);
-	struct pm_vec3 d = ls->wi;
+	struct pm_vec3 d = ls->wi, from = o;
 	struct pm_hit h;
 	float dist = INFINITY;
 	int i;
 
+	/* Medium lengths run between the true points (o, the surfaces
+	 * crossed, the light), not from the offset origins the rays start
+	 * at, so that each crossing loses no medium to its offset. */
 	for (i = 0; i <= MAX_SHADOW_CROSSINGS; i++) {
 		if (!isinf(ls->dist)) {
 			/* Towards the light point itself, stopping short of
@@ -62,18 +65,20 @@ pm_volume_shadow(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 		if (!pm_accel_intersect(ctx->accel, o, d, 0.0f, dist, &h)) {
 			if (medium >= 0)
 				tr = pm_rgb_mul(tr, pm_medium_transmittance(
-				    &s->media[medium], dist));
+				    &s->media[medium], isinf(ls->dist) ?
+				    INFINITY : pm_length(pm_sub(ls->p, from))));
 			return tr;
 		}
 		if (s->bsdfs[s->shapes[h.shape].bsdf].type != PM_BSDF_NULL)
 			return pm_rgb1(0.0f);
 		if (medium >= 0)
 			tr = pm_rgb_mul(tr, pm_medium_transmittance(
-			    &s->media[medium], h.t));
+			    &s->media[medium], pm_length(pm_sub(h.p, from))));
 		if (pm_rgb_is_black(tr))
 			return tr;
 		medium = pm_medium_after(s, &h, d, medium);
 		o = pm_hit_origin(&h, d);
+		from = h.p;
 	}
 	return pm_rgb1(0.0f);
 }
