@@ -86,6 +86,12 @@ struct pm_path {
 	struct pm_vec3 prev_p;		/* the last vertex, and the density the */
 	float prev_pdf;			/* ray left it with, for MIS; prev_delta: */
 	bool prev_delta;		/* a camera ray or a specular bounce */
+	/* Media (integrator_volume.c): the channel free flights are
+	 * sampled in (-1 until the first), and per channel the density of
+	 * the flights so far had that channel been sampled, over the
+	 * hero's, scaled to mean 1; beta is already divided by it. */
+	int hero;
+	struct pm_rgb chan_ratio;
 };
 
 /* A path about to trace the camera ray o + t d, t in (tmin, tmax). */

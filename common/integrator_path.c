@@ -136,6 +136,8 @@ pm_path_start(struct pm_path *pa, struct pm_vec3 o, struct pm_vec3 d, float tmin
 	pa->prev_p = o;
 	pa->prev_pdf = 1.0f;
 	pa->prev_delta = true;	/* the camera "sampled" the first direction */
+	pa->hero = -1;
+	pa->chan_ratio = pm_rgb1(1.0f);
 }
 
 bool

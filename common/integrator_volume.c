@@ -4,7 +4,8 @@
  *   - the medium a ray travels in is tracked: it starts as the camera's
  *     and changes where the ray crosses a shape that names an interior or
  *     exterior medium, to the one on the side it leaves towards;
- *   - along each segment a free flight is sampled (medium.h); a scatter
+ *   - along each segment a free flight is sampled (medium.h: one channel
+ *     per path, weighted by the density averaged over channels); a scatter
  *     before the surface is a path vertex like a surface bounce: it counts
  *     towards max_depth and Russian roulette, samples a light (when the
  *     medium's sample_emitters is set) weighted by the power heuristic
@@ -115,10 +116,27 @@ pm_volume_step(const struct pm_render_ctx *ctx, struct pm_path *pa,
 	const struct pm_medium *m = &ctx->scene->media[medium];
 	struct pm_medium_sample ms;
 	struct pm_vec3 p, wo;
-	float uc = pm_rng_float(rng), ud = pm_rng_float(rng), pdf;
+	struct pm_rgb r;
+	float pdf, ph, mr;
 
-	pm_medium_sample(m, t_end - pa->tmin, uc, ud, &ms);
-	pa->beta = pm_rgb_mul(pa->beta, ms.weight);
+	if (pa->hero < 0) {
+		pa->hero = (int)(pm_rng_float(rng) * 3.0f);
+		if (pa->hero > 2)
+			pa->hero = 2;
+	}
+	pm_medium_sample(m, t_end - pa->tmin, pa->hero, pm_rng_float(rng), &ms);
+	/*
+	 * Spectral MIS over the whole path: with beta = f / p_hero / mean(r)
+	 * and r_c = p_c / p_hero so far (mean 1), this flight multiplies f
+	 * by ms.f and each p_c by ms.pdf[c]; r is scaled back to mean 1.
+	 */
+	ph = pa->hero == 0 ? ms.pdf.r : pa->hero == 1 ? ms.pdf.g : ms.pdf.b;
+	if (!(ph > 0.0f))
+		return PM_VOL_END;
+	r = pm_rgb_mul(pa->chan_ratio, pm_rgb_scale(ms.pdf, 1.0f / ph));
+	mr = pm_rgb_mean(r);
+	pa->chan_ratio = pm_rgb_scale(r, 1.0f / mr);
+	pa->beta = pm_rgb_scale(pm_rgb_mul(pa->beta, ms.f), 1.0f / (ph * mr));
 	if (pm_rgb_is_black(pa->beta))
 		return PM_VOL_END;
 	if (!ms.scattered)

@@ -71,32 +71,26 @@ pm_medium_transmittance(const struct pm_medium *m, float t)
 }
 
 void
-pm_medium_sample(const struct pm_medium *m, float tmax, float u_channel,
-    float u_dist, struct pm_medium_sample *out)
+pm_medium_sample(const struct pm_medium *m, float tmax, int channel, float u,
+    struct pm_medium_sample *out)
 {
-	int c = (int)(u_channel * 3.0f);
-	float sc, t, p;
+	float sc = chan(m->sigma_t, channel < 0 ? 0 : channel > 2 ? 2 : channel);
+	float t = sc > 0.0f ? -log1pf(-u) / sc : INFINITY;
 	struct pm_rgb tr;
 
-	if (c > 2)
-		c = 2;
-	sc = chan(m->sigma_t, c);
-	t = sc > 0.0f ? -log1pf(-u_dist) / sc : INFINITY;
 	if (t < tmax) {
-		/* The density of t is the mean of the three channels'. */
 		tr = pm_medium_transmittance(m, t);
-		p = pm_rgb_mean(pm_rgb_mul(m->sigma_t, tr));
 		out->scattered = true;
 		out->t = t;
-		out->weight = p > 0.0f ? pm_rgb_scale(pm_rgb_mul(tr,
-		    pm_rgb_mul(m->sigma_t, m->albedo)), 1.0f / p) : pm_rgb1(0.0f);
+		out->f = pm_rgb_mul(tr, pm_rgb_mul(m->sigma_t, m->albedo));
+		out->pdf = pm_rgb_mul(tr, m->sigma_t);
 		return;
 	}
 	tr = pm_medium_transmittance(m, tmax);
-	p = pm_rgb_mean(tr);		/* the chance of flying past tmax */
 	out->scattered = false;
 	out->t = tmax;
-	out->weight = p > 0.0f ? pm_rgb_scale(tr, 1.0f / p) : pm_rgb1(0.0f);
+	out->f = tr;
+	out->pdf = tr;		/* the chance of flying past tmax */
 }
 
 enum pm_err

@@ -8,15 +8,18 @@
  * says which it sits in.  Everything here is a pure function of plain
  * structs: nothing allocates, so any thread may call it per ray.
  *
- * Free-flight sampling in RGB (pm_medium_sample): a channel is chosen
- * uniformly and a distance drawn from its exponential; the sample is then
- * weighted by the density averaged over the three channels (one-sample
- * multiple importance sampling over the channels, the "spectral MIS" of
- * Mitsuba's volpathmis and pbrt-v4).  Its expectation is that of
- * Mitsuba's volpath, which weights by the chosen channel's density alone;
- * the average never divides by a tiny density, so a chromatic medium
- * gives no fireflies.  In a grey medium both reduce to exact analogue
- * sampling: the weight is 1 along the way and the albedo at a scatter.
+ * Free-flight sampling in RGB: the path tracer draws one channel per
+ * path (the "hero", uniformly), samples every distance along the path
+ * from that channel's exponential, and weights the path by the density
+ * averaged over the three channels' choices of the whole path (one-sample
+ * multiple importance sampling over channels, the "spectral MIS" of
+ * pbrt-v4 and Mitsuba's volpathmis; integrator_volume.c keeps the
+ * ratios).  The weight of a channel is then never more than 3 times its
+ * own analogue weight, whatever the colour of sigma_t; Mitsuba's volpath
+ * weights each distance by the chosen channel's density alone, which has
+ * the same expectation and more variance.  In a grey medium both are
+ * exact analogue sampling: weight 1 along the way, the albedo at a
+ * scatter.
  */
 #ifndef PM_MEDIUM_H
 #define PM_MEDIUM_H
@@ -72,18 +75,20 @@ struct pm_medium_sample {
 	bool scattered;		/* a real scattering at distance t < tmax;
 				 * otherwise the flight reached tmax */
 	float t;
-	struct pm_rgb weight;	/* scattered: T(t) sigma_s / p(t); else
-				 * T(tmax) / P(t >= tmax) */
+	struct pm_rgb f;	/* scattered: T(t) sigma_s; else T(tmax) */
+	struct pm_rgb pdf;	/* the density of this outcome had each
+				 * channel been the one sampled:
+				 * scattered: sigma_t T(t); else T(tmax) */
 };
 
 /*
- * Samples the distance to the next scattering along a ray in m that meets
- * a surface (or nothing: tmax INFINITY) at tmax, with u_channel choosing
- * the channel and u_dist the distance.  The weights make the estimate
- * unbiased whatever the colour of sigma_t; a flight past tmax with
- * weight zero means the medium can carry no light that far.
+ * Samples the distance to the next scattering from channel `channel`'s
+ * exponential (u in [0, 1)) along a ray in m that meets a surface (or
+ * nothing: tmax INFINITY) at tmax.  f / pdf[channel] is the analogue
+ * weight; f / (mean of pdf) that of one-sample MIS over a uniformly
+ * chosen channel.
  */
-void pm_medium_sample(const struct pm_medium *m, float tmax, float u_channel,
-    float u_dist, struct pm_medium_sample *out);
+void pm_medium_sample(const struct pm_medium *m, float tmax, int channel,
+    float u, struct pm_medium_sample *out);
 
 #endif

@@ -101,9 +101,10 @@ test_transmittance_closed_form(void **state)
 }
 
 /*
- * The free-flight estimator (chromatic sigma_t, one channel chosen, the
- * average density): E[w; passed] = T(tmax) and E[w; scattered] =
- * albedo (1 - T(tmax)) per channel, the integral of T sigma_s.
+ * Free flights in a chromatic medium, a channel chosen uniformly and
+ * weighted by the average density: E[w; passed] = T(tmax) and
+ * E[w; scattered] = albedo (1 - T(tmax)) per channel, the integral of
+ * T sigma_s.
  */
 static void
 test_free_flight_unbiased(void **state)
@@ -121,10 +122,12 @@ test_free_flight_unbiased(void **state)
 	for (i = 0; i < n; i++) {
 		float uc = pm_rng_float(&rng), ud = pm_rng_float(&rng);
 
-		pm_medium_sample(&m, tmax, uc, ud, &ms);
+		pm_medium_sample(&m, tmax, uc < 1.0f / 3 ? 0 : uc < 2.0f / 3 ?
+		    1 : 2, ud, &ms);
 		assert_true(ms.scattered ? ms.t < tmax : ms.t == tmax);
 		for (c = 0; c < 3; c++) {
-			w = chan(ms.weight, c);
+			/* one-sample MIS over the uniformly chosen channel */
+			w = chan(ms.f, c) / pm_rgb_mean(ms.pdf);
 			if (ms.scattered) {
 				ss[c] += w;
 				ss2[c] += w * w;
@@ -443,6 +446,7 @@ furnace(struct pm_medium m, int max_depth, const char *what)
 	add_emitter_sphere(s, 3.0f);
 	s->camera_medium = add_medium(s, m);
 	box_finish(&bx, max_depth);
+	s->camera.spp = 64;
 	render_stats(&bx, mean, se);
 	for (c = 0; c < 3; c++) {
 		/* max_depth 1: the emitter through the medium, unscattered */
