@@ -19,7 +19,8 @@
 # Knobs (environment): MITSUBA_RES (256), MITSUBA_SPP (256, per Mitsuba
 # render), PM_SPP (64, per pm-render render), PM_RENDER (bin/pm-render),
 # PM_THREADS (pm-render's -t, unset: its default), MITSUBA_VARIANT,
-# PM_VENV (build/venv).
+# PM_VENV (build/venv), MITSUBA_ONLY (names of the scenes to run, separated
+# by spaces; unset: all).
 
 set -u
 
@@ -161,6 +162,10 @@ selfcheck() {
 }
 
 run() {
+	case " ${MITSUBA_ONLY:-$1} " in
+	*" $1 "*) ;;
+	*) return ;;
+	esac
 	if [ "$selftest" = 1 ]; then
 		selfcheck "$@"
 	else
