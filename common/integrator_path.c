@@ -57,7 +57,7 @@ pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 	struct pm_rgb L = pm_rgb1(0.0f);
 	struct pm_path pa;
 	int depth;
-	int medium = s->camera_medium;	/* media: where the ray travels */
+	int medium = s->camera_medium - 1;	/* media: the ray's, -1: none */
 	int crossings = 0;
 
 	pm_path_start(&pa, o, d, tmin, tmax);

@@ -33,9 +33,9 @@ pm_medium_after(const struct pm_scene *s, const struct pm_hit *h,
 {
 	const struct pm_shape *sh = &s->shapes[h->shape];
 
-	if (sh->interior < 0 && sh->exterior < 0)
+	if (sh->interior == 0 && sh->exterior == 0)
 		return medium;
-	return pm_dot(d, h->ng) > 0.0f ? sh->exterior : sh->interior;
+	return (pm_dot(d, h->ng) > 0.0f ? sh->exterior : sh->interior) - 1;
 }
 
 struct pm_rgb

@@ -99,17 +99,17 @@ pm_scene_refuse_media(const struct pm_scene *s, struct pm_error *err)
 	const char *where = "the sensor's";
 	char buf[96];
 	size_t i;
-	int m = s->camera_medium;
+	int m = s->camera_medium - 1;
 
 	if (s->nmedia == 0)
 		return PM_OK;
 	for (i = 0; m < 0 && i < s->nshapes; i++) {
 		const struct pm_shape *sh = &s->shapes[i];
 
-		if (sh->interior < 0 && sh->exterior < 0)
+		if (sh->interior == 0 && sh->exterior == 0)
 			continue;
-		m = sh->interior >= 0 ? sh->interior : sh->exterior;
-		snprintf(buf, sizeof(buf), "%s of shape %s", sh->interior >= 0 ?
+		m = (sh->interior > 0 ? sh->interior : sh->exterior) - 1;
+		snprintf(buf, sizeof(buf), "%s of shape %s", sh->interior > 0 ?
 		    "interior" : "exterior", sh->name);
 		where = buf;
 	}

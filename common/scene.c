@@ -23,7 +23,6 @@ pm_scene_init(struct pm_scene *s)
 {
 	memset(s, 0, sizeof(*s));
 	s->env_light = -1;
-	s->camera_medium = -1;
 
 	s->camera.to_world = pm_mat4_identity();
 	s->camera.fov = PM_DEFAULT_DIAGONAL_FOV;
@@ -69,7 +68,6 @@ pm_scene_free(struct pm_scene *s)
 	free(s->path);
 	memset(s, 0, sizeof(*s));
 	s->env_light = -1;
-	s->camera_medium = -1;
 }
 
 /*
@@ -106,7 +104,6 @@ pm_scene_add_shape(struct pm_scene *s)
 	sh = &s->shapes[s->nshapes];
 	memset(sh, 0, sizeof(*sh));
 	sh->light = -1;		/* zero would name a light that may not exist */
-	sh->interior = sh->exterior = -1;
 	return (int)s->nshapes++;
 }
 
@@ -221,8 +218,8 @@ pm_scene_prepare(struct pm_scene *s, struct pm_error *err)
 			return pm_fail(err, PM_ERR_INVALID,
 			    "shape %s: BSDF index %d out of range (%zu BSDFs)",
 			    sh->name, sh->bsdf, s->nbsdfs);
-		if (sh->interior < -1 || sh->interior >= (int)s->nmedia ||
-		    sh->exterior < -1 || sh->exterior >= (int)s->nmedia)
+		if (sh->interior < 0 || sh->interior > (int)s->nmedia ||
+		    sh->exterior < 0 || sh->exterior > (int)s->nmedia)
 			return pm_fail(err, PM_ERR_INVALID,
 			    "shape %s: medium index out of range (%zu media)",
 			    sh->name, s->nmedia);
@@ -239,9 +236,9 @@ pm_scene_prepare(struct pm_scene *s, struct pm_error *err)
 			    sh->name, sh->light);
 	}
 
-	if (s->camera_medium < -1 || s->camera_medium >= (int)s->nmedia)
-		return pm_fail(err, PM_ERR_INVALID, "camera medium index %d out "
-		    "of range (%zu media)", s->camera_medium, s->nmedia);
+	if (s->camera_medium < 0 || s->camera_medium > (int)s->nmedia)
+		return pm_fail(err, PM_ERR_INVALID, "camera medium %d out of "
+		    "range (%zu media)", s->camera_medium, s->nmedia);
 
 	if (s->env_light != -1 && (s->env_light < 0 ||
 	    (size_t)s->env_light >= s->nlights ||

@@ -31,9 +31,10 @@ struct pm_shape {
 	bool flip_normals;		/* spheres: normals point inwards */
 	int bsdf;			/* index into scene.bsdfs */
 	int light;			/* index into scene.lights, or -1 */
-	/* Media on either side (indices into scene.media, -1: vacuum):
-	 * interior behind the normal, exterior in front; a ray crossing
-	 * a shape that names either enters the one on its far side. */
+	/* Media on either side, as 1 + an index into scene.media, 0 for
+	 * none (vacuum), so that a zeroed shape names none: interior
+	 * behind the normal, exterior in front; a ray crossing a shape
+	 * that names either enters the one on its far side. */
 	int interior, exterior;
 	char name[64];			/* id, or type and ordinal, for messages */
 };
@@ -131,7 +132,8 @@ struct pm_scene {
 	bool has_camera;
 	struct pm_medium *media;
 	size_t nmedia;
-	int camera_medium;		/* index into media, or -1: vacuum */
+	int camera_medium;		/* 1 + index into media, 0: vacuum
+					 * (as pm_shape's interior) */
 	struct pm_integrator integrator;
 	int env_light;			/* index of the constant light, or -1 */
 	char *path;			/* the file it was loaded from */

@@ -138,6 +138,7 @@ static enum pm_err
 sensor_medium(struct ld *ld, struct plist *pl, struct xnode *o)
 {
 	struct xnode *t = o;
+	int m;
 	enum pm_err e;
 
 	if (strcmp(o->tag, "ref") == 0 && (e = sx_deref(ld, o, &t)) != PM_OK)
@@ -145,10 +146,13 @@ sensor_medium(struct ld *ld, struct plist *pl, struct xnode *o)
 	if (strcmp(t->tag, "medium") != 0)
 		return sx_fail(ld, o, PM_ERR_INVALID, "unexpected <%s> inside %s",
 		    t->tag, pl->what);
-	if (ld->s->camera_medium >= 0)
+	if (ld->s->camera_medium > 0)
 		return sx_fail(ld, o, PM_ERR_INVALID, "%s has more than one "
 		    "medium", pl->what);
-	return sx_medium_index(ld, t, &ld->s->camera_medium);
+	if ((e = sx_medium_index(ld, t, &m)) != PM_OK)
+		return e;
+	ld->s->camera_medium = m + 1;
+	return PM_OK;
 }
 
 enum pm_err

@@ -208,8 +208,8 @@ sx_load_shape(struct ld *ld, struct xnode *n, const char *naming_dir)
 	sh->mesh = mesh;	/* owned by the scene from here on */
 	sh->bsdf = bsdf;
 	sh->flip_normals = flip;
-	sh->interior = interior;
-	sh->exterior = exterior;
+	sh->interior = interior + 1;	/* 0: none */
+	sh->exterior = exterior + 1;
 	id = sx_attr(n, "id");
 	if (id != NULL)
 		snprintf(sh->name, sizeof(sh->name), "%s", id);

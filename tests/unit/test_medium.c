@@ -292,8 +292,8 @@ test_slab_shadow_ray(void **state)
 	M = pm_mat4_scale(pm_v3(10.0f, 10.0f, 0.25f));
 	pm_mesh_transform(&s->shapes[sh].mesh, &M);
 	s->shapes[sh].bsdf = add_bsdf(s, PM_BSDF_NULL, 0.0f);
-	s->shapes[sh].interior = add_medium(s, mk_medium(pm_rgb(0.8f, 1.6f,
-	    3.2f), pm_rgb1(0.5f), PM_PHASE_ISOTROPIC, 0.0f, true));
+	s->shapes[sh].interior = 1 + add_medium(s, mk_medium(pm_rgb(0.8f,
+	    1.6f, 3.2f), pm_rgb1(0.5f), PM_PHASE_ISOTROPIC, 0.0f, true));
 	box_finish(&bx, -1);
 	for (k = 0; k < 2; k++) {
 		memset(&ls, 0, sizeof(ls));
@@ -344,8 +344,8 @@ test_absorbing_sphere_render(void **state)
 	s->shapes[sh].center = pm_v3(0, 0, 0);
 	s->shapes[sh].radius = 2.0f;
 	s->shapes[sh].bsdf = add_bsdf(s, PM_BSDF_NULL, 0.0f);
-	s->shapes[sh].interior = m;
-	s->camera_medium = m;
+	s->shapes[sh].interior = 1 + m;
+	s->camera_medium = 1 + m;
 	box_finish(&bx, -1);
 	render_stats(&bx, mean, se);
 	for (c = 0; c < 3; c++)
@@ -444,7 +444,7 @@ furnace(struct pm_medium m, int max_depth, const char *what)
 
 	pm_scene_init(s);
 	add_emitter_sphere(s, 3.0f);
-	s->camera_medium = add_medium(s, m);
+	s->camera_medium = 1 + add_medium(s, m);
 	box_finish(&bx, max_depth);
 	s->camera.spp = 64;
 	render_stats(&bx, mean, se);
@@ -502,9 +502,9 @@ test_load_forms(void **state)
 	assert_int_equal(load(HEAD BALL("<medium type=\"homogeneous\" "
 	    "name=\"interior\"/>") "</scene>", &s, &err), PM_OK);
 	assert_int_equal(s.nmedia, 1);
-	assert_int_equal(s.shapes[0].interior, 0);
-	assert_int_equal(s.shapes[0].exterior, -1);
-	assert_int_equal(s.camera_medium, -1);
+	assert_int_equal(s.shapes[0].interior, 1);	/* 1 + index */
+	assert_int_equal(s.shapes[0].exterior, 0);
+	assert_int_equal(s.camera_medium, 0);
 	m = &s.media[0];
 	assert_true(m->sigma_t.r == 1.0f && m->sigma_t.g == 1.0f &&
 	    m->sigma_t.b == 1.0f);
@@ -530,9 +530,9 @@ test_load_forms(void **state)
 	    "<phase type=\"hg\"/></medium>")
 	    "</scene>", &s, &err), PM_OK);
 	assert_int_equal(s.nmedia, 2);
-	assert_int_equal(s.camera_medium, 0);
-	assert_int_equal(s.shapes[0].exterior, 0);
-	assert_int_equal(s.shapes[0].interior, 1);
+	assert_int_equal(s.camera_medium, 1);
+	assert_int_equal(s.shapes[0].exterior, 1);
+	assert_int_equal(s.shapes[0].interior, 2);
 	m = &s.media[0];
 	assert_string_equal(m->name, "fog");
 	assert_true(m->sigma_t.r == 0.5f && m->sigma_t.g == 1.0f &&
@@ -551,7 +551,7 @@ test_load_forms(void **state)
 	    "<sensor type=\"perspective\"><medium type=\"homogeneous\">"
 	    "<rgb name=\"albedo\" value=\"0.1, 0.2, 0.3\"/></medium></sensor>"
 	    "</scene>", &s, &err), PM_OK);
-	assert_int_equal(s.camera_medium, 0);
+	assert_int_equal(s.camera_medium, 1);
 	assert_true(s.media[0].albedo.b == 0.3f);
 	pm_scene_free(&s);
 }
