@@ -213,7 +213,12 @@ if [ -f data/cornell-box.xml ]; then
 fi
 
 # Participating media, under Mitsuba's volpath: fog filling the box and
-# the camera's surroundings, and a glass ball holding a medium.
+# the camera's surroundings, and a glass ball holding a medium.  Then two
+# variants, written to a folder of their own (they name no other files,
+# so Mitsuba's cached renders of them stay valid): the fog to max_depth 2
+# (direct light and single scattering: how scatters count as bounces),
+# and the ball's medium behind a null surface (light sampled through an
+# index-matched boundary; crossing it is no bounce).
 for scene in fog-box glass-medium; do
 	if [ -f data/$scene.xml ]; then
 		run $scene data/$scene.xml
@@ -221,6 +226,18 @@ for scene in fog-box glass-medium; do
 		check "$scene: data/$scene.xml is missing" false
 	fi
 done
+VARIANTS=build/mitsuba-variants
+mkdir -p "$VARIANTS"
+if [ -f data/fog-box.xml ]; then
+	sed 's|<default name="max_depth" value="-1"/>|<default name="max_depth" value="2"/>|' \
+	    data/fog-box.xml >"$VARIANTS/fog-single.xml"
+	run fog-single "$VARIANTS/fog-single.xml"
+fi
+if [ -f data/glass-medium.xml ]; then
+	sed 's|<bsdf type="dielectric">|<bsdf type="null">|; /name="int_ior"/d' \
+	    data/glass-medium.xml >"$VARIANTS/haze-ball.xml"
+	run haze-ball "$VARIANTS/haze-ball.xml"
+fi
 
 if [ -f ../shared/scenes/mitsuba-cbox/cbox-rgb.xml ]; then
 	run mitsuba-cbox ../shared/scenes/mitsuba-cbox/cbox-rgb.xml
