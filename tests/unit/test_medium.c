@@ -13,6 +13,10 @@
  *   - The furnace: inside a uniformly emitting sphere filled with a medium
  *     of albedo 1, radiance is Le everywhere, whatever the phase function,
  *     the colour of sigma_t, and with or without light sampling.
+ *   - Single scattering: a sphere of medium behind a null surface, lit by
+ *     a point light, to max_depth 2, against the numeric integral along
+ *     the ray (light sampling at scatters, shadow rays through the
+ *     boundary, Henyey-Greenstein's orientation).
  *   - Loading: every XML form of Mitsuba's media (nested, by reference, on
  *     shapes and on the sensor, phase nested), its defaults, its errors;
  *     and photon mapping's refusal, which names the medium.
@@ -471,6 +475,105 @@ test_furnace(void **state)
 	    PM_PHASE_ISOTROPIC, 0.0f, true), 1, "max_depth 1");
 }
 
+/* --------------------------------------------------- single scattering */
+
+/* Distance from x (inside the unit sphere at the origin) along unit w to
+ * its surface. */
+static double
+exit_dist(const double x[3], const double w[3])
+{
+	double b = x[0] * w[0] + x[1] * w[1] + x[2] * w[2];
+	double c = x[0] * x[0] + x[1] * x[1] + x[2] * x[2] - 1.0;
+
+	return -b + sqrt(b * b - c);
+}
+
+/*
+ * A unit sphere of medium behind a null surface, lit by a point light
+ * outside it, seen along one ray, to max_depth 2: the radiance is single
+ * scattering alone,
+ *     L = int T(t0, t) sigma_s p(d, w) I / r^2 T(x, light) dt
+ * over the ray's chord, T through the medium only.  Against that integral
+ * by Simpson's rule (10^4 intervals: exact to far below the noise).
+ */
+static void
+test_single_scattering(void **state)
+{
+	struct box bx;
+	struct pm_scene *s = &bx.scene;
+	struct pm_medium med = mk_medium(pm_rgb(0.5f, 1.0f, 2.0f),
+	    pm_rgb(0.8f, 0.6f, 0.9f), PM_PHASE_HG, 0.3f, true);
+	const double o[3] = {0.3, 0.2, 5.0}, lp[3] = {0.4, 3.0, 0.5};
+	const double I = 10.0;
+	const int n = 200000, nint = 10000;
+	struct pm_rng rng;
+	double s1[3] = {0}, s2[3] = {0}, want[3] = {0}, t0, t1, b, c, h;
+	int sh, l, i, k;
+
+	(void)state;
+	pm_scene_init(s);
+	sh = pm_scene_add_shape(s);
+	s->shapes[sh].type = PM_SHAPE_SPHERE;
+	s->shapes[sh].center = pm_v3(0, 0, 0);
+	s->shapes[sh].radius = 1.0f;
+	s->shapes[sh].bsdf = add_bsdf(s, PM_BSDF_NULL, 0.0f);
+	s->shapes[sh].interior = 1 + add_medium(s, med);
+	l = pm_scene_add_light(s);
+	s->lights[l].type = PM_LIGHT_POINT;
+	s->lights[l].position = pm_v3((float)lp[0], (float)lp[1], (float)lp[2]);
+	s->lights[l].intensity = pm_rgb1((float)I);
+	box_finish(&bx, 2);
+
+	/* the ray o + t (0, 0, -1) meets the sphere at 5 -+ sqrt(1 - 0.13) */
+	b = 5.0;
+	c = sqrt(1.0 - (o[0] * o[0] + o[1] * o[1]));
+	t0 = b - c;
+	t1 = b + c;
+	h = (t1 - t0) / nint;
+	for (i = 0; i <= nint; i++) {
+		double t = t0 + i * h, x[3] = {o[0], o[1], o[2] - t}, w[3], r;
+		double se, cosang, pg, g = med.phase.g, wt;
+
+		w[0] = lp[0] - x[0];
+		w[1] = lp[1] - x[1];
+		w[2] = lp[2] - x[2];
+		r = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+		for (k = 0; k < 3; k++)
+			w[k] /= r;
+		se = exit_dist(x, w);
+		/* the path travels along -z: cos between it and w */
+		cosang = -w[2];
+		pg = (1.0 - g * g) / (4.0 * 3.14159265358979323846 *
+		    pow(1.0 + g * g - 2.0 * g * cosang, 1.5));
+		wt = (i == 0 || i == nint) ? 1.0 : (i % 2 ? 4.0 : 2.0);
+		for (k = 0; k < 3; k++) {
+			double sig = chan(med.sigma_t, k);
+
+			want[k] += wt * h / 3.0 * exp(-sig * (t - t0)) * sig *
+			    chan(med.albedo, k) * pg * I / (r * r) *
+			    exp(-sig * se);
+		}
+	}
+	for (i = 0; i < n; i++) {
+		struct pm_rgb L;
+
+		rng = pm_rng_seed(9, (uint64_t)i, 0);
+		L = pm_path_li(&bx.ctx, pm_v3((float)o[0], (float)o[1],
+		    (float)o[2]), pm_v3(0, 0, -1), 0.0f, INFINITY, &rng);
+		for (k = 0; k < 3; k++) {
+			s1[k] += chan(L, k);
+			s2[k] += chan(L, k) * chan(L, k);
+		}
+	}
+	for (k = 0; k < 3; k++) {
+		double m = s1[k] / n;
+
+		assert_within(m, want[k], sqrt((s2[k] / n - m * m) / n), 4.0,
+		    "single scattering");
+	}
+	box_free(&bx);
+}
+
 /* -------------------------------------------------------------- loading */
 
 static enum pm_err
@@ -656,6 +759,7 @@ main(void)
 		cmocka_unit_test(test_phase_functions),
 		cmocka_unit_test(test_hg_forward),
 		cmocka_unit_test(test_furnace),
+		cmocka_unit_test(test_single_scattering),
 		cmocka_unit_test(test_load_forms),
 		cmocka_unit_test(test_load_errors),
 		cmocka_unit_test(test_photon_refusal),
