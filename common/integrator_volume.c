@@ -135,6 +135,8 @@ pm_volume_step(const struct pm_render_ctx *ctx, struct pm_path *pa,
 		return PM_VOL_END;
 	r = pm_rgb_mul(pa->chan_ratio, pm_rgb_scale(ms.pdf, 1.0f / ph));
 	mr = pm_rgb_mean(r);
+	if (!(mr > 0.0f && mr < INFINITY))	/* underflow after many flights */
+		return PM_VOL_END;
 	pa->chan_ratio = pm_rgb_scale(r, 1.0f / mr);
 	pa->beta = pm_rgb_scale(pm_rgb_mul(pa->beta, ms.f), 1.0f / (ph * mr));
 	if (pm_rgb_is_black(pa->beta))
