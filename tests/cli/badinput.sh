@@ -81,6 +81,9 @@ scene neg.xml "<shape type=\"sphere\"><float name=\"radius\" value=\"-1\"/></sha
 xml_refused "a negative radius" "neg.xml:2.*radius" neg.xml
 
 # --- participating media: photon mode refuses them, naming the medium --
+scene bad-medium.xml "<shape type=\"sphere\"><bsdf type=\"null\"/>
+<medium type=\"heterogeneous\" name=\"interior\"/></shape>$light"
+xml_refused "an unknown medium type" "bad-medium.xml:3.*heterogeneous" bad-medium.xml
 check "pm-shoot: a scene with a medium" refused 1 \
     'medium "fog" \(the sensor.s\).*pm-render --method path' \
     $S -q --photons 100 -o "$tmp/o.pmap" data/fog-box.xml
