@@ -79,6 +79,12 @@ struct pm_bsdf {
 	 * names the same file, and PM_MERL_INTERPOLATE, PM_MERL_COSINE */
 	const struct pm_merl *merl;
 	unsigned merl_flags;
+	/* Parameters given as textures: 1 + the index into scene.textures,
+	 * 0 for none (so that a zeroed BSDF has none); pm_bsdf_at
+	 * (texture.h) looks them up at a hit.  tex_diffuse replaces diffuse,
+	 * tex_specular specular, tex_alpha alpha; until then those hold the
+	 * textures' means. */
+	int tex_diffuse, tex_specular, tex_alpha;
 };
 
 struct pm_bsdf_sample {

@@ -16,6 +16,7 @@
 #include <math.h>
 
 #include "integrator.h"
+#include "texture.h"
 
 /* Light arriving at the hit point from one light sample, weighted for MIS. */
 static struct pm_rgb
@@ -64,8 +65,8 @@ pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 	for (depth = 1;; depth++) {
 		struct pm_hit h;
 		bool hit;
-		const struct pm_shape *sh;
 		const struct pm_bsdf *b;
+		struct pm_bsdf bt;	/* b with its textures looked up */
 		struct pm_bsdf_sample bs;
 		struct pm_frame fr;
 		struct pm_vec3 wi_local;
@@ -86,9 +87,8 @@ pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 			    hit ? &h : NULL, pa.d, pa.prev_p, pa.prev_pdf, pa.prev_delta));
 		if (!hit)
 			break;
-		sh = &s->shapes[h.shape];
-		b = &s->bsdfs[sh->bsdf];
-		if (s->nmedia > 0 && b->type == PM_BSDF_NULL) {
+		if (s->nmedia > 0 &&
+		    s->bsdfs[s->shapes[h.shape].bsdf].type == PM_BSDF_NULL) {
 			/* media: an index-matched boundary, no vertex; the
 			 * bound guards against a ray stuck on one */
 			if (++crossings > 1024)
@@ -103,6 +103,7 @@ pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 		if (ctx->max_depth >= 0 && depth >= ctx->max_depth)
 			break;
 
+		b = pm_bsdf_at(s, &h, &bt);
 		fr = pm_frame_from_normal(h.ns);
 		wi_local = pm_to_local(fr, pm_neg(pa.d));
 		if (!pm_bsdf_is_delta(b))

@@ -39,6 +39,7 @@
 #include "irradiance.h"
 #include "kdtree.h"
 #include "merl.h"
+#include "texture.h"
 
 #define CONE_K 1.1f
 
@@ -250,6 +251,7 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 	for (bounce = 0; bounce < 16; bounce++) {
 		struct pm_hit h;
 		const struct pm_bsdf *b;
+		struct pm_bsdf bt;	/* b with its textures looked up */
 		struct pm_frame fr;
 		struct pm_vec3 wi, nrm;
 		struct pm_bsdf_sample bs;
@@ -259,7 +261,7 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			break;
 		if (t != NULL && bounce == 0)
 			*t = h.t;
-		b = &s->bsdfs[s->shapes[h.shape].bsdf];
+		b = pm_bsdf_at(s, &h, &bt);
 		fr = pm_frame_from_normal(h.ns);
 		wi = pm_to_local(fr, pm_neg(d));
 		nrm = side_normal(&h, d);
@@ -375,8 +377,8 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 	for (depth = 1;; depth++) {
 		struct pm_hit h;
 		bool hit;
-		const struct pm_shape *sh;
 		const struct pm_bsdf *b;
+		struct pm_bsdf bt;	/* b with its textures looked up */
 		struct pm_bsdf_sample bs;
 		struct pm_frame fr;
 		struct pm_vec3 wi;
@@ -388,10 +390,9 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			    hit ? &h : NULL, pa.d, pa.prev_p, pa.prev_pdf, pa.prev_delta));
 		if (!hit)
 			break;
-		sh = &s->shapes[h.shape];
 		if (ctx->max_depth >= 0 && depth >= ctx->max_depth)
 			break;
-		b = &s->bsdfs[sh->bsdf];
+		b = pm_bsdf_at(s, &h, &bt);
 		fr = pm_frame_from_normal(h.ns);
 		wi = pm_to_local(fr, pm_neg(pa.d));
 

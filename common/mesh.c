@@ -337,8 +337,19 @@ pm_mesh_rectangle(struct pm_mesh *m, struct pm_error *err)
 
 /*
  * Cube [-1,1]^3: four vertices per face so that each face keeps its own
- * flat normal and maps onto [0,1]^2 in uv, as Mitsuba's cube does.
+ * flat normal and maps onto [0,1]^2 in uv, oriented on each face as
+ * Mitsuba 3's cube is (its vertex table, read back through Mitsuba's
+ * Python API): u = (su p[iu] + 1) / 2, v = (sv p[iv] + 1) / 2 with, per
+ * face -x, +x, -y, +y, -z, +z, the axes and signs below.
  */
+static const struct {
+	int iu, su, iv, sv;
+} cube_uv[6] = {
+	{1, 1, 2, 1}, {1, 1, 2, -1},	/* x faces: listed -, + */
+	{2, 1, 0, 1}, {0, -1, 2, -1},	/* y */
+	{1, -1, 0, 1}, {1, 1, 0, 1},	/* z */
+};
+
 enum pm_err
 pm_mesh_cube(struct pm_mesh *m, struct pm_error *err)
 {
@@ -370,10 +381,12 @@ pm_mesh_cube(struct pm_mesh *m, struct pm_error *err)
 			p[axis] = sign;
 			p[(axis + 1) % 3] = s;
 			p[(axis + 2) % 3] = t;
+			int f = 2 * axis + (sign > 0.0f);
+
 			set_vertex(m, base + (uint32_t)c, pm_v3(p[0], p[1], p[2]),
 			    pm_v3(n[0], n[1], n[2]),
-			    (corner[c][0] + 1.0f) * 0.5f,
-			    (corner[c][1] + 1.0f) * 0.5f);
+			    ((float)cube_uv[f].su * p[cube_uv[f].iu] + 1.0f) * 0.5f,
+			    ((float)cube_uv[f].sv * p[cube_uv[f].iv] + 1.0f) * 0.5f);
 		}
 		set_tri(m, 2 * (uint32_t)face, base, base + 1, base + 2);
 		set_tri(m, 2 * (uint32_t)face + 1, base + 2, base + 3, base);

@@ -26,6 +26,7 @@
 #include "rng.h"
 #include "sampling.h"
 #include "shoot.h"
+#include "texture.h"
 
 /* A photon stuck between mirrors, or inside glass by total internal
  * reflection, stops here even when the depth is unlimited. */
@@ -400,6 +401,7 @@ trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 	for (depth = 0;; depth++) {
 		struct pm_hit h;
 		const struct pm_bsdf *b;
+		struct pm_bsdf bt;	/* b with its textures looked up */
 		struct pm_frame fr;
 		struct pm_vec3 wi_local;
 		struct pm_bsdf_sample bs;
@@ -407,7 +409,7 @@ trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 
 		if (!pm_accel_intersect(sh->accel, o, d, 0.0f, INFINITY, &h))
 			break;
-		b = &s->bsdfs[s->shapes[h.shape].bsdf];
+		b = pm_bsdf_at(s, &h, &bt);
 		if (depth == 0 && bsdf_has_specular(b))
 			co->paths_specular++;
 		if (bsdf_has_nonspecular(b) &&
@@ -647,6 +649,23 @@ fnv_i(uint64_t h, int64_t v)
 	return fnv(h, &v, sizeof(v));
 }
 
+/* A texture's identity: its parameters and texels. */
+static uint64_t
+texture_hash(uint64_t h, const struct pm_texture *t)
+{
+	int i;
+
+	h = fnv_i(h, t->type);
+	for (i = 0; i < 6; i++)
+		h = fnv_f(h, t->to_uv[i]);
+	h = fnv_rgb(fnv_rgb(h, t->color0), t->color1);
+	h = fnv_i(fnv_i(h, t->width), t->height);
+	if (t->rgb != NULL)
+		h = fnv(h, t->rgb, sizeof(float) * 3 * (size_t)t->width *
+		    (size_t)t->height);
+	return fnv_i(fnv_i(h, t->nearest), t->wrap);
+}
+
 uint64_t
 pm_scene_hash(const struct pm_scene *s)
 {
@@ -701,6 +720,22 @@ pm_scene_hash(const struct pm_scene *s)
 			h = fnv_i(h, b->merl->crc);
 			h = fnv_i(h, b->merl_flags);
 		}
+		/* textures, again only when there are any */
+		if (b->tex_diffuse > 0)
+			h = texture_hash(fnv_i(h, 1), &s->textures[b->tex_diffuse - 1]);
+		if (b->tex_specular > 0)
+			h = texture_hash(fnv_i(h, 2), &s->textures[b->tex_specular - 1]);
+		if (b->tex_alpha > 0)
+			h = texture_hash(fnv_i(h, 3), &s->textures[b->tex_alpha - 1]);
+	}
+	/* where textures are, the uv they are looked up by */
+	for (i = 0; s->ntextures > 0 && i < s->nshapes; i++) {
+		const struct pm_shape *sh = &s->shapes[i];
+
+		if (sh->type == PM_SHAPE_SPHERE)
+			h = fnv(h, &sh->axes, sizeof(sh->axes));
+		else if (sh->mesh.uv != NULL)
+			h = fnv(h, sh->mesh.uv, sizeof(float) * 2 * sh->mesh.nverts);
 	}
 	h = fnv_i(h, (int64_t)s->nlights);
 	for (i = 0; i < s->nlights; i++) {

@@ -54,7 +54,8 @@ conductor_params(struct ld *ld, struct plist *pl, struct pm_bsdf *b)
 		return sx_fail(ld, sx_prop_find(pl, "material")->n, PM_ERR_INVALID,
 		    "%s: unknown conductor material \"%s\"", pl->what, mat);
 	}
-	return sx_get_color(ld, pl, "specular_reflectance", 1.0f, &b->specular);
+	return sx_get_color_tex(ld, pl, "specular_reflectance", 1.0f,
+	    &b->specular, &b->tex_specular);
 }
 
 /*
@@ -155,7 +156,8 @@ sx_build_bsdf(struct ld *ld, struct xnode *n, struct pm_bsdf *b)
 	n->busy = true;
 	if (strcmp(type, "diffuse") == 0) {
 		b->type = PM_BSDF_DIFFUSE;
-		e = sx_get_color(ld, &pl, "reflectance", 0.5f, &b->diffuse);
+		e = sx_get_color_tex(ld, &pl, "reflectance", 0.5f, &b->diffuse,
+		    &b->tex_diffuse);
 	} else if (strcmp(type, "conductor") == 0) {
 		b->type = PM_BSDF_CONDUCTOR;
 		e = conductor_params(ld, &pl, b);
@@ -195,9 +197,18 @@ sx_build_bsdf(struct ld *ld, struct xnode *n, struct pm_bsdf *b)
 				goto out;
 			}
 			a = au;
-		} else if ((e = sx_get_float(ld, &pl, "alpha", 0.1, 1e-4, 10,
-		    &a)) != PM_OK) {
+		} else if ((e = sx_get_texture(ld, &pl, "alpha",
+		    &b->tex_alpha)) != PM_OK ||
+		    (b->tex_alpha == 0 && (e = sx_get_float(ld, &pl, "alpha",
+		    0.1, 1e-4, 10, &a)) != PM_OK)) {
 			goto out;
+		}
+		if (b->tex_alpha > 0) {
+			/* the mean until a hit looks it up (texture.h) */
+			struct pm_rgb m = pm_texture_mean(
+			    &ld->s->textures[b->tex_alpha - 1]);
+
+			a = 0.212671 * m.r + 0.715160 * m.g + 0.072169 * m.b;
 		}
 		b->alpha = (float)a;
 	} else if (strcmp(type, "dielectric") == 0 ||
@@ -214,10 +225,10 @@ sx_build_bsdf(struct ld *ld, struct xnode *n, struct pm_bsdf *b)
 		b->ior = iint / iext;
 	} else if (strcmp(type, "plastic") == 0) {
 		b->type = PM_BSDF_PLASTIC;
-		if ((e = sx_get_color(ld, &pl, "diffuse_reflectance", 0.5f,
-		    &b->diffuse)) != PM_OK ||
-		    (e = sx_get_color(ld, &pl, "specular_reflectance", 1.0f,
-		    &b->specular)) != PM_OK ||
+		if ((e = sx_get_color_tex(ld, &pl, "diffuse_reflectance", 0.5f,
+		    &b->diffuse, &b->tex_diffuse)) != PM_OK ||
+		    (e = sx_get_color_tex(ld, &pl, "specular_reflectance", 1.0f,
+		    &b->specular, &b->tex_specular)) != PM_OK ||
 		    (e = get_ior(ld, &pl, "int_ior", IOR_POLYPROPYLENE, &iint))
 		    != PM_OK ||
 		    (e = get_ior(ld, &pl, "ext_ior", IOR_AIR, &iext)) != PM_OK ||

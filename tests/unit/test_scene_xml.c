@@ -985,18 +985,52 @@ test_errors(void **state)
 		/* unsupported features and inconsistent scenes */
 		{HEAD "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n"
 		    "<texture name=\"reflectance\" type=\"bitmap\"/></bsdf>"
-		    "</shape></scene>", 3, "textures are not supported"},
+		    "</shape></scene>", 3, "texture \"bitmap\": missing required "
+		    "parameter \"filename\""},
+		/* where pm takes no texture, one is named as not supported */
+		{HEAD "<shape type=\"rectangle\"><bsdf type=\"dielectric\">\n"
+		    "<texture name=\"specular_reflectance\" type=\"checkerboard\"/>"
+		    "</bsdf></shape></scene>", 3, "bsdf \"dielectric\": textures "
+		    "are not supported here (<texture name=\"specular_reflectance\">)"},
+		{HEAD "<texture type=\"checkerboard\" id=\"t\">\n"
+		    "<texture name=\"color0\" type=\"checkerboard\"/></texture>"
+		    "</scene>", 3, "textures are not supported here"},
+		{HEAD "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n"
+		    "<texture type=\"checkerboard\"/></bsdf></shape></scene>", 3,
+		    "a nested <texture> needs a name"},
+		{HEAD "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n"
+		    "<texture name=\"reflectance\" type=\"noise\"/></bsdf>"
+		    "</shape></scene>", 3, "unknown texture type \"noise\""},
+		{HEAD "<texture type=\"bitmap\" id=\"t\">\n"
+		    "<string name=\"filename\" value=\"absent.png\"/>"
+		    "<string name=\"wrap_mode\" value=\"wrap\"/></texture>"
+		    "</scene>", 3, "wrap_mode \"wrap\" is not one of"},
+		{HEAD "<texture type=\"bitmap\" id=\"t\">\n"
+		    "<string name=\"filename\" value=\"absent.png\"/>"
+		    "</texture></scene>", 2, "cannot find \"absent.png\""},
+		{HEAD "<texture type=\"bitmap\" id=\"t\">\n"
+		    "<string name=\"filename\" value=\"flat.obj\"/>"
+		    "</texture></scene>", 2, "not a PNG, JPEG or OpenEXR file"},
+		{HEAD "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n"
+		    "<rgb name=\"reflectance\" value=\"0.5\"/>"
+		    "<texture name=\"reflectance\" type=\"checkerboard\"/>"
+		    "</bsdf></shape></scene>", 3,
+		    "parameter \"reflectance\" given twice"},
+		{HEAD "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n"
+		    "<ref name=\"reflectance\" id=\"b\"/></bsdf></shape>"
+		    "<bsdf type=\"diffuse\" id=\"b\"/></scene>", 3,
+		    "names a <bsdf>, expected a <texture>"},
 		/* an unknown plugin is named before the texture inside it */
 		{HEAD "<shape type=\"rectangle\">\n<bsdf type=\"roughplastic\">"
 		    "<texture name=\"diffuse_reflectance\" type=\"bitmap\"/>"
 		    "</bsdf></shape></scene>", 3,
 		    "unknown bsdf type \"roughplastic\""},
 		/* a texture by reference is a texture */
-		{HEAD "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n"
-		    "<ref name=\"reflectance\" id=\"t\"/></bsdf></shape>\n"
-		    "<texture type=\"checkerboard\" id=\"t\"/></scene>", 3,
-		    "textures are not supported (<ref id=\"t\"> names the "
-		    "<texture> at line 4)"},
+		{HEAD "<shape type=\"rectangle\"><bsdf type=\"dielectric\">\n"
+		    "<ref name=\"specular_transmittance\" id=\"t\"/></bsdf>"
+		    "</shape>\n<texture type=\"checkerboard\" id=\"t\"/>"
+		    "</scene>", 3, "textures are not supported here (<ref "
+		    "id=\"t\"> names the <texture> at line 4)"},
 		/* a required parameter given as a texture */
 		{HEAD "<shape type=\"rectangle\"><emitter type=\"area\">\n"
 		    "<texture name=\"radiance\" type=\"bitmap\"/></emitter>"
