@@ -105,7 +105,8 @@ medium_direct(const struct pm_render_ctx *ctx, int medium, struct pm_vec3 p,
 	tr = pm_volume_shadow(ctx, p, medium, &ls);
 	if (pm_rgb_is_black(tr))
 		return tr;
-	w = ls.delta ? 1.0f : pm_power_heuristic(ls.pdf, ph);
+	w = ls.delta ? 1.0f :
+	    pm_power_heuristic(ls.pdf, pm_phase_pdf(&m->phase, d, ls.wi));
 	return pm_rgb_scale(pm_rgb_mul(tr, ls.value), ph * w / ls.pdf);
 }
 

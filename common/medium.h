@@ -61,6 +61,13 @@ struct pm_medium {
 float pm_phase_eval(const struct pm_phase *ph, struct pm_vec3 d,
     struct pm_vec3 wo);
 
+/* The solid-angle density of pm_phase_sample: the value itself. */
+static inline float pm_phase_pdf(const struct pm_phase *ph, struct pm_vec3 d,
+    struct pm_vec3 wo)
+{
+	return pm_phase_eval(ph, d, wo);
+}
+
 /* Samples wo from (u1, u2) in [0, 1)^2 about the arriving direction d;
  * *pdf gets pm_phase_eval(ph, d, wo); the sample's weight is 1. */
 struct pm_vec3 pm_phase_sample(const struct pm_phase *ph, struct pm_vec3 d,
