@@ -32,6 +32,7 @@
 #include <pthread.h>
 #include <stdatomic.h>
 #include <stdint.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "kdtree.h"
@@ -678,6 +679,126 @@ knn_walk(const struct pm_photon *p, uint32_t n, const float q[3], size_t k,
 		off[1] = st[sp].off[1];
 		off[2] = st[sp].off[2];
 	}
+}
+
+/*
+ * Batches are walked in Morton order of their points (a Z-order curve
+ * through their bounding box), so that consecutive queries share the
+ * upper tree and often buckets in the caches.  (Walking several queries
+ * at once, a step of each in turn with prefetches, so that their memory
+ * misses overlap, was measured slower: the queries are bound by their
+ * arithmetic and branches, not by memory, even on 10M photons.)
+ */
+/* Spreads the low 21 bits of x to every third bit. */
+static inline uint64_t
+morton_spread(uint64_t x)
+{
+	x &= 0x1fffff;
+	x = (x | x << 32) & 0x1f00000000ffffULL;
+	x = (x | x << 16) & 0x1f0000ff0000ffULL;
+	x = (x | x << 8) & 0x100f00f00f00f00fULL;
+	x = (x | x << 4) & 0x10c30c30c30c30c3ULL;
+	x = (x | x << 2) & 0x1249249249249249ULL;
+	return x;
+}
+
+/* A query's place on the curve and its index, sorted by radix. */
+struct kd_order {
+	uint64_t key;
+	uint32_t i;
+};
+
+/*
+ * Fills ord[0..nq) with the queries in Morton order of their points over
+ * their bounding box (21 bits an axis), by an LSD radix sort of 11-bit
+ * digits through tmp; stable, so equal keys keep their order.  NaN and
+ * infinite coordinates sort anywhere: only the order changes, never a
+ * result.
+ */
+static void
+morton_order(const float *q, size_t nq, struct kd_order *ord,
+    struct kd_order *tmp)
+{
+	float mn[3], mx[3], sc[3];
+	size_t i, cnt[1 << 11];
+	int a, pass;
+
+	for (a = 0; a < 3; a++) {
+		mn[a] = INFINITY;
+		mx[a] = -INFINITY;
+	}
+	for (i = 0; i < nq; i++)
+		for (a = 0; a < 3; a++) {
+			float v = q[3 * i + a];
+
+			mn[a] = v < mn[a] ? v : mn[a];
+			mx[a] = v > mx[a] ? v : mx[a];
+		}
+	for (a = 0; a < 3; a++)
+		sc[a] = mx[a] > mn[a] && isfinite(mx[a] - mn[a]) ?
+		    2097151.0f / (mx[a] - mn[a]) : 0.0f;
+	for (i = 0; i < nq; i++) {
+		uint64_t key = 0;
+
+		for (a = 0; a < 3; a++) {
+			float t = (q[3 * i + a] - mn[a]) * sc[a];
+			uint64_t u = t >= 0.0f && t <= 2097151.0f ?
+			    (uint64_t)t : 0;
+
+			key |= morton_spread(u) << a;
+		}
+		ord[i].key = key;
+		ord[i].i = (uint32_t)i;
+	}
+	for (pass = 0; pass < 6; pass++) {
+		struct kd_order *t;
+		int sh = 11 * pass;
+		size_t sum = 0;
+
+		memset(cnt, 0, sizeof(cnt));
+		for (i = 0; i < nq; i++)
+			cnt[(ord[i].key >> sh) & 0x7ff]++;
+		for (i = 0; i < (1 << 11); i++) {
+			size_t c = cnt[i];
+
+			cnt[i] = sum;
+			sum += c;
+		}
+		for (i = 0; i < nq; i++)
+			tmp[cnt[(ord[i].key >> sh) & 0x7ff]++] = ord[i];
+		t = ord;
+		ord = tmp;
+		tmp = t;
+	}
+	/* Six passes: the result is back in the caller's ord. */
+}
+
+/* Many k-nearest queries at once; see kdtree.h. */
+void
+pm_kdtree_knn_batch(const struct pm_photon *p, size_t n, const float *q,
+    size_t nq, size_t k, float max_d2, uint8_t mask, uint8_t want,
+    struct pm_knn *out, size_t *found)
+{
+	struct kd_order *ord = NULL;
+	size_t i;
+
+	if (n == 0 || k == 0 || (uint64_t)n > UINT32_MAX ||
+	    !(max_d2 >= 0.0f) || (uint64_t)nq > UINT32_MAX) {
+		for (i = 0; i < nq; i++)
+			found[i] = 0;
+		return;
+	}
+	/* Sorting pays only when there are queries enough to share paths;
+	 * without memory for it, the given order gives the same results. */
+	if (nq >= 64 && (ord = malloc(2 * nq * sizeof(*ord))) != NULL)
+		morton_order(q, nq, ord, ord + nq);
+	for (i = 0; i < nq; i++) {
+		size_t j = ord != NULL ? ord[i].i : i;
+
+		found[j] = knn_walk(p, (uint32_t)n, &q[3 * j], k, max_d2, mask,
+		    want, &out[j * k]);
+	}
+	free(ord);
 }
 
 /* The k nearest photons to q within max_d2 passing the flag filter. */

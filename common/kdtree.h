@@ -47,6 +47,18 @@ enum pm_err pm_kdtree_build(struct pm_photon *p, size_t n, int threads,
 size_t pm_kdtree_knn(const struct pm_photon *p, size_t n, const float q[3],
     size_t k, float max_d2, uint8_t mask, uint8_t want, struct pm_knn *out);
 
+/*
+ * k-nearest queries for nq points q[3 * i .. 3 * i + 3) at once, with the
+ * filter of pm_kdtree_knn: query i's result goes to out[i * k ..] (room
+ * for k) and its count to found[i], the same bytes pm_kdtree_knn would
+ * write.  Faster than one call per point when the points are scattered:
+ * they are walked in an order that keeps the caches warm (allocated once
+ * per call; without memory, the given order, with the same results).
+ */
+void pm_kdtree_knn_batch(const struct pm_photon *p, size_t n, const float *q,
+    size_t nq, size_t k, float max_d2, uint8_t mask, uint8_t want,
+    struct pm_knn *out, size_t *found);
+
 /* Sorts the result of pm_kdtree_knn by increasing distance (then index). */
 void pm_knn_sort(struct pm_knn *r, size_t count);
 
