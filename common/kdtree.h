@@ -85,7 +85,12 @@ struct pm_kd_range {
 	uint8_t mask, want;
 	uint32_t sp;			/* deferred subtrees on the stack */
 	uint32_t nbuf, ibuf;		/* matches found, and returned */
-	uint32_t st[64][2];
+	/* Deferred subtrees: their index ranges and the distances from q
+	 * to their cells along each axis. */
+	struct {
+		uint32_t lo, hi;
+		float off[3];
+	} st[64];
 	/* The matches of the last descent, returned one at a time. */
 	uint32_t bidx[PM_KD_RANGE_BUF];
 	float bd2[PM_KD_RANGE_BUF];
@@ -96,9 +101,22 @@ struct pm_kd_range {
 void pm_kdtree_range_init(struct pm_kd_range *r, const struct pm_photon *p,
     size_t n, const float q[3], float max_d2, uint8_t mask, uint8_t want);
 
+/* Part of pm_kdtree_range_next: the next descent's matches into r's
+ * buffer; false when there are no more. */
+bool pm_kdtree_range_refill(struct pm_kd_range *r);
+
 /* The next photon of the query: its index in *idx and squared distance in
- * *d2; false when there are no more.  Photons come in no useful order. */
-bool pm_kdtree_range_next(struct pm_kd_range *r, uint32_t *idx, float *d2);
+ * *d2; false when there are no more.  Photons come in no useful order.
+ * Inline: most calls only hand out a buffered match. */
+static inline bool
+pm_kdtree_range_next(struct pm_kd_range *r, uint32_t *idx, float *d2)
+{
+	if (r->ibuf == r->nbuf && !pm_kdtree_range_refill(r))
+		return false;
+	*idx = r->bidx[r->ibuf];
+	*d2 = r->bd2[r->ibuf++];
+	return true;
+}
 
 /*
  * Checks the ordering invariant of every node; returns true if it holds,
