@@ -675,127 +675,6 @@ knn_scan(struct knn_state *s, const struct pm_photon *p, uint32_t lo,
 }
 
 /*
- * A first bound for a k-nearest query.  The walk below finds its
- * neighbours in the order the tree gives it, and until its heap is full
- * it must take every photon and visit every cell it meets; with the k-th
- * distance known from the start, the same queries ran twice as fast
- * (measured on 1M and 10M photons, k = 50 and 200).  So before the walk:
- * the smallest subtree around q that holds at least KD_BOUND_MUL * k
- * photons, its distances in one branch-free pass, and a value R with at
- * least k of them (passing the filter) within R, found by bisection on
- * the bits of the distances (for non-negative floats their order as
- * integers); R is within about 1% of the k-th of them.  At least k photons
- * lie within R, so the k nearest of the tree do too, and the walk may
- * start with R as its bound: the same neighbours, fewer cells, and hardly
- * a heap replacement.
- */
-#ifndef KD_BOUND_MUL
-#define KD_BOUND_MUL	2
-#endif
-/* Above this k the subtree's distances would not fit on the stack. */
-#define KD_BOUND_MAXK	256
-#define KD_BOUND_MAXN	(2 * KD_BOUND_MUL * KD_BOUND_MAXK + 8)
-#define KD_BOUND_STEPS	16
-
-/* How many of d[0..m) (m a multiple of 4) are <= t. */
-KD_INLINE size_t
-count_le(const float *d, size_t m, float t)
-{
-	size_t i, c = 0;
-#if defined(__SSE2__)
-	__m128 vt = _mm_set1_ps(t);
-	__m128i acc = _mm_setzero_si128();
-	int32_t part[4];
-
-	for (i = 0; i < m; i += 4)
-		acc = _mm_sub_epi32(acc, _mm_castps_si128(_mm_cmple_ps(
-		    _mm_load_ps(&d[i]), vt)));
-	_mm_storeu_si128((__m128i *)part, acc);
-	c = (size_t)part[0] + (size_t)part[1] + (size_t)part[2] +
-	    (size_t)part[3];
-#else
-	for (i = 0; i < m; i++)
-		c += d[i] <= t;
-#endif
-	return c;
-}
-
-static inline float
-bits_float(uint32_t u)
-{
-	float f;
-
-	memcpy(&f, &u, sizeof(f));
-	return f;
-}
-
-static inline uint32_t
-float_bits(float f)
-{
-	uint32_t u;
-
-	memcpy(&u, &f, sizeof(u));
-	return u;
-}
-
-static float
-knn_bound(const struct pm_photon *p, uint32_t n, const float q[3], size_t k,
-    float max_d2, uint8_t mask, uint8_t want)
-{
-	_Alignas(16) float d[KD_BOUND_MAXN];
-	size_t need = KD_BOUND_MUL * k, i, m, c;
-	uint32_t lo = 0, hi = n, blo, bhi;
-	float mn = INFINITY, mx = 0.0f;
-	int step;
-
-	if (k > KD_BOUND_MAXK || n < need)
-		return max_d2;
-	/* Down while both children hold need photons or more. */
-	while ((hi - lo - 1) / 2 >= need) {
-		uint32_t mid = lo + (hi - lo) / 2;
-		int ax = p[mid].flags & PM_KD_AXIS_MASK;
-
-		ax = ax > 2 ? 2 : ax;
-		if (q[ax] - p[mid].pos[ax] < 0.0f)
-			hi = mid;
-		else
-			lo = mid + 1;
-	}
-	m = hi - lo;
-	/* Distances as the walk computes them; +inf for photons the filter
-	 * drops (and NaN's), which no bound counts. */
-	for (i = 0; i < m; i++) {
-		const struct pm_photon *ph = &p[lo + i];
-		float d2 = kd_dist2(ph->pos, q);
-		bool ok = (ph->flags & mask) == want && d2 <= max_d2;
-
-		d[i] = ok ? d2 : INFINITY;
-		mn = ok && d2 < mn ? d2 : mn;
-		mx = ok && d2 > mx ? d2 : mx;
-	}
-	for (; i % 4 != 0; i++)
-		d[i] = INFINITY;
-	c = count_le(d, i, mx);
-	if (c < k)
-		return max_d2;
-	/* count(<= bits blo) < k <= count(<= bits bhi). */
-	bhi = float_bits(mx);
-	blo = float_bits(mn);
-	if (blo == 0)
-		return bits_float(bhi);
-	blo--;
-	for (step = 0; step < KD_BOUND_STEPS && bhi - blo > 1; step++) {
-		uint32_t mid = blo + (bhi - blo) / 2;
-
-		if (count_le(d, i, bits_float(mid)) >= k)
-			bhi = mid;
-		else
-			blo = mid;
-	}
-	return bits_float(bhi);
-}
-
-/*
  * The k-nearest walk: descend to the bucket of q, deferring far children
  * with their cell distances, then resume from the nearest deferred child
  * whose cell is still within the bound.  Returns how many were found.
@@ -813,7 +692,7 @@ knn_walk(const struct pm_photon *p, uint32_t n, const float q[3], size_t k,
 	s.out = out;
 	s.k = k;
 	s.cnt = 0;
-	s.lim = knn_bound(p, n, q, k, max_d2, mask, want);
+	s.lim = max_d2;
 	for (;;) {
 		while (hi - lo > KD_BUCKET) {
 			uint32_t m = lo + (hi - lo) / 2;
@@ -874,10 +753,20 @@ knn_walk(const struct pm_photon *p, uint32_t n, const float q[3], size_t k,
 /*
  * Batches are walked in Morton order of their points (a Z-order curve
  * through their bounding box), so that consecutive queries share the
- * upper tree and often buckets in the caches.  (Walking several queries
- * at once, a step of each in turn with prefetches, so that their memory
- * misses overlap, was measured slower: the queries are bound by their
- * arithmetic and branches, not by memory, even on 10M photons.)
+ * upper tree and often buckets in the caches, and each query starts with
+ * a bound from the one before it: the largest distance from its point to
+ * the k neighbours just found (photons that pass the filter and are in
+ * the caches), within which there are at least k photons, so the k
+ * nearest lie within it too.  A walk that starts with its bound takes
+ * only photons that may stay and prunes from the first cell, where one
+ * without must take the first k it meets and then replace them, a heap
+ * fix-up each; with the k-th distance known in advance the same queries
+ * ran twice as fast.  (Walking several queries at once, a step of each in
+ * turn with prefetches, so that their memory misses overlap, was measured
+ * slower: the queries are bound by their branches and arithmetic more
+ * than by memory, even on 10M photons.  So were a first bound from the
+ * subtree around the point, and a buffer of candidates cut down to the
+ * k nearest by bisection instead of a heap.)
  */
 /* Spreads the low 21 bits of x to every third bit. */
 static inline uint64_t
@@ -970,7 +859,7 @@ pm_kdtree_knn_batch(const struct pm_photon *p, size_t n, const float *q,
     struct pm_knn *out, size_t *found)
 {
 	struct kd_order *ord = NULL;
-	size_t i;
+	size_t i, prev = 0;
 
 	if (n == 0 || k == 0 || (uint64_t)n > UINT32_MAX ||
 	    !(max_d2 >= 0.0f) || (uint64_t)nq > UINT32_MAX) {
@@ -979,14 +868,28 @@ pm_kdtree_knn_batch(const struct pm_photon *p, size_t n, const float *q,
 		return;
 	}
 	/* Sorting pays only when there are queries enough to share paths;
-	 * without memory for it, the given order gives the same results. */
+	 * without memory for it, the given order gives the same neighbours
+	 * (ties perhaps chosen otherwise). */
 	if (nq >= 64 && (ord = malloc(2 * nq * sizeof(*ord))) != NULL)
 		morton_order(q, nq, ord, ord + nq);
 	for (i = 0; i < nq; i++) {
-		size_t j = ord != NULL ? ord[i].i : i;
+		size_t j = ord != NULL ? ord[i].i : i, t;
+		float lim = max_d2;
 
-		found[j] = knn_walk(p, (uint32_t)n, &q[3 * j], k, max_d2, mask,
+		if (i > 0 && found[prev] == k) {
+			float r = 0.0f;
+
+			for (t = 0; t < k; t++) {
+				float d = kd_dist2(p[out[prev * k + t].idx].pos,
+				    &q[3 * j]);
+
+				r = d > r ? d : r;
+			}
+			lim = r < max_d2 ? r : max_d2;
+		}
+		found[j] = knn_walk(p, (uint32_t)n, &q[3 * j], k, lim, mask,
 		    want, &out[j * k]);
+		prev = j;
 	}
 	free(ord);
 }

@@ -49,11 +49,14 @@ size_t pm_kdtree_knn(const struct pm_photon *p, size_t n, const float q[3],
 
 /*
  * k-nearest queries for nq points q[3 * i .. 3 * i + 3) at once, with the
- * filter of pm_kdtree_knn: query i's result goes to out[i * k ..] (room
- * for k) and its count to found[i], the same bytes pm_kdtree_knn would
- * write.  Faster than one call per point when the points are scattered:
- * they are walked in an order that keeps the caches warm (allocated once
- * per call; without memory, the given order, with the same results).
+ * filter and the bound of pm_kdtree_knn: query i's neighbours go to
+ * out[i * k ..] (room for k) as a max-heap and their count to found[i].
+ * The same neighbours as pm_kdtree_knn's, up to the choice among photons
+ * tied at the k-th distance, but faster: the points are walked in an
+ * order that keeps the caches warm (allocated once per call; without
+ * memory, the given order), each starting from a bound its predecessor
+ * gives.  The results do not depend on the thread or the order of the
+ * calls, only on the batch.
  */
 void pm_kdtree_knn_batch(const struct pm_photon *p, size_t n, const float *q,
     size_t nq, size_t k, float max_d2, uint8_t mask, uint8_t want,
