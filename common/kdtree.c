@@ -10,7 +10,9 @@
  * (ninther for large ranges) pivots and a three-way partition, so that
  * ranges full of equal keys (every photon on one point, plane or line)
  * cost one pass instead of degrading to quadratic time, with a heapsort
- * fallback bounding the worst case at O(n log n).  Subtrees are
+ * fallback bounding the worst case at O(n log n).  Ranges of up to 65536
+ * photons (most levels) are split by a radix select instead, which has no
+ * branch on the data.  Subtrees are
  * independent once their parent is split, so large ones are handed to
  * idle threads; each range is processed by the same deterministic code
  * whichever thread runs it, so the result does not depend on the thread
@@ -20,10 +22,11 @@
  * and scan small ranges (contiguous records) linearly, which is faster than
  * branching on the last few levels; both children of each node are
  * prefetched while the node is decided, and buckets are scanned without a
- * branch per photon.  k-nearest queries prune a far child
- * by the squared distance from q to its cell, kept incrementally per axis
- * (Arya and Mount 1993), radius queries by the distance to the splitting
- * plane.  Squared distances are computed everywhere as dx*dx + dy*dy +
+ * branch per photon (four at a time with SSE).  Both kinds of query prune
+ * a far child by the squared distance from q to its cell, kept
+ * incrementally per axis (Arya and Mount 1993).  Batches of k-nearest
+ * queries are walked in Morton order, each starting from a bound its
+ * predecessor gives.  Squared distances are computed everywhere as dx*dx + dy*dy +
  * dz*dz in float, so results compare exactly with brute force, and both
  * bounds are true lower bounds in float arithmetic too (rounding is
  * monotonic), so pruning never loses a neighbour at the boundary.

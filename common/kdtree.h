@@ -9,7 +9,7 @@
  * one).  No pointers, no padding: the photons themselves are the tree.
  * The split axis is the one of largest extent (for ranges of 512 photons
  * or more, of an evenly spaced sample of them), the split the median,
- * found by selection (expected linear time) rather than sorting.
+ * found by selection (linear time) rather than sorting.
  *
  * Queries allocate nothing and keep their state on the caller's stack, so
  * any number of threads may query one tree.
