@@ -51,8 +51,8 @@
 #ifndef KD_BUCKET
 #define KD_BUCKET	48
 #endif
-/* The same for radius queries, which return every match in the bucket
- * and so gain less from scanning many. */
+/* The same for radius queries (measured: 12 to 32 no better than 48 for
+ * the radii of the 50th and 200th neighbours). */
 #ifndef KD_RBUCKET
 #define KD_RBUCKET	48
 #endif
