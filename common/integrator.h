@@ -86,6 +86,12 @@ struct pm_path {
 	struct pm_vec3 prev_p;		/* the last vertex, and the density the */
 	float prev_pdf;			/* ray left it with, for MIS; prev_delta: */
 	bool prev_delta;		/* a camera ray or a specular bounce */
+	/* Media (integrator_volume.c): the channel free flights are
+	 * sampled in (-1 until the first), and per channel the density of
+	 * the flights so far had that channel been sampled, over the
+	 * hero's, scaled to mean 1; beta is already divided by it. */
+	int hero;
+	struct pm_rgb chan_ratio;
 };
 
 /* A path about to trace the camera ray o + t d, t in (tmin, tmax). */
@@ -138,5 +144,31 @@ bool pm_photon_cacheable(const struct pm_bsdf *b);
  * surface hit, INFINITY for none. */
 struct pm_rgb pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
     struct pm_vec3 d, struct pm_rng *rng, float *t);
+
+/* Participating media in the path tracer (integrator_volume.c). */
+
+/* The medium a ray leaving hit h along d travels in, having travelled in
+ * `medium` (-1: none): the one on the far side if the shape names any. */
+int pm_medium_after(const struct pm_scene *s, const struct pm_hit *h,
+    struct pm_vec3 d, int medium);
+
+/* Transmittance from o, in `medium`, to the light sample ls through media
+ * and null-BSDF boundaries; zero where another surface blocks it. */
+struct pm_rgb pm_volume_shadow(const struct pm_render_ctx *ctx,
+    struct pm_vec3 o, int medium, const struct pm_light_sample *ls);
+
+enum pm_vol_event {
+	PM_VOL_PASS,		/* reached the surface; beta weighted */
+	PM_VOL_SCATTER,		/* scattered: light sampled into L, the
+				 * path moved on along the phase sample */
+	PM_VOL_END,		/* the path ends here */
+};
+
+/* Samples a free flight in `medium` along the path's ray, from pa->tmin
+ * to the surface at t_end (pa->tmax without one); at a scatter, vertex
+ * number depth of the path, does what a surface bounce does. */
+enum pm_vol_event pm_volume_step(const struct pm_render_ctx *ctx,
+    struct pm_path *pa, int medium, float t_end, int depth, struct pm_rgb *L,
+    struct pm_rng *rng);
 
 #endif

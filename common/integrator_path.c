@@ -5,6 +5,11 @@
  * Mitsuba 3's meaning of max_depth: the longest path, counted in segments
  * from the camera, that may carry light (1: emitters seen directly only).
  *
+ * In a scene with participating media it is Mitsuba's volpath: the parts
+ * marked "media" hand the ray's segment to integrator_volume.c, which may
+ * scatter it, and null-BSDF boundaries only change the ray's medium (they
+ * are no bounce, and shadow rays pass through them), as volpath has it.
+ *
  * Every photon-map result is checked against this, so it favours being
  * obviously right over being fast.
  */
@@ -17,7 +22,7 @@
 static struct pm_rgb
 direct_light(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
     const struct pm_hit *h, struct pm_frame fr, struct pm_vec3 wi_local,
-    struct pm_rng *rng)
+    int medium, struct pm_rng *rng)
 {
 	struct pm_light_sample ls;
 	struct pm_vec3 wo_local;
@@ -31,8 +36,15 @@ direct_light(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 	f = pm_bsdf_eval(b, wi_local, wo_local, PM_RADIANCE);
 	if (pm_rgb_is_black(f))
 		return pm_rgb1(0.0f);
-	if (pm_light_occluded(ctx->accel, h, &ls))
+	if (ctx->scene->nmedia > 0) {
+		/* media: the shadow ray's transmittance */
+		f = pm_rgb_mul(f, pm_volume_shadow(ctx, pm_hit_origin(h, ls.wi),
+		    pm_medium_after(ctx->scene, h, ls.wi, medium), &ls));
+		if (pm_rgb_is_black(f))
+			return f;
+	} else if (pm_light_occluded(ctx->accel, h, &ls)) {
 		return pm_rgb1(0.0f);
+	}
 	w = ls.delta ? 1.0f :
 	    pm_power_heuristic(ls.pdf, pm_bsdf_pdf(b, wi_local, wo_local));
 	return pm_rgb_scale(pm_rgb_mul(f, ls.value), w / ls.pdf);
@@ -46,6 +58,8 @@ pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 	struct pm_rgb L = pm_rgb1(0.0f);
 	struct pm_path pa;
 	int depth;
+	int medium = s->camera_medium - 1;	/* media: the ray's, -1: none */
+	int crossings = 0;
 
 	pm_path_start(&pa, o, d, tmin, tmax);
 	for (depth = 1;; depth++) {
@@ -58,11 +72,34 @@ pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 		struct pm_vec3 wi_local;
 
 		hit = pm_accel_intersect(ctx->accel, pa.o, pa.d, pa.tmin, pa.tmax, &h);
+		if (medium >= 0) {
+			/* media: a scatter before the surface is this vertex */
+			enum pm_vol_event ev = pm_volume_step(ctx, &pa, medium,
+			    hit ? h.t : pa.tmax, depth, &L, rng);
+
+			if (ev == PM_VOL_SCATTER)
+				continue;
+			if (ev == PM_VOL_END)
+				break;
+		}
 		if (!(depth == 1 && ctx->hide_emitters))
 			L = pm_rgb_madd(L, pa.beta, pm_lights_emitted(ctx->lights, s,
 			    hit ? &h : NULL, pa.d, pa.prev_p, pa.prev_pdf, pa.prev_delta));
 		if (!hit)
 			break;
+		if (s->nmedia > 0 &&
+		    s->bsdfs[s->shapes[h.shape].bsdf].type == PM_BSDF_NULL) {
+			/* media: an index-matched boundary, no vertex; the
+			 * bound guards against a ray stuck on one */
+			if (++crossings > 1024)
+				break;
+			medium = pm_medium_after(s, &h, pa.d, medium);
+			pa.o = pm_hit_origin(&h, pa.d);
+			pa.tmin = 0.0f;
+			pa.tmax = INFINITY;
+			depth--;
+			continue;
+		}
 		if (ctx->max_depth >= 0 && depth >= ctx->max_depth)
 			break;
 
@@ -71,7 +108,7 @@ pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 		wi_local = pm_to_local(fr, pm_neg(pa.d));
 		if (!pm_bsdf_is_delta(b))
 			L = pm_rgb_madd(L, pa.beta,
-			    direct_light(ctx, b, &h, fr, wi_local, rng));
+			    direct_light(ctx, b, &h, fr, wi_local, medium, rng));
 
 		{
 			float u1 = pm_rng_float(rng), u2 = pm_rng_float(rng);
@@ -82,6 +119,7 @@ pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 		}
 		if (!pm_path_continue(&pa, &h, fr, &bs, depth, ctx->rr_depth, rng))
 			break;
+		medium = pm_medium_after(s, &h, pa.d, medium);	/* media */
 	}
 	return L;
 }
@@ -99,6 +137,8 @@ pm_path_start(struct pm_path *pa, struct pm_vec3 o, struct pm_vec3 d, float tmin
 	pa->prev_p = o;
 	pa->prev_pdf = 1.0f;
 	pa->prev_delta = true;	/* the camera "sampled" the first direction */
+	pa->hero = -1;
+	pa->chan_ratio = pm_rgb1(1.0f);
 }
 
 bool

@@ -9,7 +9,7 @@
  * one).  No pointers, no padding: the photons themselves are the tree.
  * The split axis is the one of largest extent (for ranges of 512 photons
  * or more, of an evenly spaced sample of them), the split the median,
- * found by selection (expected linear time) rather than sorting.
+ * found by selection (linear time) rather than sorting.
  *
  * Queries allocate nothing and keep their state on the caller's stack, so
  * any number of threads may query one tree.
@@ -47,6 +47,21 @@ enum pm_err pm_kdtree_build(struct pm_photon *p, size_t n, int threads,
 size_t pm_kdtree_knn(const struct pm_photon *p, size_t n, const float q[3],
     size_t k, float max_d2, uint8_t mask, uint8_t want, struct pm_knn *out);
 
+/*
+ * k-nearest queries for nq points q[3 * i .. 3 * i + 3) at once, with the
+ * filter and the bound of pm_kdtree_knn: query i's neighbours go to
+ * out[i * k ..] (room for k) as a max-heap and their count to found[i].
+ * The same neighbours as pm_kdtree_knn's, up to the choice among photons
+ * tied at the k-th distance, but faster: the points are walked in an
+ * order that keeps the caches warm (allocated once per call; without
+ * memory, the given order), each starting from a bound its predecessor
+ * gives.  The results do not depend on the thread or the order of the
+ * calls, only on the batch.
+ */
+void pm_kdtree_knn_batch(const struct pm_photon *p, size_t n, const float *q,
+    size_t nq, size_t k, float max_d2, uint8_t mask, uint8_t want,
+    struct pm_knn *out, size_t *found);
+
 /* Sorts the result of pm_kdtree_knn by increasing distance (then index). */
 void pm_knn_sort(struct pm_knn *r, size_t count);
 
@@ -73,7 +88,12 @@ struct pm_kd_range {
 	uint8_t mask, want;
 	uint32_t sp;			/* deferred subtrees on the stack */
 	uint32_t nbuf, ibuf;		/* matches found, and returned */
-	uint32_t st[64][2];
+	/* Deferred subtrees: their index ranges and the distances from q
+	 * to their cells along each axis. */
+	struct {
+		uint32_t lo, hi;
+		float off[3];
+	} st[64];
 	/* The matches of the last descent, returned one at a time. */
 	uint32_t bidx[PM_KD_RANGE_BUF];
 	float bd2[PM_KD_RANGE_BUF];
@@ -84,9 +104,22 @@ struct pm_kd_range {
 void pm_kdtree_range_init(struct pm_kd_range *r, const struct pm_photon *p,
     size_t n, const float q[3], float max_d2, uint8_t mask, uint8_t want);
 
+/* Part of pm_kdtree_range_next: the next descent's matches into r's
+ * buffer; false when there are no more. */
+bool pm_kdtree_range_refill(struct pm_kd_range *r);
+
 /* The next photon of the query: its index in *idx and squared distance in
- * *d2; false when there are no more.  Photons come in no useful order. */
-bool pm_kdtree_range_next(struct pm_kd_range *r, uint32_t *idx, float *d2);
+ * *d2; false when there are no more.  Photons come in no useful order.
+ * Inline: most calls only hand out a buffered match. */
+static inline bool
+pm_kdtree_range_next(struct pm_kd_range *r, uint32_t *idx, float *d2)
+{
+	if (r->ibuf == r->nbuf && !pm_kdtree_range_refill(r))
+		return false;
+	*idx = r->bidx[r->ibuf];
+	*d2 = r->bd2[r->ibuf++];
+	return true;
+}
 
 /*
  * Checks the ordering invariant of every node; returns true if it holds,

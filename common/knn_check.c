@@ -12,7 +12,9 @@
  * multiply-adds ranking near-equal candidates differently.
  *
  * Queries run in batches, pm's and FLANN's timed separately, each on one
- * thread; FLANN is given a batch at a time, as a caller would.
+ * thread; both are given a batch at a time, as a caller would, in the
+ * order the seed drew them (pm_kdtree_knn_batch reorders its own); pm is
+ * also timed one pm_kdtree_knn call a query.
  */
 #include <limits.h>
 #include <math.h>
@@ -26,9 +28,11 @@
 #include "knn_check.h"
 #include "rng.h"
 
-/* Results held per batch: batch * k of them, bounded by this. */
-#define CHECK_BATCH_RESULTS (1u << 20)
-#define CHECK_BATCH_MAX 256
+/* Results held per batch: batch * k of them, bounded by this (64 MB of
+ * results and FLANN's copies).  Batches as large as this let
+ * pm_kdtree_knn_batch order them. */
+#define CHECK_BATCH_RESULTS (1u << 22)
+#define CHECK_BATCH_MAX (1u << 16)
 #define CHECK_TOL 1e-6f
 
 enum verdict {
@@ -155,6 +159,7 @@ struct check_buf {
 	struct pm_knn *pr;	/* batch * kk */
 	size_t *pc;		/* batch */
 	struct pm_knn *sa, *sb;	/* kk each */
+	unsigned char *vd;	/* batch: the first answers' verdicts */
 };
 
 static void
@@ -168,6 +173,7 @@ free_bufs(struct check_buf *b)
 	free(b->pc);
 	free(b->sa);
 	free(b->sb);
+	free(b->vd);
 }
 
 static enum pm_err
@@ -189,6 +195,38 @@ time_pm_build(const struct pm_photon *p, size_t n, double *secs,
 	return e;
 }
 
+/*
+ * Compares pm's answers to the batch's m queries with FLANN's: the
+ * first time (r NULL) into b->vd, the second time with the worse of both
+ * verdicts counted in r.
+ */
+static void
+count_verdicts(const struct pm_photon *p, size_t n, struct check_buf *b,
+    size_t m, size_t kk, struct pm_knn_check_result *r)
+{
+	size_t j;
+
+	for (j = 0; j < m; j++) {
+		enum verdict v = compare(p, n, &b->qp[3 * j], &b->pr[j * kk],
+		    b->pc[j], &b->fi[j * kk], kk, b->sa, b->sb);
+
+		if (r == NULL) {
+			b->vd[j] = (unsigned char)v;
+			continue;
+		}
+		switch (v > b->vd[j] ? v : (enum verdict)b->vd[j]) {
+		case SAME:
+			break;
+		case TIE:
+			r->ties++;
+			break;
+		case MISMATCH:
+			r->mismatches++;
+			break;
+		}
+	}
+}
+
 /* Cross-checks pm's kd-tree p[0..n) with FLANN; see knn_check.h. */
 enum pm_err
 pm_knn_check(const struct pm_photon *p, size_t n, size_t queries, size_t k,
@@ -198,7 +236,7 @@ pm_knn_check(const struct pm_photon *p, size_t n, size_t queries, size_t k,
 	struct check_buf b;
 	flann_index_t ix;
 	size_t kk, batch, i, j, m, done;
-	double t0, t_pm = 0.0, t_fl = 0.0;
+	double t0, t_pm = 0.0, t_fl = 0.0, t_one = 0.0;
 	float speedup, h;
 	enum pm_err e;
 
@@ -227,7 +265,8 @@ pm_knn_check(const struct pm_photon *p, size_t n, size_t queries, size_t k,
 	b.pc = malloc(batch * sizeof(*b.pc));
 	b.sa = malloc(kk * sizeof(*b.sa));
 	b.sb = malloc(kk * sizeof(*b.sb));
-	if (b.pos == NULL || b.qp == NULL || b.fi == NULL || b.fd == NULL ||
+	b.vd = malloc(batch);
+	if (b.vd == NULL || b.pos == NULL || b.qp == NULL || b.fi == NULL || b.fd == NULL ||
 	    b.pr == NULL || b.pc == NULL || b.sa == NULL || b.sb == NULL) {
 		free_bufs(&b);
 		return pm_fail(err, PM_ERR_NOMEM,
@@ -269,10 +308,10 @@ pm_knn_check(const struct pm_photon *p, size_t n, size_t queries, size_t k,
 				b.qp[3 * j + a] = p[s].pos[a] +
 				    (pm_rng_float(&g) - 0.5f) * h;
 		}
+		/* pm's batch first, which finds the caches coldest. */
 		t0 = now_s();
-		for (j = 0; j < m; j++)
-			b.pc[j] = pm_kdtree_knn(p, n, &b.qp[3 * j], kk,
-			    INFINITY, 0, 0, &b.pr[j * kk]);
+		pm_kdtree_knn_batch(p, n, b.qp, m, kk, INFINITY, 0, 0, b.pr,
+		    b.pc);
 		t_pm += now_s() - t0;
 		t0 = now_s();
 		if (flann_find_nearest_neighbors_index_float(ix, b.qp, (int)m,
@@ -283,22 +322,17 @@ pm_knn_check(const struct pm_photon *p, size_t n, size_t queries, size_t k,
 			    "knn_check: FLANN's search failed");
 		}
 		t_fl += now_s() - t0;
-		for (j = 0; j < m; j++) {
-			switch (compare(p, n, &b.qp[3 * j], &b.pr[j * kk],
-			    b.pc[j], &b.fi[j * kk], kk, b.sa, b.sb)) {
-			case SAME:
-				break;
-			case TIE:
-				r->ties++;
-				break;
-			case MISMATCH:
-				r->mismatches++;
-				break;
-			}
-		}
+		count_verdicts(p, n, &b, m, kk, NULL);
+		t0 = now_s();
+		for (j = 0; j < m; j++)
+			b.pc[j] = pm_kdtree_knn(p, n, &b.qp[3 * j], kk,
+			    INFINITY, 0, 0, &b.pr[j * kk]);
+		t_one += now_s() - t0;
+		count_verdicts(p, n, &b, m, kk, r);
 	}
 	r->queries = queries;
 	r->pm_qps = t_pm > 0.0 ? (double)queries / t_pm : 0.0;
+	r->pm_qps_single = t_one > 0.0 ? (double)queries / t_one : 0.0;
 	r->flann_qps = t_fl > 0.0 ? (double)queries / t_fl : 0.0;
 	flann_free_index_float(ix, &fp);
 	free_bufs(&b);

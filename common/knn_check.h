@@ -20,7 +20,9 @@ struct pm_knn_check_result {
 	size_t mismatches;	/* queries whose sets differ beyond ties */
 	size_t ties;		/* queries whose sets differ only by photons
 				 * tied at the k-th distance */
-	double pm_qps;		/* pm's k-nearest queries per second */
+	double pm_qps;		/* pm's k-nearest queries per second, as
+				 * a batch (pm_kdtree_knn_batch) */
+	double pm_qps_single;	/* the same, one pm_kdtree_knn call a query */
 	double flann_qps;	/* FLANN's, single thread, same queries */
 	double pm_build_s;	/* pm_kdtree_build of a copy, one thread */
 	double flann_build_s;	/* FLANN's index over the same positions */
@@ -35,7 +37,8 @@ float pm_knn_offset_scale(const struct pm_photon *p, size_t n);
  * queried as it is, so a damaged tree shows up as mismatches) and a FLANN
  * index over the same positions with `queries` points, each a random
  * photon's position plus a small offset (deterministic from seed), and
- * compares their k nearest.  Fills *r.  Fails for n or k beyond FLANN's
+ * compares their k nearest, pm's both as a batch and one query at a time
+ * (each answer compared with FLANN's).  Fills *r.  Fails for n or k beyond FLANN's
  * int, out of memory, or when FLANN fails.
  */
 enum pm_err pm_knn_check(const struct pm_photon *p, size_t n, size_t queries,

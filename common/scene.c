@@ -62,6 +62,7 @@ pm_scene_free(struct pm_scene *s)
 	free(s->shapes);
 	free(s->bsdfs);
 	free(s->lights);
+	free(s->media);
 	for (i = 0; i < s->nmerls; i++)
 		pm_merl_free(s->merls[i]);
 	free(s->merls);
@@ -132,6 +133,16 @@ pm_scene_add_light(struct pm_scene *s)
 	memset(l, 0, sizeof(*l));
 	l->shape = -1;
 	return (int)s->nlights++;
+}
+
+/* Appends a zeroed medium; its index, or -1. */
+int
+pm_scene_add_medium(struct pm_scene *s)
+{
+	if (grow((void **)&s->media, s->nmedia, sizeof(*s->media)) < 0)
+		return -1;
+	memset(&s->media[s->nmedia], 0, sizeof(*s->media));
+	return (int)s->nmedia++;
 }
 
 /* Takes ownership of a MERL table; its index, or -1. */
@@ -230,6 +241,11 @@ pm_scene_prepare(struct pm_scene *s, struct pm_error *err)
 			return pm_fail(err, PM_ERR_INVALID,
 			    "shape %s: BSDF index %d out of range (%zu BSDFs)",
 			    sh->name, sh->bsdf, s->nbsdfs);
+		if (sh->interior < 0 || sh->interior > (int)s->nmedia ||
+		    sh->exterior < 0 || sh->exterior > (int)s->nmedia)
+			return pm_fail(err, PM_ERR_INVALID,
+			    "shape %s: medium index out of range (%zu media)",
+			    sh->name, s->nmedia);
 		if (sh->light == -1)
 			continue;
 		if (sh->light < 0 || (size_t)sh->light >= s->nlights)
@@ -242,6 +258,10 @@ pm_scene_prepare(struct pm_scene *s, struct pm_error *err)
 			    "shape %s: light %d is not its area light",
 			    sh->name, sh->light);
 	}
+
+	if (s->camera_medium < 0 || s->camera_medium > (int)s->nmedia)
+		return pm_fail(err, PM_ERR_INVALID, "camera medium %d out of "
+		    "range (%zu media)", s->camera_medium, s->nmedia);
 
 	if (s->env_light != -1 && (s->env_light < 0 ||
 	    (size_t)s->env_light >= s->nlights ||

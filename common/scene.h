@@ -13,6 +13,7 @@
 
 #include "bsdf.h"
 #include "error.h"
+#include "medium.h"
 #include "mesh.h"
 #include "transform.h"
 #include "vec.h"
@@ -35,6 +36,11 @@ struct pm_shape {
 	bool flip_normals;		/* spheres: normals point inwards */
 	int bsdf;			/* index into scene.bsdfs */
 	int light;			/* index into scene.lights, or -1 */
+	/* Media on either side, as 1 + an index into scene.media, 0 for
+	 * none (vacuum), so that a zeroed shape names none: interior
+	 * behind the normal, exterior in front; a ray crossing a shape
+	 * that names either enters the one on its far side. */
+	int interior, exterior;
 	char name[64];			/* id, or type and ordinal, for messages */
 };
 
@@ -139,6 +145,10 @@ struct pm_scene {
 	size_t nlights;
 	struct pm_camera camera;
 	bool has_camera;
+	struct pm_medium *media;
+	size_t nmedia;
+	int camera_medium;		/* 1 + index into media, 0: vacuum
+					 * (as pm_shape's interior) */
 	struct pm_integrator integrator;
 	int env_light;			/* index of the constant light, or -1 */
 	char *path;			/* the file it was loaded from */
@@ -168,6 +178,7 @@ void pm_scene_free(struct pm_scene *s);
 int pm_scene_add_shape(struct pm_scene *s);
 int pm_scene_add_bsdf(struct pm_scene *s);
 int pm_scene_add_light(struct pm_scene *s);
+int pm_scene_add_medium(struct pm_scene *s);
 /* Hands the scene a MERL table to own; its index, or -1 when out of
  * memory (m is then still the caller's). */
 int pm_scene_add_merl(struct pm_scene *s, struct pm_merl *m);
@@ -181,5 +192,11 @@ int pm_scene_add_texture(struct pm_scene *s, const struct pm_texture *t);
  * are built elsewhere.
  */
 enum pm_err pm_scene_prepare(struct pm_scene *s, struct pm_error *err);
+
+/* PM_OK for a scene without media; otherwise PM_ERR_UNSUPPORTED with a
+ * message naming a medium and where it is used: photon mapping does not
+ * simulate media yet (medium.c). */
+enum pm_err pm_scene_refuse_media(const struct pm_scene *s,
+    struct pm_error *err);
 
 #endif

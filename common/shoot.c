@@ -169,8 +169,11 @@ pm_shooter_init(struct pm_shooter *sh, const struct pm_scene *s,
     const struct pm_accel *a, const struct pm_lights *ls, struct pm_error *err)
 {
 	size_t i;
+	enum pm_err e;
 
 	memset(sh, 0, sizeof(*sh));
+	if ((e = pm_scene_refuse_media(s, err)) != PM_OK)	/* not yet */
+		return e;
 	sh->scene = s;
 	sh->accel = a;
 	sh->lights = ls;

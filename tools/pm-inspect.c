@@ -269,6 +269,8 @@ print_tsv(const struct report *r)
 			printf("%s.knn.ties\t%zu\n", k, q->ties);
 			printf("%s.knn.pm_qps\t%.6g\n", k,
 			    finite_or_zero(q->pm_qps));
+			printf("%s.knn.pm_qps_single\t%.6g\n", k,
+			    finite_or_zero(q->pm_qps_single));
 			printf("%s.knn.flann_qps\t%.6g\n", k,
 			    finite_or_zero(q->flann_qps));
 			printf("%s.knn.speedup\t%.4g\n", k,
@@ -499,6 +501,8 @@ print_json(const struct report *r)
 			    "\"pm_qps\": ", q->queries, r->knn_k,
 			    q->mismatches, q->ties);
 			json_num(q->pm_qps, 6);
+			printf(", \"pm_qps_single\": ");
+			json_num(q->pm_qps_single, 6);
 			printf(", \"flann_qps\": ");
 			json_num(q->flann_qps, 6);
 			printf(", \"speedup\": ");

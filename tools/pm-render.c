@@ -639,6 +639,13 @@ main(int argc, char **argv)
 		free(cams);
 		return 1;
 	}
+	if (map_path != NULL &&
+	    pm_scene_refuse_media(&scene, &err) != PM_OK) {
+		fprintf(stderr, PROG ": %s: %s\n", scene_path, err.msg);
+		pm_scene_free(&scene);
+		free(cams);
+		return 1;
+	}
 	if (!scene.has_camera && !have_eye && cams == NULL) {
 		fprintf(stderr, PROG ": %s: the scene has no sensor; give --eye and "
 		    "--target, or --cameras\n", scene_path);
@@ -727,6 +734,14 @@ main(int argc, char **argv)
 		fprintf(stderr, PROG ": %s: note: integrator \"moment\": its "
 		    "nested integrator's image only, the moments are not "
 		    "written\n", scene_path);
+	if (scene.nmedia > 0 && verbose)
+		fprintf(stderr, PROG ": %s: note: %zu participating medi%s, path "
+		    "traced as Mitsuba's volpath; the camera is in %s%s%s\n",
+		    scene_path, scene.nmedia, scene.nmedia == 1 ? "um" : "a",
+		    scene.camera_medium > 0 ? "\"" : "vacuum",
+		    scene.camera_medium > 0 ?
+		    scene.media[scene.camera_medium - 1].name : "",
+		    scene.camera_medium > 0 ? "\"" : "");
 	if (scene.dropped_triangles > 0 && verbose)
 		fprintf(stderr, PROG ": %s: warning: %zu degenerate triangles "
 		    "(zero area or non-finite vertices) dropped\n", scene_path,

@@ -1,7 +1,8 @@
 /*
  * integrator.c: <integrator>: the path tracer's or the photon mapper's
  * parameters, and the Mitsuba 3 integrators that mean one of them here:
- * volpath and volpathmis (path tracing, pm having no media), direct
+ * volpath and volpathmis (path tracing, through media where the scene has
+ * them: integrator_volume.c), direct
  * (path tracing to depth 2: light seen directly or after one bounce, with
  * light and BSDF sampling, as Mitsuba's direct integrator computes it)
  * and the moment wrapper (its nested integrator; the moments themselves

@@ -22,6 +22,7 @@ build_scene(struct ld *ld)
 {
 	struct xnode *k;
 	struct pm_bsdf tmp;
+	struct pm_medium mtmp;
 	const char *type;
 	enum pm_err e;
 	int ti;
@@ -44,6 +45,10 @@ build_scene(struct ld *ld)
 			e = sx_load_sensor(ld, k);
 		else if (strcmp(k->tag, "integrator") == 0)
 			e = sx_load_integrator(ld, k);
+		else if (strcmp(k->tag, "medium") == 0)
+			e = sx_build_medium(ld, k, &mtmp);	/* checked only */
+		else if (strcmp(k->tag, "phase") == 0)
+			e = sx_check_phase(ld, k);
 		else if (strcmp(k->tag, "texture") == 0)
 			e = sx_texture_index(ld, k, &ti);	/* once, if used */
 		else if (sx_is_object_tag(k->tag) || sx_ptype_of(k->tag) >= 0)

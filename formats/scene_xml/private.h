@@ -64,7 +64,8 @@ struct xnode {
 	int line;
 	int seq;			/* document order, for messages */
 	struct xnode *parent, *kids, *last, *next;
-	int inst;			/* bsdf index, or carrying shape; -1 */
+	int inst;			/* bsdf or medium index, or carrying
+					 * shape; -1 */
 	bool busy;			/* being built: catches reference cycles */
 };
 
@@ -239,6 +240,14 @@ enum pm_err sx_load_shape(struct ld *ld, struct xnode *n,
 bool sx_similarity_scale(const struct pm_mat4 *M, float *scale);
 enum pm_err sx_wrap(struct ld *ld, const struct xnode *n, const char *what,
     enum pm_err e);
+
+/* medium.c */
+enum pm_err sx_build_medium(struct ld *ld, struct xnode *n,
+    struct pm_medium *m);
+enum pm_err sx_check_phase(struct ld *ld, struct xnode *n);
+enum pm_err sx_medium_index(struct ld *ld, struct xnode *n, int *out);
+enum pm_err sx_shape_medium(struct ld *ld, struct plist *pl, struct xnode *o,
+    struct xnode *t, int *interior, int *exterior);
 
 /* sensor.c */
 enum pm_err sx_load_sensor(struct ld *ld, struct xnode *n);

@@ -14,7 +14,8 @@ bool
 sx_is_object_tag(const char *t)
 {
 	static const char *const tags[] = {"bsdf", "emitter", "shape",
-	    "sensor", "sampler", "film", "rfilter", "integrator", "ref", NULL};
+	    "sensor", "sampler", "film", "rfilter", "integrator", "ref", "medium",
+	    "phase", NULL};
 	const char *const *p;
 
 	for (p = tags; *p != NULL; p++)

@@ -134,6 +134,29 @@ load_sampler(struct ld *ld, struct xnode *n, struct pm_camera *c)
 	return PM_OK;
 }
 
+/* The medium the camera sits in, nested or by <ref> (any name, as in
+ * Mitsuba); anything else is out of place in a sensor. */
+static enum pm_err
+sensor_medium(struct ld *ld, struct plist *pl, struct xnode *o)
+{
+	struct xnode *t = o;
+	int m;
+	enum pm_err e;
+
+	if (strcmp(o->tag, "ref") == 0 && (e = sx_deref(ld, o, &t)) != PM_OK)
+		return e;
+	if (strcmp(t->tag, "medium") != 0)
+		return sx_fail(ld, o, PM_ERR_INVALID, "unexpected <%s> inside %s",
+		    t->tag, pl->what);
+	if (ld->s->camera_medium > 0)
+		return sx_fail(ld, o, PM_ERR_INVALID, "%s has more than one "
+		    "medium", pl->what);
+	if ((e = sx_medium_index(ld, t, &m)) != PM_OK)
+		return e;
+	ld->s->camera_medium = m + 1;
+	return PM_OK;
+}
+
 /* perspective and thinlens: fov and fov_axis, or focal_length. */
 static enum pm_err
 load_fov(struct ld *ld, struct plist *pl, const struct xnode *n,
@@ -292,9 +315,8 @@ sx_load_sensor(struct ld *ld, struct xnode *n)
 			sampler = o;
 			if ((e = load_sampler(ld, o, c)) != PM_OK)
 				return e;
-		} else {
-			return sx_fail(ld, o, PM_ERR_INVALID, "unexpected <%s> "
-			    "inside %s", o->tag, pl.what);
+		} else if ((e = sensor_medium(ld, &pl, o)) != PM_OK) {
+			return e;
 		}
 	}
 	ld->s->has_camera = true;

@@ -128,9 +128,11 @@ cylinder_frame(struct ld *ld, struct plist *pl, struct pm_vec3 p0,
 	return PM_OK;
 }
 
-/* The BSDF and area light of a shape, from nested elements or refs. */
+/* The BSDF, area light and media of a shape, from nested elements or
+ * refs. */
 static enum pm_err
-shape_objects(struct ld *ld, struct plist *pl, int *bsdf, struct xnode **em)
+shape_objects(struct ld *ld, struct plist *pl, int *bsdf, struct xnode **em,
+    int *interior, int *exterior)
 {
 	struct xnode *o, *t, *bnode = NULL;
 	size_t i;
@@ -156,9 +158,14 @@ shape_objects(struct ld *ld, struct plist *pl, int *bsdf, struct xnode **em)
 				return sx_fail(ld, o, PM_ERR_INVALID, "%s has more "
 				    "than one emitter", pl->what);
 			*em = t;
+		} else if (strcmp(t->tag, "medium") == 0) {
+			if ((e = sx_shape_medium(ld, pl, o, t, interior,
+			    exterior)) != PM_OK)
+				return e;
 		} else if (o != t) {
 			return sx_fail(ld, o, PM_ERR_INVALID, "%s: <ref id=\"%s\"> "
-			    "names a <%s>, expected a <bsdf> or an <emitter>",
+			    "names a <%s>, expected a <bsdf>, an <emitter> or a "
+			    "<medium>",
 			    pl->what, sx_attr(o, "id"), t->tag);
 		} else {
 			return sx_fail(ld, o, PM_ERR_INVALID, "unexpected <%s> "
@@ -265,7 +272,7 @@ sx_load_shape(struct ld *ld, struct xnode *n, const char *naming_dir)
 	bool is_file, is_obj, is_ser, file_face_normals = false;
 	long shape_index = 0;
 	float scale;
-	int idx, bsdf = -1, li;
+	int idx, bsdf = -1, li, interior = -1, exterior = -1;
 	uint32_t v;
 	enum pm_err e;
 
@@ -330,7 +337,8 @@ sx_load_shape(struct ld *ld, struct xnode *n, const char *naming_dir)
 			    pl.what);
 	}
 	if ((e = sx_finish(ld, &pl)) != PM_OK ||
-	    (e = shape_objects(ld, &pl, &bsdf, &em)) != PM_OK)
+	    (e = shape_objects(ld, &pl, &bsdf, &em, &interior, &exterior))
+	    != PM_OK)
 		return e;
 
 	if (is_file) {
@@ -370,6 +378,8 @@ sx_load_shape(struct ld *ld, struct xnode *n, const char *naming_dir)
 	sh->mesh = mesh;	/* owned by the scene from here on */
 	sh->bsdf = bsdf;
 	sh->flip_normals = flip;
+	sh->interior = interior + 1;	/* 0: none */
+	sh->exterior = exterior + 1;
 	id = sx_attr(n, "id");
 	if (id != NULL)
 		snprintf(sh->name, sizeof(sh->name), "%s", id);

@@ -6,7 +6,8 @@
  *	the first N photons of the global map of SHOT.pmap (as pm-shoot
  *	wrote them, unbalanced): pm_kdtree_build on one thread and on all,
  *	then for each K, pm_knn_check against FLANN on the same photons
- *	with K neighbours; prints one JSON object per K.
+ *	with K neighbours (all QUERIES as one batch to both, and pm's one
+ *	call a query as well); prints one JSON object per K.
  *   bench range SHOT.pmap N K[,K...] QUERIES
  *	fixed-radius queries (pm_kdtree_range_init/next, progressive
  *	passes) on the first N global photons, balanced: for each K, one
@@ -94,10 +95,11 @@ bench_knn(const char *path, size_t n, const char *ks, size_t queries)
 		printf("{\"photons\": %zu, \"k\": %zu, \"queries\": %zu, "
 		    "\"pm_build_s\": %.4f, \"pm_build_all_cores_s\": %.4f, "
 		    "\"threads\": %ld, \"flann_build_s\": %.4f, "
-		    "\"pm_qps\": %.1f, \"flann_qps\": %.1f, "
+		    "\"pm_qps\": %.1f, \"pm_qps_single\": %.1f, "
+		    "\"flann_qps\": %.1f, "
 		    "\"mismatches\": %zu, \"ties\": %zu}\n",
 		    n, k, r.queries, t1, tn, threads, r.flann_build_s, r.pm_qps,
-		    r.flann_qps, r.mismatches, r.ties);
+		    r.pm_qps_single, r.flann_qps, r.mismatches, r.ties);
 		fflush(stdout);
 	}
 	free(p);

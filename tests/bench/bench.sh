@@ -4,7 +4,8 @@
 #
 #   - kd-tree build time and k-nearest queries per second, k = 50 and 200,
 #     on 1M and 10M photons shot in data/cornell-box.xml, against FLANN on
-#     the same photons (pm_knn_check, one thread each), as ratios;
+#     the same photons (pm_knn_check, one thread each, the queries given
+#     to both as one batch; pm also one query a call), as ratios;
 #   - fixed-radius queries per second (the walk of progressive passes) on
 #     1M photons, with the radii of the 50th and 200th neighbours;
 #   - photon paths and stored photons per second per core (pm-shoot -t 1)
@@ -151,6 +152,9 @@ for r in rows:
                 "%.4g s" % r["pm_build_all_cores_s"], "-", "-"))
         row("k=%d queries/s, %s photons (FLANN)" % (r["k"], n),
             r["pm_qps"], r["flann_qps"])
+        if "pm_qps_single" in r:
+            row("k=%d, one query a call, %s photons (FLANN)" % (r["k"], n),
+                r["pm_qps_single"], r["flann_qps"])
         if r["mismatches"]:
             print("  warning: %d queries disagree with FLANN" % r["mismatches"])
     elif w == "range":

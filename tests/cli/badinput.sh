@@ -80,6 +80,19 @@ xml_refused "an include cycle" "cycle.*(cycle|includ)" cycle-a.xml
 scene neg.xml "<shape type=\"sphere\"><float name=\"radius\" value=\"-1\"/></shape>$light"
 xml_refused "a negative radius" "neg.xml:2.*radius" neg.xml
 
+# --- participating media: photon mode refuses them, naming the medium --
+scene bad-medium.xml "<shape type=\"sphere\"><bsdf type=\"null\"/>
+<medium type=\"heterogeneous\" name=\"interior\"/></shape>$light"
+xml_refused "an unknown medium type" "bad-medium.xml:3.*heterogeneous" bad-medium.xml
+check "pm-shoot: a scene with a medium" refused 1 \
+    'medium "fog" \(the sensor.s\).*pm-render --method path' \
+    $S -q --photons 100 -o "$tmp/o.pmap" data/fog-box.xml
+check "pm-render: a scene with a medium, photon mode" refused 1 \
+    'fog-box.xml: medium "fog".*--method path' \
+    $R -q --spp 1 --size 8x8 -o "$tmp/o.exr" data/fog-box.xml "$tmp/none.pmap"
+check "pm-render: ...which path mode renders, exit 0" status 0 \
+    $R -q --spp 1 --size 8x8 -o "$tmp/fog.exr" data/fog-box.xml
+
 # --- meshes ------------------------------------------------------------
 mesh_refused() { # description pattern mesh-file-name type
 	scene "m-$3.xml" "<shape type=\"$4\"><string name=\"filename\" value=\"$3\"/></shape>$light"

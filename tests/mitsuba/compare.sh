@@ -9,7 +9,8 @@
 # with different seeds (the second render tells compare.py how noisy each side
 # is); Mitsuba's renders are cached under build/mitsuba-cache/, so after the
 # first run only pm-render's cost remains. Outputs land in build/mitsuba-out/.
-# The scenes: data/cornell-box.xml (ours, must exist), Mitsuba's own
+# The scenes: data/cornell-box.xml and the others of data/ listed below
+# (ours, must exist; fog-box and glass-medium have media), Mitsuba's own
 # Cornell box from ../shared/scenes/mitsuba-cbox (skipped when ../shared is
 # absent), tests/mitsuba/textures.xml (path traced and photon-mapped) and
 # the scenes tests/mitsuba/shapes_scene.py writes (shapes and sensors, path
@@ -23,7 +24,9 @@
 # PM_SHOOT (bin/pm-shoot), PM_BALANCE (bin/pm-balance) and PM_PHOTONS
 # (1000000 global and as many caustic photon paths per map) for the
 # photon-mapped renders, PM_THREADS (pm-render's -t, unset: its default),
-# MITSUBA_VARIANT, PM_VENV (build/venv).
+# MITSUBA_VARIANT, PM_VENV (build/venv), MITSUBA_ONLY (the checks to run,
+# by the names the results give them, separated by spaces, e.g. "fog-box
+# texture-lookups"; unset: all).
 
 set -u
 
@@ -198,7 +201,16 @@ selfcheck() {
 	fi
 }
 
+# wanted NAME: whether MITSUBA_ONLY (unset: everything) names NAME.
+wanted() {
+	case " ${MITSUBA_ONLY:-$1} " in
+	*" $1 "*) return 0 ;;
+	esac
+	return 1
+}
+
 run() {
+	wanted "$1" || return 0
 	if [ "$selftest" = 1 ]; then
 		selfcheck "$@"
 	else
@@ -245,8 +257,35 @@ if [ -f data/cornell-box.xml ]; then
 	run cornell-direct "$OUT/cornell-direct.xml"
 fi
 
+# Participating media, under Mitsuba's volpath: fog filling the box and
+# the camera's surroundings, and a glass ball holding a medium.  Then two
+# variants, written to a folder of their own (they name no other files,
+# so Mitsuba's cached renders of them stay valid): the fog to max_depth 2
+# (direct light and single scattering: how scatters count as bounces),
+# and the ball's medium behind a null surface (light sampled through an
+# index-matched boundary; crossing it is no bounce).
+for scene in fog-box glass-medium; do
+	if [ -f data/$scene.xml ]; then
+		run $scene data/$scene.xml
+	else
+		check "$scene: data/$scene.xml is missing" false
+	fi
+done
+VARIANTS=build/mitsuba-variants
+mkdir -p "$VARIANTS"
+if [ -f data/fog-box.xml ]; then
+	sed 's|<default name="max_depth" value="-1"/>|<default name="max_depth" value="2"/>|' \
+	    data/fog-box.xml >"$VARIANTS/fog-single.xml"
+	run fog-single "$VARIANTS/fog-single.xml"
+fi
+if [ -f data/glass-medium.xml ]; then
+	sed 's|<bsdf type="dielectric">|<bsdf type="null">|; /name="int_ior"/d' \
+	    data/glass-medium.xml >"$VARIANTS/haze-ball.xml"
+	run haze-ball "$VARIANTS/haze-ball.xml"
+fi
+
 # Bitmap lookups, point by point, against Mitsuba's (texture_lookup.py).
-if [ "$selftest" = 0 ]; then
+if [ "$selftest" = 0 ] && wanted texture-lookups; then
 	if [ ! -x build/tests/texlookup ]; then
 		check "texture lookups: build/tests/texlookup not built" false
 	elif "$PY" "$HERE/texture_lookup.py" build/tests/texlookup \
@@ -266,7 +305,7 @@ mkdir -p "$OUT/textures"
 cp tests/mitsuba/textures.xml "$OUT/textures/textures.xml"
 if "$PY" "$HERE/write_png.py" "$OUT/textures/wall.png"; then
 	run textures "$OUT/textures/textures.xml"
-	[ "$selftest" = 1 ] ||
+	[ "$selftest" = 1 ] || ! wanted textures-photon ||
 	    against textures-photon "$OUT/textures/textures.xml" photon
 else
 	check "textures: cannot write the bitmap" false
@@ -282,7 +321,8 @@ else
 fi
 if [ "$selftest" = 0 ]; then
 	for scene in rough materials; do
-		[ -f data/$scene.xml ] && against $scene-photon data/$scene.xml photon
+		[ -f data/$scene.xml ] && wanted $scene-photon &&
+		    against $scene-photon data/$scene.xml photon
 	done
 fi
 
@@ -293,7 +333,7 @@ fi
 if "$PY" "$HERE/shapes_scene.py" "$OUT/shapes" >"$OUT/log" 2>&1; then
 	for cam in ortho thinlens; do
 		run shapes-$cam "$OUT/shapes/shapes-$cam.xml"
-		[ "$selftest" = 1 ] ||
+		[ "$selftest" = 1 ] || ! wanted shapes-$cam-photon ||
 		    against shapes-$cam-photon "$OUT/shapes/shapes-$cam.xml" photon
 	done
 else

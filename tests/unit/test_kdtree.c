@@ -149,16 +149,16 @@ brute(const struct pm_photon *p, size_t n, const float q[3], float max_d2,
 	return c;
 }
 
-/* Checks one k-nearest answer against brute force (see the top). */
+/* Checks a k-nearest answer out[0..got) against brute force (see the
+ * top); sorts out. */
 static void
-check_knn(const struct pm_photon *p, size_t n, const float q[3], size_t k,
-    float max_d2, uint8_t mask, uint8_t want, struct pm_knn *all,
-    struct pm_knn *out, unsigned char *seen)
+check_knn_answer(const struct pm_photon *p, size_t n, const float q[3],
+    size_t k, float max_d2, uint8_t mask, uint8_t want, struct pm_knn *all,
+    struct pm_knn *out, size_t got, unsigned char *seen)
 {
 	size_t nb = brute(p, n, q, max_d2, mask, want, all);
-	size_t got, i, want_n = nb < k ? nb : k;
+	size_t i, want_n = nb < k ? nb : k;
 
-	got = pm_kdtree_knn(p, n, q, k, max_d2, mask, want, out);
 	assert_int_equal(got, want_n);
 	/* A max-heap on d2. */
 	for (i = 1; i < got; i++)
@@ -178,6 +178,17 @@ check_knn(const struct pm_photon *p, size_t n, const float q[3], size_t k,
 	for (i = 0; i < got; i++)
 		if (out[i].d2 < out[got - 1].d2)
 			assert_int_equal(out[i].idx, all[i].idx);
+}
+
+/* Checks one k-nearest query against brute force. */
+static void
+check_knn(const struct pm_photon *p, size_t n, const float q[3], size_t k,
+    float max_d2, uint8_t mask, uint8_t want, struct pm_knn *all,
+    struct pm_knn *out, unsigned char *seen)
+{
+	size_t got = pm_kdtree_knn(p, n, q, k, max_d2, mask, want, out);
+
+	check_knn_answer(p, n, q, k, max_d2, mask, want, all, out, got, seen);
 }
 
 /* Checks one radius answer against brute force, with and without room. */
@@ -267,6 +278,86 @@ run_queries(enum set_kind kind, size_t n, size_t nq, uint64_t seed)
 	free(all);
 	free(out);
 	free(seen);
+}
+
+/*
+ * pm_kdtree_knn_batch answers each of its points exactly (brute force):
+ * batches too small to be reordered and large ones, points in clusters
+ * (each query's bound comes from a close predecessor) and scattered, on
+ * photons (ties at zero with their duplicates), with filters and bounds,
+ * k from 1 to beyond n.
+ */
+static void
+run_batch(enum set_kind kind, size_t n, uint64_t seed)
+{
+	static const size_t ks[] = { 1, 3, 50, 200 };
+	static const size_t nqs[] = { 1, 40, 700 };
+	static const uint8_t masks[][2] = {
+		{ 0, 0 },
+		{ PM_PHOTON_CAUSTIC, PM_PHOTON_CAUSTIC },
+	};
+	struct pm_photon *p = make_set(kind, n, seed);
+	struct pm_knn *all = malloc((n + 1) * sizeof(*all));
+	struct pm_knn *out = malloc(700 * 200 * sizeof(*out));
+	size_t *found = malloc(700 * sizeof(*found));
+	float *q = malloc(700 * 3 * sizeof(*q));
+	unsigned char *seen = malloc(n + 1);
+	size_t a, b, f, i, j;
+
+	assert_true(all && out && found && q && seen);
+	build_ok(p, n, 1);
+	for (a = 0; a < 4; a++)
+		for (b = 0; b < 3; b++)
+			for (f = 0; f < 2; f++) {
+				size_t k = ks[a], nq = nqs[b];
+				float max_d2 = (a + b) % 3 == 2 ? 0.02f : INFINITY;
+
+				for (i = 0; i < nq; i++) {
+					struct pm_rng r = pm_rng_seed(seed, i, 9 + a);
+					/* Clusters of 8 around a random centre,
+					 * or a photon's own position. */
+					struct pm_rng c = pm_rng_seed(seed, i / 8, 99);
+					const struct pm_photon *ph =
+					    &p[pm_rng_u32(&r) % n];
+
+					for (j = 0; j < 3; j++)
+						q[3 * i + j] = i % 3 == 1 ?
+						    ph->pos[j] :
+						    pm_rng_float(&c) * 3.0f - 1.0f +
+						    0.01f * pm_rng_float(&r);
+				}
+				pm_kdtree_knn_batch(p, n, q, nq, k, max_d2,
+				    masks[f][0], masks[f][1], out, found);
+				for (i = 0; i < nq; i++)
+					check_knn_answer(p, n, &q[3 * i], k,
+					    max_d2, masks[f][0], masks[f][1], all,
+					    &out[i * k], found[i], seen);
+			}
+	/* Degenerate arguments answer nothing, as pm_kdtree_knn. */
+	found[0] = 7;
+	pm_kdtree_knn_batch(p, n, q, 1, 0, INFINITY, 0, 0, out, found);
+	assert_int_equal(found[0], 0);
+	found[0] = 7;
+	pm_kdtree_knn_batch(p, n, q, 1, 5, NAN, 0, 0, out, found);
+	assert_int_equal(found[0], 0);
+	pm_kdtree_knn_batch(p, n, q, 0, 5, INFINITY, 0, 0, out, found);
+	free(p);
+	free(all);
+	free(out);
+	free(found);
+	free(q);
+	free(seen);
+}
+
+static void
+test_batch(void **state)
+{
+	(void)state;
+	run_batch(SET_UNIFORM, 3000, 41);
+	run_batch(SET_PLANE, 2000, 42);
+	run_batch(SET_DUPLICATES, 2000, 43);
+	run_batch(SET_POINT, 300, 44);
+	run_batch(SET_GRID, 1000, 45);
 }
 
 static void
@@ -629,6 +720,7 @@ main(void)
 		cmocka_unit_test(test_degenerate_large),
 		cmocka_unit_test(test_verify_detects),
 		cmocka_unit_test(test_knn_sort),
+		cmocka_unit_test(test_batch),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);
