@@ -18,6 +18,7 @@
 #include <unistd.h>
 
 #include "../../common/scene.h"
+#include "../../common/spectrum.h"
 #include "../../formats/scene_xml.h"
 
 #define NEAR(a, b, tol) assert_true(fabs((double)(a) - (double)(b)) <= (tol))
@@ -461,7 +462,12 @@ test_emitters(void **state)
 	NEAR(l->frame.n.y, -1, 1e-6);
 	NEAR(l->frame.n.z, 0, 1e-6);
 	theta = (30 + 22.5) / 2 * PI / 180;
-	NEAR(l->power, 2 * PI * (1 - cos(theta)) * 10, 1e-4);
+	/* A uniform spectrum in an emitter is, as in Mitsuba's RGB
+	 * variants, that value times the sRGB of XYZ = (1, 1, 1), whose
+	 * mean is the sum of the sRGB matrix's entries over 3. */
+	NEAR(l->power, 2 * PI * (1 - cos(theta)) * 10 * (3.240479 - 1.537150 -
+	    0.498535 - 0.969256 + 1.875991 + 0.041556 + 0.055648 - 0.204043 +
+	    1.057311) / 3, 1e-4);
 
 	/* Constant: the scene's bounding sphere around the unit sphere's box
 	 * has radius sqrt(3). */
@@ -469,6 +475,77 @@ test_emitters(void **state)
 	assert_int_equal(l->type, PM_LIGHT_CONSTANT);
 	assert_int_equal(s.env_light, 3);
 	NEAR(l->power, PI * 2 * 4 * PI * 3, 1e-3);
+	pm_scene_free(&s);
+}
+
+/* ------------------------------------------------------------ spectra */
+
+/*
+ * Spectra as Mitsuba 3's RGB variants read them: a uniform value is a
+ * grey, but in an emitter that value times the sRGB of a flat spectrum; a
+ * list is integrated against the CIE curves (weighted by D65 unless in an
+ * emitter); a file holds the same list; a blackbody is Planck's law.
+ */
+static void
+test_spectra(void **state)
+{
+	static const double wl[4] = {400, 500, 600, 700};
+	static const double v[4] = {0.1, 0.9, 0.2, 0.5};
+	static const double one[3] = {1, 1, 1};
+	struct pm_scene s;
+	struct pm_rgb c, flat = pm_xyz_to_srgb(one);
+
+	(void)state;
+	put_file("s.spd", "# a comment\n400 0.1\n500 0.9\n\n600 0.2\n"
+	    "700 0.5\n");
+	load_ok("<scene version=\"3.0.0\">\n"
+	    " <shape type=\"sphere\"><bsdf type=\"diffuse\">\n"
+	    "  <spectrum name=\"reflectance\" value=\"0.25\"/>\n"
+	    " </bsdf></shape>\n"
+	    " <shape type=\"sphere\"><bsdf type=\"diffuse\">\n"
+	    "  <spectrum name=\"reflectance\" value=\"400:0.1, 500:0.9,"
+	    " 600:0.2, 700:0.5\"/>\n"
+	    " </bsdf></shape>\n"
+	    " <shape type=\"sphere\"><bsdf type=\"diffuse\">\n"
+	    "  <spectrum name=\"reflectance\" filename=\"s.spd\"/>\n"
+	    " </bsdf></shape>\n"
+	    " <shape type=\"sphere\"><bsdf type=\"diffuse\">\n"
+	    "  <spectrum name=\"reflectance\" value=\"300:0.5 900:0.5\"/>\n"
+	    " </bsdf></shape>\n"
+	    " <emitter type=\"point\">\n"
+	    "  <spectrum name=\"intensity\" value=\"2\"/>\n"
+	    " </emitter>\n"
+	    " <emitter type=\"point\">\n"
+	    "  <spectrum name=\"intensity\" filename=\"s.spd\"/>\n"
+	    " </emitter>\n"
+	    " <emitter type=\"point\">\n"
+	    "  <spectrum name=\"intensity\" type=\"blackbody\">\n"
+	    "   <float name=\"temperature\" value=\"3000\"/>\n"
+	    "   <float name=\"wavelength_max\" value=\"700\"/>\n"
+	    "  </spectrum>\n"
+	    " </emitter>\n"
+	    " <emitter type=\"point\">\n"
+	    "  <spectrum name=\"intensity\" type=\"uniform\">\n"
+	    "   <float name=\"value\" value=\"3\"/>\n"
+	    "  </spectrum>\n"
+	    " </emitter>\n"
+	    "</scene>\n", &s);
+	assert_rgb(shape_bsdf(&s, 0)->diffuse, 0.25, 0.25, 0.25);
+	c = pm_spectrum_to_srgb(wl, v, 4, true, true, NULL);
+	assert_rgb(shape_bsdf(&s, 1)->diffuse, c.r, c.g, c.b);
+	assert_rgb(shape_bsdf(&s, 2)->diffuse, c.r, c.g, c.b);
+	/* A flat reflectance stays grey (D65 is sRGB's white). */
+	NEAR(shape_bsdf(&s, 3)->diffuse.r, 0.5, 2e-3);
+	NEAR(shape_bsdf(&s, 3)->diffuse.g, 0.5, 2e-3);
+	NEAR(shape_bsdf(&s, 3)->diffuse.b, 0.5, 2e-3);
+	assert_rgb(s.lights[0].intensity, 2 * flat.r, 2 * flat.g, 2 * flat.b);
+	c = pm_spectrum_to_srgb(wl, v, 4, false, false, NULL);
+	assert_rgb(s.lights[1].intensity, c.r, c.g, c.b);
+	c = pm_blackbody_to_srgb(3000, 360, 700);
+	NEAR(s.lights[2].intensity.r, c.r, 1e-6 * c.r);
+	NEAR(s.lights[2].intensity.b, c.b, 1e-6 * c.r);
+	assert_true(c.r > c.g && c.g > c.b);
+	assert_rgb(s.lights[3].intensity, 3, 3, 3);
 	pm_scene_free(&s);
 }
 
@@ -921,8 +998,24 @@ test_errors(void **state)
 		    "<rgb name=\"reflectance\" value=\"0.1, 0.2\"/></bsdf>"
 		    "</shape></scene>", 3, "expected 1 or 3 numbers"},
 		{HEAD "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n"
-		    "<spectrum name=\"reflectance\" value=\"400:0.1, 700:0.5\"/>"
-		    "</bsdf></shape></scene>", 3, "wavelength:value"},
+		    "<spectrum name=\"reflectance\" value=\"700:0.1, 400:0.5\"/>"
+		    "</bsdf></shape></scene>", 3, "wavelengths must increase"},
+		{HEAD "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n"
+		    "<spectrum name=\"reflectance\" value=\"400:0.1\"/>"
+		    "</bsdf></shape></scene>", 3, "at least two"},
+		{HEAD "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n"
+		    "<spectrum name=\"reflectance\" value=\"400:0.1, 500\"/>"
+		    "</bsdf></shape></scene>", 3, "not a wavelength:value pair"},
+		{HEAD "<emitter type=\"constant\">\n"
+		    "<spectrum name=\"radiance\" type=\"d65\"/>"
+		    "</emitter></scene>", 3, "unknown spectrum type \"d65\""},
+		{HEAD "<emitter type=\"constant\">\n"
+		    "<spectrum name=\"radiance\" type=\"blackbody\"/>"
+		    "</emitter></scene>", 3, "missing required parameter "
+		    "\"temperature\""},
+		{HEAD "<emitter type=\"constant\">\n"
+		    "<spectrum name=\"radiance\" filename=\"nope.spd\"/>"
+		    "</emitter></scene>", 3, "nope.spd"},
 		{HEAD "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n"
 		    "<rgb name=\"reflectance\" value=\"-0.5\"/></bsdf>"
 		    "</shape></scene>", 3, "must not be negative"},
@@ -1141,6 +1234,7 @@ main(void)
 		cmocka_unit_test(test_shapes),
 		cmocka_unit_test(test_meshes),
 		cmocka_unit_test(test_emitters),
+		cmocka_unit_test(test_spectra),
 		cmocka_unit_test(test_sensor),
 		cmocka_unit_test(test_integrators),
 		cmocka_unit_test(test_defaults_and_defines),
