@@ -206,6 +206,17 @@ if [ -f data/cornell-box.xml ]; then
 	run cornell-direct "$OUT/cornell-direct.xml"
 fi
 
+# Spectra (wavelength:value lists, .spd files, blackbody) reduced to RGB
+# as Mitsuba's RGB variants reduce them: noise-free scenes, 1e-4 agreement.
+if [ "$selftest" = 0 ]; then
+	"$PY" "$HERE/spectra.py" --pm-render "$PM_RENDER" \
+	    --workdir "$OUT/spectra" >"$OUT/spectra.txt" 2>&1
+	_rc=$?
+	grep -v WARN "$OUT/spectra.txt" | diag
+	check "spectra: pm reads spectra as Mitsuba's RGB variants do" \
+	    test "$_rc" = 0
+fi
+
 if [ -f ../shared/scenes/mitsuba-cbox/cbox-rgb.xml ]; then
 	run mitsuba-cbox ../shared/scenes/mitsuba-cbox/cbox-rgb.xml
 else
