@@ -144,6 +144,30 @@ pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
 		o->value = l->radiance;
 		o->pdf = psel * pm_uniform_sphere_pdf();
 		return true;
+	case PM_LIGHT_ENVMAP: {
+		float pdf;
+
+		o->wi = pm_envmap_sample(l->env, u1, u2, &pdf);
+		if (!(pdf > 0.0f))
+			return false;
+		o->dist = INFINITY;
+		o->p = pm_madd(ref, o->wi, 2.0f * s->radius);
+		o->n = pm_neg(o->wi);
+		o->value = pm_envmap_eval(l->env, o->wi);
+		o->pdf = psel * pdf;
+		return !pm_rgb_is_black(o->value);
+	}
+	case PM_LIGHT_DIRECTIONAL:
+		/* A delta in direction: the light arrives along -direction
+		 * with irradiance E, whatever the point. */
+		o->wi = pm_neg(l->direction);
+		o->dist = INFINITY;
+		o->p = pm_madd(ref, o->wi, 2.0f * s->radius);
+		o->n = l->direction;
+		o->value = l->intensity;
+		o->pdf = psel;
+		o->delta = true;
+		return !pm_rgb_is_black(o->value);
 	case PM_LIGHT_AREA:
 		break;
 	}
@@ -218,12 +242,29 @@ pm_lights_pdf_area(const struct pm_lights *ls, const struct pm_scene *s,
 }
 
 float
-pm_lights_pdf_env(const struct pm_lights *ls, const struct pm_scene *s)
+pm_lights_pdf_env(const struct pm_lights *ls, const struct pm_scene *s,
+    struct pm_vec3 w)
 {
+	const struct pm_light *l;
+
 	if (s->env_light < 0)
 		return 0.0f;
+	l = &s->lights[s->env_light];
 	return (float)pm_distrib_prob(&ls->nee, (size_t)s->env_light) *
-	    pm_uniform_sphere_pdf();
+	    (l->type == PM_LIGHT_ENVMAP ? pm_envmap_pdf(l->env, w) :
+	    pm_uniform_sphere_pdf());
+}
+
+struct pm_rgb
+pm_lights_env_radiance(const struct pm_scene *s, struct pm_vec3 w)
+{
+	const struct pm_light *l;
+
+	if (s->env_light < 0)
+		return pm_rgb1(0.0f);
+	l = &s->lights[s->env_light];
+	return l->type == PM_LIGHT_ENVMAP ? pm_envmap_eval(l->env, w) :
+	    l->radiance;
 }
 
 bool
@@ -255,9 +296,12 @@ pm_lights_emitted(const struct pm_lights *ls, const struct pm_scene *s,
 	if (h == NULL) {
 		if (s->env_light < 0)
 			return pm_rgb1(0.0f);
+		Le = pm_lights_env_radiance(s, d);
+		if (pm_rgb_is_black(Le))
+			return Le;
 		w = prev_delta ? 1.0f :
-		    pm_power_heuristic(prev_pdf, pm_lights_pdf_env(ls, s));
-		return pm_rgb_scale(s->lights[s->env_light].radiance, w);
+		    pm_power_heuristic(prev_pdf, pm_lights_pdf_env(ls, s, d));
+		return pm_rgb_scale(Le, w);
 	}
 	light = s->shapes[h->shape].light;
 	if (light < 0)

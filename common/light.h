@@ -37,7 +37,7 @@ struct pm_light_sample {
 	struct pm_rgb value;		/* radiance arriving along wi, unoccluded
 					 * (point lights: intensity / dist^2) */
 	float pdf;			/* solid angle, selection included; 1 for delta */
-	bool delta;			/* point and spot lights */
+	bool delta;			/* point, spot and directional lights */
 	int light;
 };
 
@@ -64,8 +64,13 @@ bool pm_light_occluded(const struct pm_accel *a, const struct pm_hit *h,
  * n) of area light `light` from ref. */
 float pm_lights_pdf_area(const struct pm_lights *ls, const struct pm_scene *s,
     int light, struct pm_vec3 ref, struct pm_vec3 p, struct pm_vec3 n);
-/* The same for the environment in direction w. */
-float pm_lights_pdf_env(const struct pm_lights *ls, const struct pm_scene *s);
+/* The same for the environment in direction w (unit, towards the sky). */
+float pm_lights_pdf_env(const struct pm_lights *ls, const struct pm_scene *s,
+    struct pm_vec3 w);
+/* Radiance the environment (constant or envmap) sends along -w, that is
+ * what a ray leaving in direction w finds; black without one. */
+struct pm_rgb pm_lights_env_radiance(const struct pm_scene *s,
+    struct pm_vec3 w);
 
 /* Veach's power heuristic for a sample of density a against one of b. */
 static inline float pm_power_heuristic(float a, float b)

@@ -327,18 +327,37 @@ emit(const struct pm_shooter *sh, enum pm_map_pass pass, struct pm_rng *rng,
 			*flux = pm_rgb_scale(*flux, pm_spot_falloff(l, w));
 		*o = p;
 		break;
-	case PM_LIGHT_CONSTANT: {
+	case PM_LIGHT_CONSTANT:
+	case PM_LIGHT_ENVMAP:
+	case PM_LIGHT_DIRECTIONAL: {
 		/* From a disk of the bounding sphere's radius, facing the
-		 * scene, outside it: every line through the scene is covered. */
-		struct pm_vec3 dir_to_sky = pm_square_to_uniform_sphere(u3, u4);
-		struct pm_frame f = pm_frame_from_normal(dir_to_sky);
-		float dx, dy, r = s->radius;
+		 * scene, outside it: every line through the scene is covered.
+		 * Flux: radiance (or, directional, irradiance) times the
+		 * disk's area, over the densities of the light and of the
+		 * direction. */
+		struct pm_vec3 dir_to_sky;
+		struct pm_frame f;
+		float dx, dy, r = s->radius, area = PM_PI * r * r;
 
+		if (l->type == PM_LIGHT_CONSTANT) {
+			dir_to_sky = pm_square_to_uniform_sphere(u3, u4);
+			*flux = pm_rgb_scale(l->radiance, 4.0f * PM_PI * PM_PI *
+			    r * r / psel);	/* area / (psel / (4 pi)) */
+		} else if (l->type == PM_LIGHT_ENVMAP) {
+			dir_to_sky = pm_envmap_sample(l->env, u3, u4, &pdf_dir);
+			if (!(pdf_dir > 0.0f))
+				return false;
+			*flux = pm_rgb_scale(pm_envmap_eval(l->env, dir_to_sky),
+			    area / (psel * pdf_dir));
+		} else {
+			dir_to_sky = pm_neg(l->direction);
+			*flux = pm_rgb_scale(l->intensity, area / psel);
+		}
+		f = pm_frame_from_normal(dir_to_sky);
 		pm_square_to_disk(u1, u2, &dx, &dy);
 		p = pm_madd(pm_madd(pm_madd(s->center, dir_to_sky, r), f.s, dx * r),
 		    f.t, dy * r);
 		w = pm_neg(dir_to_sky);
-		*flux = pm_rgb_scale(l->radiance, 4.0f * PM_PI * PM_PI * r * r / psel);
 		*o = p;
 		break;
 	}
@@ -686,6 +705,22 @@ pm_scene_hash(const struct pm_scene *s)
 		h = fnv_f(fnv_f(fnv_f(h, l->frame.n.x), l->frame.n.y), l->frame.n.z);
 		h = fnv_f(h, l->cutoff_angle);
 		h = fnv_f(h, l->beam_width);
+		/* only for the light types that have them, so that the
+		 * scenes hashed before they existed keep their hashes */
+		if (l->type == PM_LIGHT_DIRECTIONAL)
+			h = fnv_f(fnv_f(fnv_f(h, l->direction.x),
+			    l->direction.y), l->direction.z);
+		if (l->type == PM_LIGHT_ENVMAP && l->env != NULL) {
+			const struct pm_envmap *e = l->env;
+			int r, c;
+
+			h = fnv_i(fnv_i(h, e->width), e->height);
+			h = fnv(h, e->rgb, sizeof(float) * 3 *
+			    ((size_t)e->width + 1) * (size_t)e->height);
+			for (r = 0; r < 3; r++)
+				for (c = 0; c < 3; c++)
+					h = fnv_f(h, e->to_world.m[r][c]);
+		}
 	}
 	return h;
 }
