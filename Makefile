@@ -204,6 +204,7 @@ check-man:
 
 check-mitsuba: $(BINS)
 	@sh tests/mitsuba/compare.sh
+	@sh tests/mitsuba/emitters.sh
 
 install: all
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/man/man1 \
