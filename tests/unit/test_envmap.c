@@ -443,6 +443,26 @@ test_render(void **state)
 	assert_true(fabs(m - 0.5 * E / M_PI) <= 4.0 * se + 1e-4 * m);
 }
 
+/* A directional light of irradiance E at 45 degrees to the plane: every
+ * pixel is rho E cos(45) / pi, exactly (a delta light has no noise). */
+static void
+test_directional(void **state)
+{
+	double m, se, want = 0.5 * 2.0 * sqrt(0.5) / M_PI;
+
+	(void)state;
+	render_plane("<emitter type=\"directional\"><vector name=\"direction\" "
+	    "x=\"0\" y=\"-1\" z=\"-1\"/><rgb name=\"irradiance\" "
+	    "value=\"2\"/></emitter>", &m, &se);
+	print_message("directional: %.6f +- %.6f (exact %.6f)\n", m, se, want);
+	assert_true(fabs(m - want) <= 1e-4 * want);
+	/* the same light given by to_world (its +z turned to -y) */
+	render_plane("<emitter type=\"directional\"><transform name=\"to_world\">"
+	    "<rotate x=\"1\" angle=\"135\"/></transform><rgb name=\"irradiance\" "
+	    "value=\"2\"/></emitter>", &m, &se);
+	assert_true(fabs(m - want) <= 1e-4 * want);
+}
+
 int
 main(void)
 {
@@ -452,6 +472,7 @@ main(void)
 		cmocka_unit_test(test_pdf_integral),
 		cmocka_unit_test(test_unbiased),
 		cmocka_unit_test(test_render),
+		cmocka_unit_test(test_directional),
 	};
 
 	return cmocka_run_group_tests(tests, setup, teardown);

@@ -19,6 +19,7 @@
 
 #include "../../common/scene.h"
 #include "../../common/spectrum.h"
+#include "../../formats/exr.h"
 #include "../../formats/scene_xml.h"
 
 #define NEAR(a, b, tol) assert_true(fabs((double)(a) - (double)(b)) <= (tol))
@@ -549,6 +550,85 @@ test_spectra(void **state)
 	pm_scene_free(&s);
 }
 
+#define HEAD "<scene version=\"3.0.0\">\n"
+
+/* ------------------------------------------------------------ envmap,
+ * directional */
+
+static void
+test_envmap_directional(void **state)
+{
+	static float px[4 * 3 * 3];
+	struct pm_image im = {4, 3, px};
+	struct pm_error err;
+	struct pm_scene s;
+	char path[256];
+	int i;
+
+	(void)state;
+	for (i = 0; i < 4 * 3 * 3; i++)
+		px[i] = 0.5f;
+	snprintf(path, sizeof(path), "%s/env.exr", tmpdir);
+	assert_int_equal(pm_exr_write(path, &im, false, &err), PM_OK);
+	load_ok("<scene version=\"3.0.0\">\n"
+	    " <emitter type=\"directional\">\n"
+	    "  <vector name=\"direction\" x=\"0\" y=\"0\" z=\"-2\"/>\n"
+	    " </emitter>\n"
+	    " <emitter type=\"directional\">\n"
+	    "  <rgb name=\"irradiance\" value=\"1, 2, 3\"/>\n"
+	    "  <transform name=\"to_world\"><rotate x=\"1\" angle=\"90\"/>"
+	    "</transform>\n"
+	    " </emitter>\n"
+	    " <emitter type=\"envmap\">\n"
+	    "  <string name=\"filename\" value=\"env.exr\"/>\n"
+	    "  <float name=\"scale\" value=\"4\"/>\n"
+	    "  <boolean name=\"mis_compensation\" value=\"true\"/>\n"
+	    " </emitter>\n"
+	    " <shape type=\"sphere\"/>\n"
+	    "</scene>\n", &s);
+	assert_int_equal(s.nlights, 3);
+	assert_int_equal(s.lights[0].type, PM_LIGHT_DIRECTIONAL);
+	assert_rgb(s.lights[0].intensity, 1, 1, 1);	/* Mitsuba's default */
+	NEAR(s.lights[0].direction.z, -1, 1e-6);
+	assert_rgb(s.lights[1].intensity, 1, 2, 3);
+	NEAR(s.lights[1].direction.y, -1, 1e-6);	/* +z turned by 90 about x */
+	/* E through the bounding sphere's disk: radius sqrt(3) */
+	NEAR(s.lights[1].power, 2 * PI * 3, 1e-4);
+	assert_int_equal(s.lights[2].type, PM_LIGHT_ENVMAP);
+	assert_int_equal(s.env_light, 2);
+	assert_non_null(s.lights[2].env);
+	assert_int_equal(s.lights[2].env->width, 4);
+	NEAR(pm_envmap_eval(s.lights[2].env, pm_v3(0, 1, 0)).g, 2, 1e-6);
+	/* constant radiance 2 over the sphere, through the disk */
+	NEAR(s.lights[2].power, PI * 2 * 4 * PI * 3, 1e-2);
+	pm_scene_free(&s);
+
+	load_fails(HEAD "<emitter type=\"envmap\">\n"
+	    "</emitter></scene>", 2, "missing required parameter \"filename\"");
+	load_fails(HEAD "<emitter type=\"envmap\">\n"
+	    "<string name=\"filename\" value=\"sky.hdr\"/></emitter></scene>",
+	    3, "OpenEXR (.exr) files only");
+	load_fails(HEAD "<emitter type=\"envmap\">\n"
+	    "<string name=\"filename\" value=\"nope.exr\"/></emitter></scene>",
+	    3, "nope.exr");
+	load_fails(HEAD "<emitter type=\"envmap\">\n"
+	    "<string name=\"filename\" value=\"env.exr\"/>\n"
+	    "<transform name=\"to_world\"><scale x=\"2\"/></transform>"
+	    "</emitter></scene>", 4, "must be a rotation");
+	load_fails(HEAD "<emitter type=\"constant\"/>\n<emitter type=\"envmap\">"
+	    "<string name=\"filename\" value=\"env.exr\"/></emitter></scene>",
+	    3, "more than one environment emitter");
+	load_fails(HEAD "<emitter type=\"directional\">\n"
+	    "<vector name=\"direction\" x=\"0\" y=\"0\" z=\"0\"/>"
+	    "</emitter></scene>", 3, "the direction is zero");
+	load_fails(HEAD "<emitter type=\"directional\">\n"
+	    "<vector name=\"direction\" x=\"1\"/><transform name=\"to_world\"/>"
+	    "</emitter></scene>", 3, "either direction or to_world");
+	load_fails(HEAD "<emitter type=\"directional\">\n"
+	    "<point name=\"direction\" x=\"1\"/></emitter></scene>", 3,
+	    "must be a <vector>");
+}
+
 /* ------------------------------------------------------------ camera */
 
 static void
@@ -927,7 +1007,6 @@ test_transform_order(void **state)
 
 /* ------------------------------------------------------------ errors */
 
-#define HEAD "<scene version=\"3.0.0\">\n"
 
 static void
 test_errors(void **state)
@@ -954,8 +1033,8 @@ test_errors(void **state)
 		    "unknown shape type \"teapot\""},
 		{HEAD "<shape type=\"sphere\"><bsdf type=\"roughplastic\"/>"
 		    "</shape></scene>", 2, "unknown bsdf type \"roughplastic\""},
-		{HEAD "<emitter type=\"envmap\"/></scene>", 2,
-		    "unknown emitter type \"envmap\""},
+		{HEAD "<emitter type=\"projector\"/></scene>", 2,
+		    "unknown emitter type \"projector\""},
 		{HEAD "<integrator type=\"aov\"/></scene>", 2,
 		    "unknown integrator type \"aov\""},
 		{HEAD "<sensor type=\"thinlens\"/></scene>", 2,
@@ -1125,7 +1204,7 @@ test_errors(void **state)
 		{HEAD "<shape type=\"rectangle\">\n<emitter type=\"point\"/>"
 		    "</shape></scene>", 3, "only an \"area\" emitter"},
 		{HEAD "<emitter type=\"constant\"/>\n<emitter type=\"constant\"/>"
-		    "</scene>", 3, "more than one constant emitter"},
+		    "</scene>", 3, "more than one environment emitter"},
 		{HEAD "<emitter type=\"point\">\n"
 		    "<point name=\"position\" value=\"1 2 3\"/>"
 		    "<transform name=\"to_world\"/></emitter></scene>", 3,
@@ -1235,6 +1314,7 @@ main(void)
 		cmocka_unit_test(test_meshes),
 		cmocka_unit_test(test_emitters),
 		cmocka_unit_test(test_spectra),
+		cmocka_unit_test(test_envmap_directional),
 		cmocka_unit_test(test_sensor),
 		cmocka_unit_test(test_integrators),
 		cmocka_unit_test(test_defaults_and_defines),
