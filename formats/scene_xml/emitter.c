@@ -4,6 +4,7 @@
  */
 #include "private.h"
 #include "../exr.h"
+#include "../rgbe.h"
 
 /* The environment: at most one constant or envmap, as in Mitsuba. */
 static enum pm_err
@@ -16,7 +17,8 @@ claim_environment(struct ld *ld, const struct xnode *n, int i)
 	return PM_OK;
 }
 
-/* envmap: a latitude-longitude OpenEXR image (see common/envmap.h). */
+/* envmap: a latitude-longitude OpenEXR or Radiance HDR image (see
+ * common/envmap.h). */
 static enum pm_err
 load_envmap(struct ld *ld, struct xnode *n, struct plist *pl,
     struct pm_light *l)
@@ -44,14 +46,19 @@ load_envmap(struct ld *ld, struct xnode *n, struct plist *pl,
 		    "(uniform scale and translation are ignored)", pl->what);
 	M.m[0][3] = M.m[1][3] = M.m[2][3] = 0.0f;
 	dot = strrchr(fname, '.');
-	if (dot == NULL || strcasecmp(dot, ".exr") != 0)
+	if (dot == NULL || (strcasecmp(dot, ".exr") != 0 &&
+	    strcasecmp(dot, ".hdr") != 0 && strcasecmp(dot, ".rgbe") != 0 &&
+	    strcasecmp(dot, ".pic") != 0))
 		return sx_fail(ld, sx_prop_find(pl, "filename")->n,
 		    PM_ERR_UNSUPPORTED, "%s: \"%s\": pm reads environment maps "
-		    "from OpenEXR (.exr) files only", pl->what, fname);
+		    "from OpenEXR (.exr) and Radiance HDR (.hdr, .rgbe, .pic) "
+		    "files only", pl->what, fname);
 	if ((e = sx_resolve(ld, sx_prop_find(pl, "filename")->n, n->dir, fname,
 	    &path)) != PM_OK)
 		return e;
-	if ((e = pm_exr_read(path, &im, ld->err)) != PM_OK)
+	e = strcasecmp(dot, ".exr") == 0 ? pm_exr_read(path, &im, ld->err) :
+	    pm_rgbe_read(path, &im, ld->err);
+	if (e != PM_OK)
 		return sx_wrap(ld, sx_prop_find(pl, "filename")->n, pl->what, e);
 	if ((l->env = calloc(1, sizeof(*l->env))) == NULL) {
 		pm_image_free(&im);

@@ -11,7 +11,8 @@ u convention moves the shadows), and three scenes that use it or a
 directional light: envmap.xml (the map turned by to_world and scaled,
 lighting a diffuse ground and two diffuse spheres floating above it, seen
 from above), envmap-view.xml (the same map seen directly, a wide view of
-the sun and the horizon), envmap-flat.xml (a map of one
+the sun and the horizon; envmap-view-hdr.xml the same from sky.hdr, the
+map in Radiance's RGBE format), envmap-flat.xml (a map of one
 colour: it must light as a constant emitter does) and directional.xml (a
 directional light and a dim constant sky on the same objects).  Every
 scene takes $res and $spp like data/*.xml.
@@ -119,6 +120,8 @@ def main():
     import mitsuba as mi
     mi.set_variant("scalar_rgb")
     mi.Bitmap(sky()).write(os.path.join(d, "sky.exr"))
+    # the same map as Radiance HDR (RGBE, run-length scanlines)
+    mi.Bitmap(sky()).write(os.path.join(d, "sky.hdr"))
     flat = np.full((16, 32, 3), (0.6, 0.7, 0.9), dtype=np.float32)
     mi.Bitmap(flat).write(os.path.join(d, "flat.exr"))
     with open(os.path.join(d, "envmap.xml"), "w") as f:
@@ -129,6 +132,13 @@ def main():
     with open(os.path.join(d, "envmap-view.xml"), "w") as f:
         f.write(head("0, 0, 0", "-1, 0.3, -0.6", "0, 1, 0", 100) +
                 ENVMAP + """	<shape type="sphere">
+		<point name="center" x="0" y="0" z="50"/>
+	</shape>
+</scene>
+""")
+    with open(os.path.join(d, "envmap-view-hdr.xml"), "w") as f:
+        f.write(head("0, 0, 0", "-1, 0.3, -0.6", "0, 1, 0", 100) +
+                ENVMAP.replace("sky.exr", "sky.hdr") + """	<shape type="sphere">
 		<point name="center" x="0" y="0" z="50"/>
 	</shape>
 </scene>

@@ -606,8 +606,8 @@ test_envmap_directional(void **state)
 	load_fails(HEAD "<emitter type=\"envmap\">\n"
 	    "</emitter></scene>", 2, "missing required parameter \"filename\"");
 	load_fails(HEAD "<emitter type=\"envmap\">\n"
-	    "<string name=\"filename\" value=\"sky.hdr\"/></emitter></scene>",
-	    3, "OpenEXR (.exr) files only");
+	    "<string name=\"filename\" value=\"sky.png\"/></emitter></scene>",
+	    3, "Radiance HDR (.hdr, .rgbe, .pic) files only");
 	load_fails(HEAD "<emitter type=\"envmap\">\n"
 	    "<string name=\"filename\" value=\"nope.exr\"/></emitter></scene>",
 	    3, "nope.exr");
