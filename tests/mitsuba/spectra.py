@@ -7,7 +7,8 @@ Each case puts one <spectrum> into a tiny scene that both renderers see
 without noise: the camera looks straight at a constant emitter (an
 emitter's spectrum), or at a mirror (a smooth conductor, material none)
 that reflects a white constant emitter (a reflectance, as the mirror's
-specular_reflectance).  pm-render and Mitsuba (scalar_rgb) render it at 1
+specular_reflectance; or a conductor's eta and k, which Mitsuba does not
+clamp to 1).  pm-render and Mitsuba (scalar_rgb) render it at 1
 sample per pixel and their mean colours must agree to 1e-4 (relative).
 
 Mitsuba's RGB variants refuse to render a blackbody; for those cases the
@@ -50,6 +51,9 @@ CASES = [
     ("refl-flat", "refl", 'value="360:0.5, 830:0.5"'),
     ("refl-file", "refl", 'filename="s.spd"'),
     ("refl-clamped", "refl", 'value="500:0, 510:1, 520:0"'),
+    # a conductor's eta and k are not clamped to 1
+    ("conductor-eta-k", "etak", ('value="400:0.3, 550:1.1, 700:2.5"',
+                                 'value="400:2.2, 550:2.9, 700:4.1"')),
     ("emit-uniform", "emit", 'value="2"'),
     ("emit-list", "emit", 'value="400:0.1, 500:0.9, 600:0.2, 700:0.5"'),
     ("emit-flat", "emit", 'value="360:0.5 830:0.5"'),
@@ -68,13 +72,17 @@ def scene(role, spec):
     # out of sight, and out of the mirror's sight.
     behind = ('<shape type="sphere"><point name="center" x="50" y="0" '
               'z="0"/></shape>')
-    if role == "refl":
+    if role in ("refl", "etak"):
+        if role == "refl":
+            params = ('<string name="material" value="none"/>'
+                      '<spectrum name="specular_reflectance" %s/>' % spec)
+        else:
+            params = ('<spectrum name="eta" %s/><spectrum name="k" %s/>'
+                      % spec)
         body = ('<emitter type="constant"><rgb name="radiance" value="1"/>'
                 '</emitter><shape type="rectangle"><transform name="to_world">'
-                '<rotate y="1" angle="180"/><translate z="5"/></transform><bsdf type="conductor">'
-                '<string name="material" value="none"/>'
-                '<spectrum name="specular_reflectance" %s/></bsdf></shape>'
-                % spec)
+                '<rotate y="1" angle="180"/><translate z="5"/></transform>'
+                '<bsdf type="conductor">%s</bsdf></shape>' % params)
     else:
         if role == "bb":
             t, lo, hi = spec
