@@ -7,11 +7,37 @@
 
 #include "light.h"
 
+/*
+ * The fraction of an environment's power (taken through the disk of the
+ * bounding sphere, area pi R^2) that can reach the geometry: at most the
+ * mean projected area of the surfaces over that disk.  A convex closed
+ * surface of area A shows A / 4 on average, a flat one A / 2; A / 2 for
+ * everything errs towards the environment.
+ */
+static double
+env_nee_share(const struct pm_scene *s)
+{
+	double area = 0.0, disk = 3.14159265358979323846 * (double)s->radius *
+	    (double)s->radius;
+	size_t i;
+
+	if (s->env_light < 0 || !(disk > 0.0))
+		return 1.0;
+	for (i = 0; i < s->nshapes; i++) {
+		const struct pm_shape *sh = &s->shapes[i];
+
+		area += sh->type == PM_SHAPE_SPHERE ? 4.0 *
+		    3.14159265358979323846 * (double)sh->radius *
+		    (double)sh->radius : pm_mesh_area(&sh->mesh);
+	}
+	return fmin(1.0, 0.5 * area / disk);
+}
+
 enum pm_err
 pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
     struct pm_error *err)
 {
-	double *w = NULL;
+	double *w = NULL, env_share, total;
 	size_t i, j, maxw = s->nlights;
 	enum pm_err rc = PM_OK;
 
@@ -40,8 +66,19 @@ pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
 	rc = pm_distrib_init(&ls->pick, w, s->nlights, err);
 	if (rc != PM_OK)
 		goto out;
+	/* For light samples, an environment's power counts only what can
+	 * fall on the geometry (see light.h): the bounding sphere's disk
+	 * overstates it in an open scene, where most of that disk's flux
+	 * misses everything. */
+	env_share = env_nee_share(s);
 	for (i = 0; i < s->nlights; i++)
-		w[i] = 0.5 * pm_distrib_prob(&ls->pick, i) +
+		w[i] = s->lights[i].power * (i == (size_t)s->env_light ?
+		    env_share : 1.0);
+	total = 0.0;
+	for (i = 0; i < s->nlights; i++)
+		total += w[i];
+	for (i = 0; i < s->nlights; i++)
+		w[i] = (total > 0.0 ? 0.5 * w[i] / total : 0.0) +
 		    0.5 / (double)s->nlights;
 	rc = pm_distrib_init(&ls->nee, w, s->nlights, err);
 	if (rc != PM_OK)

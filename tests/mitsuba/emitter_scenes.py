@@ -12,7 +12,8 @@ directional light: envmap.xml (the map turned by to_world and scaled,
 lighting a diffuse ground and two diffuse spheres floating above it, seen
 from above), envmap-view.xml (the same map seen directly, a wide view of
 the sun and the horizon; envmap-view-hdr.xml the same from sky.hdr, the
-map in Radiance's RGBE format), envmap-flat.xml (a map of one
+map in Radiance's RGBE format), spot-envmap.xml (the map dimmed, and a
+small spot light), envmap-flat.xml (a map of one
 colour: it must light as a constant emitter does) and directional.xml (a
 directional light and a dim constant sky on the same objects).  Every
 scene takes $res and $spp like data/*.xml.
@@ -146,6 +147,18 @@ def main():
     with open(os.path.join(d, "envmap-flat.xml"), "w") as f:
         f.write(HEAD + """	<emitter type="envmap">
 		<string name="filename" value="flat.exr"/>
+	</emitter>
+""" + OBJECTS)
+    # A small spot light under the dimmed map: light selection must not
+    # starve the spot (emitters.sh compares the noise with Mitsuba's).
+    with open(os.path.join(d, "spot-envmap.xml"), "w") as f:
+        f.write(HEAD + ENVMAP.replace('value="1.5"', 'value="0.05"') +
+                """	<emitter type="spot">
+		<rgb name="intensity" value="40"/>
+		<float name="cutoff_angle" value="15"/>
+		<transform name="to_world">
+			<lookat origin="0, 5, 0.01" target="0, 0, 0"/>
+		</transform>
 	</emitter>
 """ + OBJECTS)
     with open(os.path.join(d, "directional.xml"), "w") as f:

@@ -129,5 +129,16 @@ sed 's|<emitter type="envmap">|<emitter type="constant">|; s|<string name="filen
     "$DIR/envmap-flat.xml" >"$DIR/constant.xml"
 against envmap-flat constant
 against directional directional
+# Light selection with an environment: a small spot under a dim map.
+against spot-envmap spot-envmap path
+if "$PY" "$HERE/variance.py" "$DIR/spot-envmap-mi-1.exr" \
+    "$DIR/spot-envmap-mi-2.exr" "$MI_SPP" "$DIR/spot-envmap-path-1.exr" \
+    "$DIR/spot-envmap-path-2.exr" "$PM_SPP" >"$OUT/log" 2>&1; then
+	_ok=true
+else
+	_ok=false
+fi
+diag <"$OUT/log"
+check "spot-envmap: pm's variance per sample is within 2x Mitsuba's" $_ok
 echo "# total $(($(date +%s) - t0)) s"
 finish "mitsuba emitters"
