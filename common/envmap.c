@@ -121,6 +121,12 @@ locate(const struct pm_envmap *e, struct pm_vec3 d, int *cx, int *cy,
 	u -= floorf(u);
 	x = u * (float)e->width;
 	y = v * (float)(e->height - 1);
+	/* a degenerate direction (NaN) reads texel 0, never converts a
+	 * NaN to int */
+	if (!(x >= 0.0f))
+		x = 0.0f;
+	if (!(y >= 0.0f))
+		y = 0.0f;
 	*cx = (int)x;
 	if (*cx > e->width - 1)
 		*cx = e->width - 1;
