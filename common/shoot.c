@@ -11,9 +11,11 @@
  * (Jensen 2004, sec. 5.3).
  *
  * Caustic pass: photons are aimed at the bounding spheres of the specular
- * shapes, the direction drawn from the mixture of the cones they subtend,
- * and the flux divided by that mixture's true density, so that nothing is
- * gained or lost; only paths light, specular+, non-specular are stored.
+ * shapes, the direction drawn from the mixture of the cones they subtend
+ * (lights far away, the environment and directional lights: the origin
+ * drawn from the mixture of the spheres' shadow disks), and the flux
+ * divided by that mixture's true density, so that nothing is gained or
+ * lost; only paths light, specular+, non-specular are stored.
  */
 #include <math.h>
 #include <pthread.h>
@@ -269,6 +271,42 @@ sample_shape_point(const struct pm_shooter *sh, int li, float u1, float u2,
 }
 
 /*
+ * A point in the plane through the scene's centre across direction n, for
+ * a caustic photon from far away travelling along -n: inside the shadow
+ * disk of one aiming sphere, chosen uniformly, and uniform within it.
+ * Returns the point's density over that plane: the mixture of the disks,
+ * each uniform, so that overlapping disks are counted right.
+ */
+static struct pm_vec3
+aim_disk_sample(const struct pm_shooter *sh, struct pm_vec3 n,
+    struct pm_frame f, float u0, float u1, float u2, float *pdf)
+{
+	const struct pm_vec3 o = sh->scene->center;
+	int j = (int)(u0 * (float)sh->naim), k;
+	struct pm_vec3 x;
+	float dx, dy, p = 0.0f;
+
+	if (j >= sh->naim)
+		j = sh->naim - 1;
+	pm_square_to_disk(u1, u2, &dx, &dy);
+	x = pm_sub(sh->aim_center[j], pm_scale(n, pm_dot(pm_sub(
+	    sh->aim_center[j], o), n)));
+	x = pm_madd(pm_madd(x, f.s, dx * sh->aim_radius[j]), f.t,
+	    dy * sh->aim_radius[j]);
+	for (k = 0; k < sh->naim; k++) {
+		struct pm_vec3 c = pm_sub(sh->aim_center[k], pm_scale(n,
+		    pm_dot(pm_sub(sh->aim_center[k], o), n)));
+		struct pm_vec3 d = pm_sub(x, c);
+		float r = sh->aim_radius[k];
+
+		if (pm_dot(d, d) <= r * r)
+			p += 1.0f / (PM_PI * r * r);
+	}
+	*pdf = p / (float)sh->naim;
+	return x;
+}
+
+/*
  * Emits photon path `index`: origin, direction and flux.  False if the
  * sampled photon carries nothing (it still counts as emitted).
  */
@@ -354,9 +392,23 @@ emit(const struct pm_shooter *sh, enum pm_map_pass pass, struct pm_rng *rng,
 			*flux = pm_rgb_scale(l->intensity, area / psel);
 		}
 		f = pm_frame_from_normal(dir_to_sky);
-		pm_square_to_disk(u1, u2, &dx, &dy);
-		p = pm_madd(pm_madd(pm_madd(s->center, dir_to_sky, r), f.s, dx * r),
-		    f.t, dy * r);
+		if (aim) {
+			/* Caustic pass: only from the shadows of the specular
+			 * shapes' spheres: the flux over the disk's uniform
+			 * density, pi r^2, now over the aimed density. */
+			float pdf_area;
+
+			p = aim_disk_sample(sh, dir_to_sky, f, u5, u1, u2,
+			    &pdf_area);
+			if (!(pdf_area > 0.0f))
+				return false;
+			*flux = pm_rgb_scale(*flux, 1.0f / (area * pdf_area));
+			p = pm_madd(p, dir_to_sky, r);
+		} else {
+			pm_square_to_disk(u1, u2, &dx, &dy);
+			p = pm_madd(pm_madd(pm_madd(s->center, dir_to_sky, r),
+			    f.s, dx * r), f.t, dy * r);
+		}
 		w = pm_neg(dir_to_sky);
 		*o = p;
 		break;
