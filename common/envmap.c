@@ -81,14 +81,14 @@ pm_envmap_init(struct pm_envmap *e, const float *rgb, int width, int height,
 			e->integral += mean * sa;
 		}
 	}
-	rc = pm_distrib_init(&e->cells, w, W * (H - 1), err);
+	/* A black map (or a scale of 0) is valid and sends no light: it has
+	 * no distribution, and nothing is ever sampled from it. */
+	rc = e->integral > 0.0 ? pm_distrib_init(&e->cells, w, W * (H - 1),
+	    err) : PM_OK;
 	free(w);
-	if (rc != PM_OK) {
+	if (rc != PM_OK)
 		pm_envmap_free(e);
-		return pm_fail(err, rc, "environment map: no light in %dx%d "
-		    "pixels", width, height);
-	}
-	return PM_OK;
+	return rc;
 }
 
 void
@@ -171,14 +171,22 @@ cell_solid_angle(const struct pm_envmap *e, int cy)
 struct pm_vec3
 pm_envmap_sample(const struct pm_envmap *e, float u1, float u2, float *pdf)
 {
-	size_t i = pm_distrib_sample(&e->cells, u1, &u1);
-	int cx = (int)(i % (size_t)e->width), cy = (int)(i / (size_t)e->width);
-	double c0 = cos(PM_PI * (double)cy / (double)(e->height - 1));
-	double c1 = cos(PM_PI * (double)(cy + 1) / (double)(e->height - 1));
-	double phi = TWO_PI_D * ((double)cx + 0.5 + (double)u1) /
-	    (double)e->width;
-	double ct = c0 + (c1 - c0) * (double)u2, st;
+	size_t i;
+	int cx, cy;
+	double c0, c1, phi, ct, st;
 	struct pm_vec3 d;
+
+	if (e->cells.n == 0) {
+		*pdf = 0.0f;
+		return pm_v3(0, 1, 0);
+	}
+	i = pm_distrib_sample(&e->cells, u1, &u1);
+	cx = (int)(i % (size_t)e->width);
+	cy = (int)(i / (size_t)e->width);
+	c0 = cos(PM_PI * (double)cy / (double)(e->height - 1));
+	c1 = cos(PM_PI * (double)(cy + 1) / (double)(e->height - 1));
+	phi = TWO_PI_D * ((double)cx + 0.5 + (double)u1) / (double)e->width;
+	ct = c0 + (c1 - c0) * (double)u2;
 
 	ct = fmin(fmax(ct, -1.0), 1.0);
 	st = sqrt(fmax(0.0, 1.0 - ct * ct));

@@ -42,7 +42,8 @@ struct pm_envmap {
  * Builds e from an RGB image (width >= 2, height >= 3, rows top first,
  * copied) times scale, seen through to_world (a rotation, possibly with a
  * uniform scale, which does not matter to directions).  Negative texels
- * are read as zero.  An image with no light at all is an error.
+ * are read as zero.  An image with no light at all is valid: it emits
+ * nothing and samples nothing (pdf 0).
  */
 enum pm_err pm_envmap_init(struct pm_envmap *e, const float *rgb, int width,
     int height, float scale, const struct pm_mat4 *to_world,

@@ -158,6 +158,17 @@ test_mapping(void **state)
 	}
 	pm_envmap_free(&e);
 	pm_envmap_free(&r);
+	/* scale 0 (or a black image): valid, dark, never sampled */
+	init(&e, NULL, 0.0f);
+	{
+		float pdf = 1.0f;
+
+		(void)pm_envmap_sample(&e, 0.3f, 0.6f, &pdf);
+		assert_true(pdf == 0.0f);
+		assert_true(pm_envmap_pdf(&e, pm_v3(0, 1, 0)) == 0.0f);
+		assert_true(pm_envmap_eval(&e, pm_v3(0.6f, 0.8f, 0)).r == 0.0f);
+	}
+	pm_envmap_free(&e);
 }
 
 /* Cell, and position within it, of a local direction (as sampling lays
