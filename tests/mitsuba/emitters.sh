@@ -121,6 +121,7 @@ against() {
 t0=$(date +%s)
 echo "# Mitsuba variant $VARIANT, ${RES}x${RES}"
 against envmap envmap
+against envmap-glass envmap-glass
 # Seen directly there is nothing to gather: path mode says it all.
 against envmap-view envmap-view path
 against envmap-view-hdr envmap-view-hdr path
