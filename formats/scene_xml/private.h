@@ -120,6 +120,7 @@ enum sx_spec_kind {
 	SX_SPEC_PLAIN,		/* type="uniform": a grey everywhere */
 	SX_SPEC_LIST,		/* wavelength:value pairs, from value or a file */
 	SX_SPEC_BLACKBODY,	/* type="blackbody" */
+	SX_SPEC_RGB,		/* type="d65" or "srgb": a colour everywhere */
 };
 
 struct sx_spectrum {
@@ -128,6 +129,7 @@ struct sx_spectrum {
 	double wmin, wmax;	/* blackbody: wavelength range, nm */
 	double *wl, *v;		/* list: n pairs */
 	size_t n;
+	struct pm_rgb rgb;	/* d65, srgb */
 };
 
 struct prop {

@@ -2,8 +2,9 @@
  * spectrum.c: <spectrum> properties.  A single value is a uniform
  * spectrum; value="400:0.1, 500:0.2, ..." lists wavelength:value pairs;
  * filename= names a text file of such pairs, one a line (Mitsuba's .spd
- * layout: '#' starts a comment line); type="blackbody" and
- * type="uniform" are the spectrum plugins of those names.  What the
+ * layout: '#' starts a comment line); type="blackbody", "uniform",
+ * "regular", "irregular", "d65" and "srgb" are the spectrum plugins of
+ * those names (regular and irregular lists read as value= lists are).  What the
  * spectrum means as RGB depends on where it is used (an emitter's or a
  * reflectance), so it is kept as given and reduced by sx_spectrum_rgb
  * when a getter asks for a colour.
@@ -149,20 +150,150 @@ parse_file(struct ld *ld, const struct xnode *k, const char *name,
 	return check_pairs(ld, k, path, sp);
 }
 
-/* type="blackbody" or "uniform", with its parameters as children. */
+/* A list of numbers of any length, for regular and irregular: *out
+ * (in the loader's arena) and *n. */
+static enum pm_err
+number_list(struct ld *ld, const struct xnode *k, const char *what,
+    const char *v, double **out, size_t *n)
+{
+	char *copy, *s, *tok;
+	size_t cap = 1;
+
+	for (s = (char *)v; *s != '\0'; s++)
+		if (*s == ',' || isspace((unsigned char)*s))
+			cap++;
+	if ((copy = sx_arena_strdup(&ld->arena, v)) == NULL ||
+	    (*out = sx_arena_alloc(&ld->arena, cap * sizeof(double))) == NULL)
+		return sx_nomem(ld);
+	*n = 0;
+	for (s = copy;;) {
+		while (*s == ',' || isspace((unsigned char)*s))
+			s++;
+		if (*s == '\0')
+			return PM_OK;
+		tok = s;
+		while (*s != '\0' && *s != ',' && !isspace((unsigned char)*s))
+			s++;
+		if (*s != '\0')
+			*s++ = '\0';
+		if (*n == cap || !sx_number(tok, &(*out)[*n]))
+			return sx_fail(ld, k, PM_ERR_PARSE, "<spectrum> %s: \"%s\" "
+			    "is not a finite number", what, tok);
+		(*n)++;
+	}
+}
+
+/* regular: values evenly spaced from wavelength_min to wavelength_max. */
+static enum pm_err
+parse_regular(struct ld *ld, const struct xnode *k, struct plist *pl,
+    struct sx_spectrum *sp)
+{
+	const char *v;
+	double lo, hi;
+	size_t i;
+	enum pm_err e;
+
+	if (!sx_has(pl, "values"))
+		return sx_missing(ld, pl, "values", "a <string> of numbers");
+	if ((e = sx_get_float(ld, pl, "wavelength_min", PM_CIE_MIN, 0.0, 1e6,
+	    &lo)) != PM_OK ||
+	    (e = sx_get_float(ld, pl, "wavelength_max", PM_CIE_MAX, 0.0, 1e6,
+	    &hi)) != PM_OK ||
+	    (e = sx_get_string(ld, pl, "values", NULL, &v)) != PM_OK ||
+	    (e = number_list(ld, k, "values", v, &sp->v, &sp->n)) != PM_OK)
+		return e;
+	if (sp->n >= 2 && (sp->wl = sx_arena_alloc(&ld->arena, sp->n *
+	    sizeof(double))) == NULL)
+		return sx_nomem(ld);
+	for (i = 0; sp->n >= 2 && i < sp->n; i++)
+		sp->wl[i] = lo + (hi - lo) * (double)i / (double)(sp->n - 1);
+	return check_pairs(ld, k, "values", sp);
+}
+
+/* irregular: a list of wavelengths and one of values, as long. */
+static enum pm_err
+parse_irregular(struct ld *ld, const struct xnode *k, struct plist *pl,
+    struct sx_spectrum *sp)
+{
+	const char *w, *v;
+	size_t nw;
+	enum pm_err e;
+
+	if (!sx_has(pl, "wavelengths"))
+		return sx_missing(ld, pl, "wavelengths", "a <string> of numbers");
+	if (!sx_has(pl, "values"))
+		return sx_missing(ld, pl, "values", "a <string> of numbers");
+	if ((e = sx_get_string(ld, pl, "wavelengths", NULL, &w)) != PM_OK ||
+	    (e = sx_get_string(ld, pl, "values", NULL, &v)) != PM_OK ||
+	    (e = number_list(ld, k, "wavelengths", w, &sp->wl, &nw)) != PM_OK ||
+	    (e = number_list(ld, k, "values", v, &sp->v, &sp->n)) != PM_OK)
+		return e;
+	if (nw != sp->n)
+		return sx_fail(ld, k, PM_ERR_INVALID, "<spectrum>: %zu "
+		    "wavelengths but %zu values", nw, sp->n);
+	return check_pairs(ld, k, "wavelengths", sp);
+}
+
+/* d65 and srgb: an RGB colour (d65: times scale; in an RGB renderer the
+ * illuminant is white). */
+static enum pm_err
+parse_colour(struct ld *ld, struct plist *pl, const char *type,
+    struct sx_spectrum *sp)
+{
+	struct prop *c = sx_prop_find(pl, "color");
+	double scale = 1.0;
+	enum pm_err e;
+
+	sp->kind = SX_SPEC_RGB;
+	sp->rgb = pm_rgb1(1.0f);
+	if (c == NULL && strcmp(type, "srgb") == 0)
+		return sx_missing(ld, pl, "color", "an <rgb>");
+	if (c != NULL) {
+		c->used = true;
+		if (c->type != P_RGB)
+			return sx_wrong_type(ld, pl, c, "an <rgb>");
+		sp->rgb = c->c;
+	}
+	if (strcmp(type, "d65") == 0 &&
+	    (e = sx_get_float(ld, pl, "scale", 1.0, 0.0, 3.4e38, &scale))
+	    != PM_OK)
+		return e;
+	sp->rgb = pm_rgb_scale(sp->rgb, (float)scale);
+	if (!(sp->rgb.r >= 0.0f && sp->rgb.g >= 0.0f && sp->rgb.b >= 0.0f))
+		return sx_fail(ld, c != NULL ? c->n : pl->owner, PM_ERR_INVALID,
+		    "%s: the colour must not be negative", pl->what);
+	return PM_OK;
+}
+
+/* type="blackbody", "uniform", "regular", "irregular", "d65" or "srgb",
+ * with its parameters as children. */
 static enum pm_err
 parse_plugin(struct ld *ld, const struct xnode *k, const char *type,
     struct sx_spectrum *sp)
 {
+	static const char *const known[] = {"blackbody", "uniform", "regular",
+	    "irregular", "d65", "srgb", NULL};
+	const char *const *t;
 	struct plist pl;
 	enum pm_err e;
 
-	if (strcmp(type, "blackbody") != 0 && strcmp(type, "uniform") != 0)
+	for (t = known; *t != NULL && strcmp(*t, type) != 0; t++)
+		;
+	if (*t == NULL)
 		return sx_fail(ld, k, PM_ERR_UNSUPPORTED, "unknown spectrum type "
-		    "\"%s\" (pm supports blackbody and uniform)", type);
+		    "\"%s\" (pm supports blackbody, uniform, regular, "
+		    "irregular, d65 and srgb)", type);
 	if ((e = sx_collect(ld, k, "spectrum", type, &pl)) != PM_OK)
 		return e;
-	if (strcmp(type, "uniform") == 0) {
+	if (strcmp(type, "regular") == 0 || strcmp(type, "irregular") == 0) {
+		sp->kind = SX_SPEC_LIST;
+		if ((e = (type[0] == 'r' ? parse_regular : parse_irregular)(ld,
+		    k, &pl, sp)) != PM_OK)
+			return e;
+	} else if (strcmp(type, "d65") == 0 || strcmp(type, "srgb") == 0) {
+		if ((e = parse_colour(ld, &pl, type, sp)) != PM_OK)
+			return e;
+	} else if (strcmp(type, "uniform") == 0) {
 		sp->kind = SX_SPEC_PLAIN;
 		if ((e = sx_get_float(ld, &pl, "value", 1.0, 0.0, 3.4e38,
 		    &sp->value)) != PM_OK)
@@ -225,8 +356,10 @@ sx_parse_spectrum(struct ld *ld, const struct xnode *k, struct prop *p)
  * a flat spectrum (XYZ = 1, 1, 1), as a spectral variant would show it;
  * a list is integrated against the CIE curves, weighted by D65 and
  * clamped to [0, 1] unless in an emitter or unbounded (see spectrum.h).
- * Mitsuba's RGB variants refuse to render a blackbody; pm reduces it as a
- * spectral variant's film shows it: integrated without D65, unbounded.
+ * Mitsuba's RGB variants refuse to render a blackbody, a regular and an
+ * irregular spectrum; pm reduces them as a spectral variant's film shows
+ * them: as lists (integrated without D65 in an emitter, with it
+ * elsewhere), a blackbody always as an emitter's.
  */
 struct pm_rgb
 sx_spectrum_rgb(const struct sx_spectrum *sp, bool emitter, bool unbounded)
@@ -240,6 +373,8 @@ sx_spectrum_rgb(const struct sx_spectrum *sp, bool emitter, bool unbounded)
 		return pm_rgb1((float)sp->value);
 	case SX_SPEC_PLAIN:
 		return pm_rgb1((float)sp->value);
+	case SX_SPEC_RGB:
+		return sp->rgb;
 	case SX_SPEC_LIST:
 		return pm_spectrum_to_srgb(sp->wl, sp->v, sp->n, !emitter,
 		    !(emitter || unbounded), NULL);

@@ -59,6 +59,21 @@ CASES = [
     ("emit-flat", "emit", 'value="360:0.5 830:0.5"'),
     ("emit-file", "emit", 'filename="s.spd"'),
     ("emit-blackbody", "bb", (4000.0, None, None)),
+    # Mitsuba's RGB variants cannot render regular and irregular spectra;
+    # Mitsuba's reference is the same list given as value="w:v, ...".
+    ("refl-regular", "refl",
+     'type="regular"><float name="wavelength_min" value="400"/>'
+     '<float name="wavelength_max" value="700"/>'
+     '<string name="values" value="0.1, 0.9, 0.2, 0.5"/></spectrum',
+     'value="400:0.1, 500:0.9, 600:0.2, 700:0.5"'),
+    ("emit-irregular", "emit",
+     'type="irregular"><string name="wavelengths" value="380, 420, 455, '
+     '530, 610, 700, 780"/><string name="values" value="0.05 0.6 0.3 0.8 '
+     '0.15 0.7 0.2"/></spectrum', 'filename="s.spd"'),
+    ("emit-d65", "emit", 'type="d65"><rgb name="color" value="0.5, 0.2, '
+     '0.1"/><float name="scale" value="3"/></spectrum'),
+    ("refl-srgb", "refl", 'type="srgb"><rgb name="color" value="0.5, 0.2, '
+     '0.1"/></spectrum'),
     ("emit-blackbody-range", "bb", (6500.0, 450.0, 650.0)),
 ]
 
@@ -75,7 +90,8 @@ def scene(role, spec):
     if role in ("refl", "etak"):
         if role == "refl":
             params = ('<string name="material" value="none"/>'
-                      '<spectrum name="specular_reflectance" %s/>' % spec)
+                      '<spectrum name="specular_reflectance" %s%s>'
+                      % (spec, "" if spec.endswith("</spectrum") else "/"))
         else:
             params = ('<spectrum name="eta" %s/><spectrum name="k" %s/>'
                       % spec)
@@ -92,6 +108,8 @@ def scene(role, spec):
                           '<float name="wavelength_max" value="%g"/>'
                           % (lo, hi))
             spec = 'type="blackbody">%s</spectrum' % inner
+            el = '<spectrum name="radiance" %s>' % spec
+        elif spec.endswith("</spectrum"):
             el = '<spectrum name="radiance" %s>' % spec
         else:
             el = '<spectrum name="radiance" %s/>' % spec
@@ -140,10 +158,17 @@ def main():
         f.write(SPD)
     mi.set_variant("scalar_rgb")
     failed = 0
-    for name, role, spec in CASES:
+    for case in CASES:
+        name, role, spec = case[:3]
         xml = os.path.join(work, name + ".xml")
         with open(xml, "w") as f:
             f.write(scene(role, spec))
+        # the scene Mitsuba renders, when it cannot render pm's
+        mi_xml = xml
+        if len(case) > 3:
+            mi_xml = os.path.join(work, name + "-mi.xml")
+            with open(mi_xml, "w") as f:
+                f.write(scene(role, case[3]))
         out = os.path.join(work, name + "-pm.exr")
         r = subprocess.run([pm_render, xml, "-o", out, "--spp", "1", "-q",
                             "-f"], capture_output=True, text=True)
@@ -155,7 +180,7 @@ def main():
         if role == "bb":
             ref = blackbody_reference(*spec)
         else:
-            img = mi.render(mi.load_file(xml), spp=1)
+            img = mi.render(mi.load_file(mi_xml), spp=1)
             ref = np.array(img, dtype=np.float64).reshape(-1, 3).mean(0)
         tol = 1e-4 * np.maximum(np.abs(ref), 1e-3)
         # a black reference would prove nothing

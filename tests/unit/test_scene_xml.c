@@ -530,6 +530,18 @@ test_spectra(void **state)
 	    "   <float name=\"value\" value=\"3\"/>\n"
 	    "  </spectrum>\n"
 	    " </emitter>\n"
+	    " <emitter type=\"point\">\n"
+	    "  <spectrum name=\"intensity\" type=\"regular\">\n"
+	    "   <float name=\"wavelength_min\" value=\"400\"/>\n"
+	    "   <float name=\"wavelength_max\" value=\"700\"/>\n"
+	    "   <string name=\"values\" value=\"0.1, 0.9, 0.2, 0.5\"/>\n"
+	    "  </spectrum>\n"
+	    " </emitter>\n"
+	    " <emitter type=\"point\">\n"
+	    "  <spectrum name=\"intensity\" type=\"d65\">\n"
+	    "   <float name=\"scale\" value=\"2\"/>\n"
+	    "  </spectrum>\n"
+	    " </emitter>\n"
 	    "</scene>\n", &s);
 	assert_rgb(shape_bsdf(&s, 0)->diffuse, 0.25, 0.25, 0.25);
 	c = pm_spectrum_to_srgb(wl, v, 4, true, true, NULL);
@@ -547,6 +559,11 @@ test_spectra(void **state)
 	NEAR(s.lights[2].intensity.b, c.b, 1e-6 * c.r);
 	assert_true(c.r > c.g && c.g > c.b);
 	assert_rgb(s.lights[3].intensity, 3, 3, 3);
+	/* regular: the same list as value="400:0.1, ..., 700:0.5" */
+	c = pm_spectrum_to_srgb(wl, v, 4, false, false, NULL);
+	assert_rgb(s.lights[4].intensity, c.r, c.g, c.b);
+	/* d65 in an RGB renderer: white (its colour), times scale */
+	assert_rgb(s.lights[5].intensity, 2, 2, 2);
 	pm_scene_free(&s);
 }
 
@@ -1086,8 +1103,21 @@ test_errors(void **state)
 		    "<spectrum name=\"reflectance\" value=\"400:0.1, 500\"/>"
 		    "</bsdf></shape></scene>", 3, "not a wavelength:value pair"},
 		{HEAD "<emitter type=\"constant\">\n"
-		    "<spectrum name=\"radiance\" type=\"d65\"/>"
-		    "</emitter></scene>", 3, "unknown spectrum type \"d65\""},
+		    "<spectrum name=\"radiance\" type=\"cie\"/>"
+		    "</emitter></scene>", 3, "unknown spectrum type \"cie\""},
+		{HEAD "<emitter type=\"constant\">\n"
+		    "<spectrum name=\"radiance\" type=\"irregular\">"
+		    "<string name=\"wavelengths\" value=\"400 500 600\"/>"
+		    "<string name=\"values\" value=\"1 2\"/></spectrum>"
+		    "</emitter></scene>", 3, "3 wavelengths but 2 values"},
+		{HEAD "<emitter type=\"constant\">\n"
+		    "<spectrum name=\"radiance\" type=\"regular\">"
+		    "<string name=\"values\" value=\"1 x\"/></spectrum>"
+		    "</emitter></scene>", 3, "\"x\" is not a finite number"},
+		{HEAD "<emitter type=\"constant\">\n"
+		    "<spectrum name=\"radiance\" type=\"srgb\"/>"
+		    "</emitter></scene>", 3, "missing required parameter "
+		    "\"color\""},
 		{HEAD "<emitter type=\"constant\">\n"
 		    "<spectrum name=\"radiance\" type=\"blackbody\"/>"
 		    "</emitter></scene>", 3, "missing required parameter "
