@@ -13,17 +13,17 @@ PREFIX  ?= /usr/local
 CC      ?= cc
 OPT     ?= -O2
 CFLAGS  ?= $(OPT) -g
-PKGS     = OpenEXR expat libpng zlib
+PKGS     = OpenEXR expat libpng libjpeg zlib
 PM_CFLAGS = -std=c17 -Wall -Wextra -pthread -D_DEFAULT_SOURCE \
 	$(shell pkg-config --cflags $(PKGS) 2>/dev/null)
 # OpenEXR's pkg-config pulls in the C++ libraries; pm uses only the C core.
-PM_LIBS  = -lembree3 -lOpenEXRCore -lflann $(shell pkg-config --libs expat libpng zlib 2>/dev/null) \
+PM_LIBS  = -lembree3 -lOpenEXRCore -lflann $(shell pkg-config --libs expat libpng libjpeg zlib 2>/dev/null) \
 	-lm -pthread
 TEST_LIBS = $(shell pkg-config --libs cmocka 2>/dev/null || echo -lcmocka)
 
 # Debian packages the build, the demo and the tests need.
 DEBS = build-essential pkg-config libembree-dev libopenexr-dev libexpat1-dev \
-	libpng-dev zlib1g-dev libflann-dev libcmocka-dev mandoc glmark2-data \
+	libpng-dev libjpeg-dev zlib1g-dev libflann-dev libcmocka-dev mandoc glmark2-data \
 	python3 python3-venv libllvm19 clang libclang-rt-14-dev
 # ...and those of the cluster tests (a one-node Slurm, tests/cluster/),
 # which print SKIP without them.
@@ -202,7 +202,12 @@ check-man:
 	@for m in $(MANS); do mandoc -T lint -W warning $$m || exit 1; done; \
 	echo "man pages: $(words $(MANS)) linted clean"
 
-check-mitsuba: $(BINS)
+# pm's bitmap lookups, for tests/mitsuba/texture_lookup.py.
+$(BUILD)/tests/texlookup: tests/mitsuba/texlookup.c $(LIB)
+	@mkdir -p $(dir $@)
+	$(CC) $(PM_CFLAGS) $(CFLAGS) -o $@ tests/mitsuba/texlookup.c $(LIB) $(PM_LIBS)
+
+check-mitsuba: $(BINS) $(BUILD)/tests/texlookup
 	@sh tests/mitsuba/compare.sh
 	@sh tests/mitsuba/emitters.sh
 

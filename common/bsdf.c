@@ -1,16 +1,19 @@
 /*
  * bsdf.c: evaluation, sampling and densities of pm's closed set of
  * materials, each meaning what the Mitsuba 3 plugin of the same name means
- * (diffuse, conductor, roughconductor, dielectric, thindielectric, plastic,
- * null, and the twosided adapter for the non-transmissive ones), in RGB,
+ * (diffuse, conductor, roughconductor, dielectric, thindielectric,
+ * roughdielectric, plastic, roughplastic, null, and the twosided adapter
+ * for the non-transmissive ones), in RGB,
  * and measured MERL BRDFs, whose lookup and sampling live in merl.c.
  *
  * One switch per operation; no allocation; nothing here prints.  The
- * formulas are the textbook ones (Walter et al. 2007 for GGX, Heitz 2014
- * and 2018 for Smith masking and visible-normal sampling, Moeller's
- * "Optics" for the conductor Fresnel term; plastic is a Lambertian base
- * under a smooth dielectric coat, its internal bounces summed in closed
- * form), arranged so that every edge case behaves as Mitsuba 3 does.
+ * formulas are the textbook ones (Walter et al. 2007 for GGX and for rough
+ * dielectrics, Heitz 2014 and 2018 for Smith masking and visible-normal
+ * sampling, Moeller's "Optics" for the conductor Fresnel term; plastic is
+ * a Lambertian base under a smooth dielectric coat, roughplastic under a
+ * rough one with Mitsuba's tables of the coating's transmittance, their
+ * internal bounces summed in closed form), arranged so that every edge
+ * case behaves as Mitsuba 3 does.
  *
  * Departures from Mitsuba, none visible in images: the pdf of a sampled
  * delta component is 1 (bsdf.h's contract) where Mitsuba stores the
@@ -18,7 +21,11 @@
  * when u1 < P rather than u1 <= P, so that one of probability zero is
  * never returned; visible normals are drawn with Heitz's 2018 map rather
  * than the 2014 one Mitsuba uses (the same density, other sample points);
- * and GGX's alpha is clamped to 1e-4, below which float breaks down.
+ * Beckmann's normals are drawn from D(m) cos even with sample_visible,
+ * and roughdielectric without it does not widen alpha for sampling
+ * (other densities, the same integrals); roughplastic's tables are the
+ * same integrals by another quadrature; and alpha is clamped to 1e-4,
+ * below which float breaks down.
  */
 #include <math.h>
 #include <string.h>
@@ -42,7 +49,7 @@ static bool
 is_transmissive(enum pm_bsdf_type t)
 {
 	return t == PM_BSDF_DIELECTRIC || t == PM_BSDF_THINDIELECTRIC ||
-	    t == PM_BSDF_NULL;
+	    t == PM_BSDF_ROUGHDIELECTRIC || t == PM_BSDF_NULL;
 }
 
 /*
@@ -279,6 +286,406 @@ plastic_prob_specular(const struct pm_bsdf *b, float fi)
 	return ps + pd > 0.0f ? ps / (ps + pd) : fi;
 }
 
+/* ---- the microfacet sampler every rough type shares ---- */
+
+/* A microfacet normal for a query from wi_up (above the surface) and its
+ * density: visible normals for GGX with sample_visible, D(m) cos else. */
+static struct pm_vec3
+md_sample(const struct pm_bsdf *b, float alpha, struct pm_vec3 wi_up,
+    float u2, float u3, float *pdf_m)
+{
+	struct pm_vec3 m;
+
+	if (md_visible(b)) {
+		m = ggx_sample_visible(alpha, wi_up, u2, u3);
+		*pdf_m = smith_g1(false, alpha, wi_up, m) *
+		    fmaxf(pm_dot(wi_up, m), 0.0f) * ggx_d(alpha, m) / wi_up.z;
+	} else {
+		m = b->beckmann ? beckmann_sample_all(alpha, u2, u3) :
+		    ggx_sample_all(alpha, u2, u3);
+		*pdf_m = md_d(b, alpha, m) * m.z;
+	}
+	return m;
+}
+
+/* The density md_sample draws m with. */
+static float
+md_pdf(const struct pm_bsdf *b, float alpha, struct pm_vec3 wi_up,
+    struct pm_vec3 m)
+{
+	if (md_visible(b))
+		return smith_g1(false, alpha, wi_up, m) *
+		    fmaxf(pm_dot(wi_up, m), 0.0f) * ggx_d(alpha, m) / wi_up.z;
+	return md_d(b, alpha, m) * m.z;
+}
+
+/* ---- roughdielectric (Walter et al. 2007, as Mitsuba 3 writes it) ---- */
+
+/*
+ * The microfacet normal that takes wi to wo, turned up: the half vector
+ * for a reflection, the generalised one, wi + eta wo, for a refraction
+ * (eta the relative IOR of wo's side over wi's).  False where there is
+ * none: grazing wi, or a pair no facet joins (the facet must face both
+ * directions from their own sides).
+ */
+static bool
+rd_normal(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo,
+    struct pm_vec3 *m, float *eta, bool *reflect, float *den2)
+{
+	double hx, hy, hz, len2, s;
+
+	if (wi.z == 0.0f || wo.z == 0.0f)
+		return false;
+	*reflect = wi.z * wo.z > 0.0f;
+	*eta = *reflect ? 1.0f : wi.z > 0.0f ? b->ior : 1.0f / b->ior;
+	/* in double: across the interface wi and eta wo nearly cancel in
+	 * the tails, and (wi.m + eta wo.m)^2 is this length squared */
+	hx = (double)wi.x + (double)*eta * wo.x;
+	hy = (double)wi.y + (double)*eta * wo.y;
+	hz = (double)wi.z + (double)*eta * wo.z;
+	len2 = hx * hx + hy * hy + hz * hz;
+	if (!(len2 > 0.0))
+		return false;
+	s = (hz < 0.0 ? -1.0 : 1.0) / sqrt(len2);
+	*m = pm_v3((float)(hx * s), (float)(hy * s), (float)(hz * s));
+	*den2 = (float)len2;
+	return pm_dot(wi, *m) * wi.z > 0.0f && pm_dot(wo, *m) * wo.z > 0.0f;
+}
+
+/* |d omega_m / d omega_o|: 1 / (4 wo.m) for a reflection, eta^2 wo.m /
+ * (wi.m + eta wo.m)^2 for a refraction, den2 that square. */
+static float
+rd_jacobian(struct pm_vec3 wo, struct pm_vec3 m, float eta, bool reflect,
+    float den2)
+{
+	float om = fabsf(pm_dot(wo, m));
+
+	if (reflect)
+		return 1.0f / (4.0f * om);
+	return eta * eta * om / den2;
+}
+
+static struct pm_rgb
+eval_roughdielectric(const struct pm_bsdf *b, struct pm_vec3 wi,
+    struct pm_vec3 wo, enum pm_transport mode)
+{
+	float alpha = fmaxf(b->alpha, PM_MIN_ALPHA);
+	struct pm_vec3 m;
+	float eta, d, g, f, im, om, den2, v;
+	bool reflect;
+
+	if (!rd_normal(b, wi, wo, &m, &eta, &reflect, &den2))
+		return pm_rgb1(0.0f);
+	d = md_d(b, alpha, m);
+	if (d == 0.0f)
+		return pm_rgb1(0.0f);
+	im = pm_dot(wi, m);
+	om = pm_dot(wo, m);
+	g = smith_g1(b->beckmann, alpha, wi, m) *
+	    smith_g1(b->beckmann, alpha, wo, m);
+	f = pm_fresnel_dielectric(im, b->ior, NULL);
+	if (reflect)
+		return pm_rgb_scale(b->specular, f * d * g / (4.0f * fabsf(wi.z)));
+	/*
+	 * Walter's BTDF for radiance (eq. 21, with wi on the camera's side)
+	 * times cos_o; importance, its adjoint, carries eta^2 more (Veach
+	 * 1997, sec. 5.2: radiance is compressed by 1/eta^2 on the way in).
+	 */
+	v = (1.0f - f) * d * g * fabsf(im * om / wi.z) / den2;
+	if (mode == PM_IMPORTANCE)
+		v *= eta * eta;
+	return pm_rgb_scale(b->transmittance, v);
+}
+
+static float
+pdf_roughdielectric(const struct pm_bsdf *b, struct pm_vec3 wi,
+    struct pm_vec3 wo)
+{
+	float alpha = fmaxf(b->alpha, PM_MIN_ALPHA);
+	struct pm_vec3 m, wi_up = wi.z < 0.0f ? pm_neg(wi) : wi;
+	float eta, f, den2;
+	bool reflect;
+
+	if (!rd_normal(b, wi, wo, &m, &eta, &reflect, &den2))
+		return 0.0f;
+	f = pm_fresnel_dielectric(pm_dot(wi, m), b->ior, NULL);
+	return md_pdf(b, alpha, wi_up, m) * (reflect ? f : 1.0f - f) *
+	    rd_jacobian(wo, m, eta, reflect, den2);
+}
+
+/* One facet from the distribution seen from wi's side, then reflection
+ * or refraction through it chosen by its Fresnel reflectance. */
+static bool
+sample_roughdielectric(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
+    float u2, float u3, enum pm_transport mode, struct pm_bsdf_sample *s)
+{
+	float alpha = fmaxf(b->alpha, PM_MIN_ALPHA);
+	struct pm_vec3 m, wi_up = wi.z < 0.0f ? pm_neg(wi) : wi;
+	float pdf_m, im, f, cos_t, eta_it, eta_ti, w, pe, den2;
+	bool reflect;
+
+	if (wi.z == 0.0f)
+		return false;
+	m = md_sample(b, alpha, wi_up, u2, u3, &pdf_m);
+	im = pm_dot(wi, m);
+	/* a facet that faces away from wi is not seen from there */
+	if (!(pdf_m > 0.0f) || im * wi.z <= 0.0f)
+		return false;
+	f = pm_fresnel_dielectric(im, b->ior, &cos_t);
+	reflect = u1 < f;
+	if (reflect) {
+		s->wo = pm_sub(pm_scale(m, 2.0f * im), wi);
+		s->weight = b->specular;
+		s->eta = 1.0f;
+		s->lobe = PM_LOBE_GLOSSY;
+		pe = f;
+		eta_it = 1.0f;
+		if (s->wo.z * wi.z <= 0.0f)
+			return false;
+	} else {
+		eta_it = im > 0.0f ? b->ior : 1.0f / b->ior;
+		eta_ti = 1.0f / eta_it;
+		s->wo = pm_add(pm_scale(wi, -eta_ti),
+		    pm_scale(m, eta_ti * im + cos_t));
+		s->weight = b->transmittance;
+		/* radiance is compressed with the solid angle; importance
+		 * is not (as for the smooth dielectric) */
+		if (mode == PM_RADIANCE)
+			s->weight = pm_rgb_scale(s->weight, eta_ti * eta_ti);
+		s->eta = eta_it;
+		s->lobe = PM_LOBE_GLOSSY_TRANSMISSION;
+		pe = 1.0f - f;
+		if (s->wo.z * wi.z >= 0.0f)
+			return false;
+	}
+	s->wo = pm_normalize(s->wo);
+	den2 = pm_dot(wi, m) + eta_it * pm_dot(s->wo, m);
+	s->pdf = pdf_m * pe * rd_jacobian(s->wo, m, eta_it, reflect,
+	    den2 * den2);
+	if (!(s->pdf > 0.0f))
+		return false;
+	/* f |cos_o| / pdf: D and the Fresnel choice cancel */
+	if (md_visible(b))
+		w = smith_g1(false, alpha, s->wo, m);
+	else
+		w = smith_g1(b->beckmann, alpha, wi, m) *
+		    smith_g1(b->beckmann, alpha, s->wo, m) *
+		    fabsf(im / (wi.z * m.z));
+	s->weight = pm_rgb_scale(s->weight, w);
+	return true;
+}
+
+/* ---- roughplastic: a rough dielectric coating over a Lambertian base ---- */
+
+/*
+ * Energy that crosses a rough dielectric interface (relative IOR eta)
+ * from direction wi = (sqrt(1 - mu^2), 0, mu) and is not masked on the
+ * way out, single scattering only: transmit selects refraction (the
+ * coating's transmittance) or reflection (its reflectance).  It is the
+ * integral over visible normals of (1 - F) G1(wo) (or F G1(wo)); taken
+ * here over the normals of D(m) cos, where m = m(u, phi) follows the
+ * distribution's own inversion, by the midpoint rule in (v, phi), u a
+ * function of v (below), with phi over half the circle (the integrand is
+ * even in phi).
+ */
+static double
+rough_interface(const struct pm_bsdf *b, float alpha, float mu, float eta,
+    bool transmit, int nu, int nphi)
+{
+	struct pm_vec3 wi = pm_v3(sqrtf(fmaxf(0.0f, 1.0f - mu * mu)), 0.0f, mu);
+	double sum = 0.0;
+	int i, j;
+
+	for (i = 0; i < nu; i++) {
+		/* u = 1 - (1 - v)^3: the steep facets of the tail are the
+		 * ones a grazing wi sees most, and their weight grows like
+		 * (1 - u)^-1/2 (GGX); the substitution makes it vanish */
+		double v1 = 1.0 - ((double)i + 0.5) / (double)nu;
+		double w = 3.0 * v1 * v1, row = 0.0;
+		double u1 = v1 * v1 * v1;	/* 1 - u */
+		float t2 = (float)(b->beckmann ? -alpha * alpha * log(u1) :
+		    alpha * alpha * (1.0 - u1) / u1);
+
+		for (j = 0; j < nphi; j++) {
+			struct pm_vec3 m = normal_from_tan2(t2,
+			    0.5f * ((float)j + 0.5f) / (float)nphi);
+			struct pm_vec3 wo;
+			float im = pm_dot(wi, m), cos_t, f, g;
+
+			if (im <= 0.0f)
+				continue;
+			f = pm_fresnel_dielectric(im, eta, &cos_t);
+			if (transmit) {
+				wo = pm_add(pm_scale(wi, -1.0f / eta),
+				    pm_scale(m, im / eta + cos_t));
+				if (wo.z >= 0.0f)
+					continue;
+				f = 1.0f - f;
+			} else {
+				wo = pm_sub(pm_scale(m, 2.0f * im), wi);
+				if (wo.z <= 0.0f)
+					continue;
+			}
+			/* visible-normal density over D(m) cos:
+			 * G1(wi) wi.m / (mu m.z) */
+			g = smith_g1(b->beckmann, alpha, wi, m) *
+			    smith_g1(b->beckmann, alpha, wo, m);
+			row += (double)(f * g * im / (mu * m.z));
+		}
+		sum += w * row;
+	}
+	return sum / ((double)nu * nphi);
+}
+
+/*
+ * Roughplastic's tables, as Mitsuba 3 defines them: the coating's
+ * transmittance from outside at PM_ROUGH_T_RES values of cos theta
+ * spaced evenly over [0, 1] (the first at 1e-6), and the internal
+ * diffuse reflectance, twice the mean over the same nodes of the
+ * reflectance from inside (relative IOR 1/eta) times cos theta.  (That
+ * mean is Mitsuba's own rule; it is what its images are made with.)
+ */
+static void
+roughplastic_tables(struct pm_bsdf *b)
+{
+	float alpha = fmaxf(b->alpha, PM_MIN_ALPHA);
+	double sum = 0.0;
+	int i;
+
+	for (i = 0; i < PM_ROUGH_T_RES; i++) {
+		float mu = fmaxf(1e-6f, (float)i / (float)(PM_ROUGH_T_RES - 1));
+
+		b->rough_t[i] = (float)rough_interface(b, alpha, mu, b->ior,
+		    true, 64, 32);
+		sum += rough_interface(b, alpha, mu, 1.0f / b->ior, false,
+		    128, 64) * mu;
+	}
+	b->fdr_int = (float)(2.0 * sum / PM_ROUGH_T_RES);
+}
+
+/* The coating's transmittance at cos theta c, interpolated in the table. */
+static float
+rough_t(const struct pm_bsdf *b, float c)
+{
+	float x = fminf(fmaxf(c, 0.0f), 1.0f) * (float)(PM_ROUGH_T_RES - 1);
+	int i = (int)x;
+
+	if (i > PM_ROUGH_T_RES - 2)
+		i = PM_ROUGH_T_RES - 2;
+	x -= (float)i;
+	return (1.0f - x) * b->rough_t[i] + x * b->rough_t[i + 1];
+}
+
+/* Which of roughplastic's lobes b->only leaves on. */
+static void
+rp_lobes(const struct pm_bsdf *b, bool *spec, bool *diff)
+{
+	*spec = b->only == 0 || (b->only & PM_LOBE_GLOSSY);
+	*diff = b->only == 0 || (b->only & PM_LOBE_DIFFUSE);
+}
+
+/* Probability that roughplastic's sampler picks the coating (Mitsuba's
+ * rule: the coating's reflectance against the base's share, steered by
+ * the mean reflectances). */
+static float
+rp_prob_specular(const struct pm_bsdf *b, float t_i)
+{
+	bool spec, diff;
+	float ps, pd;
+
+	rp_lobes(b, &spec, &diff);
+	if (spec != diff)
+		return spec ? 1.0f : 0.0f;
+	ps = (1.0f - t_i) * b->specular_sampling_weight;
+	pd = t_i * (1.0f - b->specular_sampling_weight);
+	return ps + pd > 0.0f ? ps / (ps + pd) : 0.5f;
+}
+
+static struct pm_rgb
+eval_roughplastic(const struct pm_bsdf *b, struct pm_vec3 wi,
+    struct pm_vec3 wo)
+{
+	float alpha = fmaxf(b->alpha, PM_MIN_ALPHA), s;
+	struct pm_rgb r = pm_rgb1(0.0f), d;
+	struct pm_vec3 h;
+	bool spec, diff;
+
+	if (wi.z <= 0.0f || wo.z <= 0.0f)
+		return r;
+	rp_lobes(b, &spec, &diff);
+	if (spec) {
+		h = pm_normalize(pm_add(wi, wo));
+		s = md_d(b, alpha, h) * smith_g1(b->beckmann, alpha, wi, h) *
+		    smith_g1(b->beckmann, alpha, wo, h) *
+		    pm_fresnel_dielectric(pm_dot(wi, h), b->ior, NULL) /
+		    (4.0f * wi.z);
+		r = pm_rgb_scale(b->specular, s);
+	}
+	if (diff) {
+		d = b->diffuse;
+		/* the light that bounces between base and coating */
+		if (b->nonlinear) {
+			d.r /= 1.0f - d.r * b->fdr_int;
+			d.g /= 1.0f - d.g * b->fdr_int;
+			d.b /= 1.0f - d.b * b->fdr_int;
+		} else
+			d = pm_rgb_scale(d, 1.0f / (1.0f - b->fdr_int));
+		s = rough_t(b, wi.z) * rough_t(b, wo.z) * wo.z * PM_INV_PI /
+		    (b->ior * b->ior);
+		r = pm_rgb_add(r, pm_rgb_scale(d, s));
+	}
+	return r;
+}
+
+static float
+pdf_roughplastic(const struct pm_bsdf *b, struct pm_vec3 wi,
+    struct pm_vec3 wo)
+{
+	float alpha = fmaxf(b->alpha, PM_MIN_ALPHA), ps, p = 0.0f;
+	struct pm_vec3 h;
+
+	if (wi.z <= 0.0f || wo.z <= 0.0f)
+		return 0.0f;
+	ps = rp_prob_specular(b, rough_t(b, wi.z));
+	if (ps > 0.0f) {
+		h = pm_normalize(pm_add(wi, wo));
+		p = ps * md_pdf(b, alpha, wi, h) / (4.0f * pm_dot(wo, h));
+	}
+	return p + (1.0f - ps) * wo.z * PM_INV_PI;
+}
+
+static bool
+sample_roughplastic(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
+    float u2, float u3, struct pm_bsdf_sample *s)
+{
+	float alpha = fmaxf(b->alpha, PM_MIN_ALPHA), ps, pdf_m;
+	struct pm_vec3 m;
+
+	if (wi.z <= 0.0f)
+		return false;
+	ps = rp_prob_specular(b, rough_t(b, wi.z));
+	if (u1 < ps) {
+		m = md_sample(b, alpha, wi, u2, u3, &pdf_m);
+		if (!(pdf_m > 0.0f) || pm_dot(wi, m) <= 0.0f)
+			return false;
+		s->wo = pm_normalize(pm_sub(pm_scale(m, 2.0f * pm_dot(wi, m)),
+		    wi));
+		s->lobe = PM_LOBE_GLOSSY;
+	} else {
+		s->wo = pm_square_to_cosine_hemisphere(u2, u3);
+		s->lobe = PM_LOBE_DIFFUSE;
+	}
+	if (s->wo.z <= 0.0f)
+		return false;
+	s->pdf = pdf_roughplastic(b, wi, s->wo);
+	if (!(s->pdf > 0.0f))
+		return false;
+	s->weight = pm_rgb_scale(eval_roughplastic(b, wi, s->wo),
+	    1.0f / s->pdf);
+	s->eta = 1.0f;
+	return true;
+}
+
 /* Fills derived fields (lobes, plastic's tables); call once after loading. */
 void
 pm_bsdf_prepare(struct pm_bsdf *b)
@@ -317,6 +724,17 @@ pm_bsdf_prepare(struct pm_bsdf *b)
 		/* measured: anything from matte to shiny, never a delta */
 		b->lobes = PM_LOBE_GLOSSY | PM_LOBE_DIFFUSE;
 		break;
+	case PM_BSDF_ROUGHDIELECTRIC:
+		b->lobes = PM_LOBE_GLOSSY | PM_LOBE_GLOSSY_TRANSMISSION;
+		break;
+	case PM_BSDF_ROUGHPLASTIC:
+		b->lobes = PM_LOBE_GLOSSY | PM_LOBE_DIFFUSE;
+		roughplastic_tables(b);
+		dm = pm_rgb_mean(b->diffuse);
+		sm = pm_rgb_mean(b->specular);
+		b->specular_sampling_weight = dm + sm > 0.0f ?
+		    sm / (dm + sm) : 0.5f;
+		break;
 	}
 }
 
@@ -329,8 +747,6 @@ pm_bsdf_eval(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo,
 	struct pm_rgb f;
 	float alpha, d, g, fi, fo;
 
-	/* only refraction depends on the mode, and it is all delta here */
-	(void)mode;
 	if (twosided_flip(b, wi)) {
 		wi.z = -wi.z;
 		wo.z = -wo.z;
@@ -366,6 +782,10 @@ pm_bsdf_eval(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo,
 			break;
 		return pm_rgb_scale(pm_merl_eval(b->merl, wi, wo,
 		    b->merl_flags), wo.z);
+	case PM_BSDF_ROUGHDIELECTRIC:
+		return eval_roughdielectric(b, wi, wo, mode);
+	case PM_BSDF_ROUGHPLASTIC:
+		return eval_roughplastic(b, wi, wo);
 	case PM_BSDF_CONDUCTOR:
 	case PM_BSDF_DIELECTRIC:
 	case PM_BSDF_THINDIELECTRIC:
@@ -412,6 +832,10 @@ pm_bsdf_pdf(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo)
 		if (b->merl == NULL)
 			break;
 		return pm_merl_pdf(b->merl, wi, wo, b->merl_flags);
+	case PM_BSDF_ROUGHDIELECTRIC:
+		return pdf_roughdielectric(b, wi, wo);
+	case PM_BSDF_ROUGHPLASTIC:
+		return pdf_roughplastic(b, wi, wo);
 	case PM_BSDF_CONDUCTOR:
 	case PM_BSDF_DIELECTRIC:
 	case PM_BSDF_THINDIELECTRIC:
@@ -641,6 +1065,12 @@ pm_bsdf_sample(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
 	case PM_BSDF_MERL:
 		ok = sample_merl(b, wi, u1, u2, u3, s);
 		break;
+	case PM_BSDF_ROUGHDIELECTRIC:
+		ok = sample_roughdielectric(b, wi, u1, u2, u3, mode, s);
+		break;
+	case PM_BSDF_ROUGHPLASTIC:
+		ok = sample_roughplastic(b, wi, u1, u2, u3, s);
+		break;
 	}
 	if (ok && flip)
 		s->wo.z = -s->wo.z;
@@ -708,7 +1138,10 @@ pm_ior_lookup(const char *name, float *ior)
  *                   specular_reflectance 1; giving eta/k and a material
  *                   together is an error.
  *   roughconductor: as conductor, plus alpha 0.1, sample_visible true,
- *                   distribution "beckmann" (pm implements "ggx" only).
+ *                   distribution "beckmann" (or "ggx").
+ *   roughdielectric: as dielectric, plus alpha, distribution, sample_visible
+ *                   as roughconductor.
+ *   roughplastic:   as plastic, plus alpha, distribution, sample_visible.
  *   dielectric, thindielectric: int_ior "bk7" (1.5046), ext_ior "air"
  *                   (1.000277), specular_reflectance and
  *                   specular_transmittance 1; b->ior = int_ior / ext_ior.

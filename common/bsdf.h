@@ -31,7 +31,13 @@ enum pm_bsdf_type {
 	PM_BSDF_PLASTIC,
 	PM_BSDF_NULL,		/* invisible to rays: Mitsuba's "null" */
 	PM_BSDF_MERL,		/* a measured BRDF in MERL's layout (merl.h) */
+	PM_BSDF_ROUGHDIELECTRIC,
+	PM_BSDF_ROUGHPLASTIC,
 };
+
+/* Resolution of roughplastic's table of the coating's transmittance over
+ * cos theta (Mitsuba's: 64 nodes, linearly interpolated). */
+#define PM_ROUGH_T_RES 64
 
 struct pm_merl;
 
@@ -56,29 +62,44 @@ struct pm_bsdf {
 	bool twosided;		/* wrapped in Mitsuba's "twosided" */
 	/* diffuse: reflectance; plastic: diffuse_reflectance */
 	struct pm_rgb diffuse;
-	/* conductor, roughconductor, dielectric, plastic: specular_reflectance */
+	/* conductors, dielectrics, plastics: specular_reflectance */
 	struct pm_rgb specular;
-	/* dielectric, thindielectric: specular_transmittance */
+	/* dielectric, thindielectric, roughdielectric: specular_transmittance */
 	struct pm_rgb transmittance;
 	/* conductors: complex index of refraction relative to ext_eta */
 	struct pm_rgb eta, k;
-	/* dielectrics and plastic: int_ior / ext_ior */
+	/* dielectrics and plastics: int_ior / ext_ior */
 	float ior;
-	/* roughconductor: the microfacet alpha (isotropic), GGX or Beckmann */
+	/* rough*: the microfacet alpha (isotropic), GGX or Beckmann */
 	float alpha;
-	bool beckmann;		/* roughconductor: Beckmann's distribution */
-	bool sample_visible;	/* roughconductor: sample visible normals
+	bool beckmann;		/* rough*: Beckmann's distribution */
+	bool sample_visible;	/* rough*: sample visible normals
 				 * (GGX; Beckmann samples D(m) cos) */
-	bool nonlinear;		/* plastic */
-	/* plastic: precomputed internal diffuse Fresnel reflectance and the
-	 * probability of choosing the specular lobe; set by pm_bsdf_prepare */
+	bool nonlinear;		/* plastic, roughplastic */
+	/* plastics: precomputed internal diffuse reflectance of the coating
+	 * and the weight steering samples to the specular lobe; set by
+	 * pm_bsdf_prepare */
 	float fdr_int;
 	float specular_sampling_weight;
+	/* roughplastic: the coating's transmittance from outside at
+	 * cos theta = i / (PM_ROUGH_T_RES - 1); set by pm_bsdf_prepare */
+	float rough_t[PM_ROUGH_T_RES];
 	unsigned lobes;		/* PM_LOBE_* this BSDF can produce */
+	/* If not 0, the only PM_LOBE_* that eval, pdf and sample consider,
+	 * as if the others were not there (Mitsuba's BSDFContext component
+	 * selection); roughplastic honours it.  The photon render uses it
+	 * to estimate the diffuse base and trace the glossy coating apart. */
+	unsigned only;
 	/* merl: the table, owned by the scene and shared by every BSDF that
 	 * names the same file, and PM_MERL_INTERPOLATE, PM_MERL_COSINE */
 	const struct pm_merl *merl;
 	unsigned merl_flags;
+	/* Parameters given as textures: 1 + the index into scene.textures,
+	 * 0 for none (so that a zeroed BSDF has none); pm_bsdf_at
+	 * (texture.h) looks them up at a hit.  tex_diffuse replaces diffuse,
+	 * tex_specular specular, tex_alpha alpha; until then those hold the
+	 * textures' means. */
+	int tex_diffuse, tex_specular, tex_alpha;
 };
 
 struct pm_bsdf_sample {

@@ -11,6 +11,7 @@
 #include <math.h>
 
 #include "integrator.h"
+#include "texture.h"
 
 /* Light arriving at the hit point from one light sample, weighted for MIS. */
 static struct pm_rgb
@@ -50,8 +51,8 @@ pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 	for (depth = 1;; depth++) {
 		struct pm_hit h;
 		bool hit;
-		const struct pm_shape *sh;
 		const struct pm_bsdf *b;
+		struct pm_bsdf bt;	/* b with its textures looked up */
 		struct pm_bsdf_sample bs;
 		struct pm_frame fr;
 		struct pm_vec3 wi_local;
@@ -62,11 +63,10 @@ pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 			    hit ? &h : NULL, pa.d, pa.prev_p, pa.prev_pdf, pa.prev_delta));
 		if (!hit)
 			break;
-		sh = &s->shapes[h.shape];
 		if (ctx->max_depth >= 0 && depth >= ctx->max_depth)
 			break;
 
-		b = &s->bsdfs[sh->bsdf];
+		b = pm_bsdf_at(s, &h, &bt);
 		fr = pm_frame_from_normal(h.ns);
 		wi_local = pm_to_local(fr, pm_neg(pa.d));
 		if (!pm_bsdf_is_delta(b))

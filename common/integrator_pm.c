@@ -9,9 +9,15 @@
  *     followed every time, weighted by its Fresnel reflectance, beside the
  *     estimates of its diffuse base (choosing it with probability P would
  *     turn the light's reflection in it into noise);
- *   - glossy surfaces (rough conductors, shiny measured BRDFs) are path
- *     traced: light sampling and BSDF sampling with multiple importance
- *     sampling;
+ *   - glossy surfaces (rough conductors, rough dielectrics, shiny
+ *     measured BRDFs) are path traced: light sampling and BSDF sampling
+ *     with multiple importance sampling; roughplastic's rough coating is
+ *     traced the same way, every time, beside the estimates of its
+ *     diffuse base (as plastic's smooth coating is followed);
+ *   - rough dielectrics hold no photons: pm-shoot passes photons through
+ *     them as through glass, into the caustic map, so light through
+ *     frosted glass reaches diffuse surfaces as caustics; gather rays
+ *     follow them by sampling;
  *   - at a diffuse surface the path ends with four estimates:
  *       direct light, exactly, from `direct_samples` light samples;
  *       caustics (light, specular+, here) from the caustic map with a cone
@@ -19,7 +25,9 @@
  *       the rest of the indirect light, either from the global map's
  *       photons that had a non-specular bounce before arriving (so neither
  *       direct light nor caustics count twice), or by final gathering:
- *       BSDF-sampled rays whose hits are looked up in the whole global map.
+ *       BSDF-sampled rays that end in the irradiance records (or the
+ *       whole global map) at the first surface that holds photons, and
+ *       path trace the glossy lobes they meet on the way.
  *
  * Radiance estimate: the k nearest photons within the maximum radius, each
  * weighted by the BSDF for its incident direction, over the disc area
@@ -39,24 +47,43 @@
 #include "irradiance.h"
 #include "kdtree.h"
 #include "merl.h"
+#include "texture.h"
 
 #define CONE_K 1.1f
 
+/* Surfaces that hold photons (pm-shoot's rule): a rough dielectric holds
+ * none, since light crosses it as it crosses glass (photons pass through
+ * into the caustic map), so gather rays follow it as they follow glass. */
 static bool
 has_nonspecular(const struct pm_bsdf *b)
 {
-	return b->type != PM_BSDF_NULL &&
+	return b->type != PM_BSDF_NULL && b->type != PM_BSDF_ROUGHDIELECTRIC &&
 	    (b->lobes & (PM_LOBE_DIFFUSE | PM_LOBE_GLOSSY | PM_LOBE_GLOSSY_TRANSMISSION));
 }
 
-/* Rough conductors, and measured materials with a peak (merl.c decides),
- * are traced rather than estimated: photon density estimates blur glossy
- * reflections beyond use.  Matte measured materials use the maps. */
+/* Rough conductors and dielectrics, and measured materials with a peak
+ * (merl.c decides), are traced rather than estimated: photon density
+ * estimates blur glossy reflections beyond use.  Matte measured
+ * materials use the maps.  (Roughplastic is split: its base uses the
+ * maps, its coating is traced; see pm_photon_li_px.) */
 static bool
 is_glossy(const struct pm_bsdf *b)
 {
 	return b->type == PM_BSDF_ROUGHCONDUCTOR ||
+	    b->type == PM_BSDF_ROUGHDIELECTRIC ||
 	    (b->type == PM_BSDF_MERL && b->merl != NULL && b->merl->glossy);
+}
+
+/* Roughplastic's diffuse base alone, or its rough coating alone, as a
+ * BSDF of their own (a copy with `only` set); other types as they are. */
+static const struct pm_bsdf *
+split_lobe(const struct pm_bsdf *b, unsigned lobe, struct pm_bsdf *tmp)
+{
+	if (b->type != PM_BSDF_ROUGHPLASTIC)
+		return b;
+	*tmp = *b;
+	tmp->only = lobe;
+	return tmp;
 }
 
 /* The shading normal turned to the side a ray of direction d arrives
@@ -70,6 +97,8 @@ side_normal(const struct pm_hit *h, struct pm_vec3 d)
 
 /* The photon's contribution before the density division: BSDF for its
  * incident direction over the cosine, times its power; false for none,
+ * for photons of more than max_depth bounces (a negative max_depth: no
+ * limit, as pm-render's gather_max_depth says for unlimited depth),
  * and for photons on a surface of another orientation (the other side of
  * a wall, a surface meeting this one at a corner): they never reach here. */
 static inline bool
@@ -80,7 +109,7 @@ photon_term(const struct pm_photon *x, const struct pm_bsdf *b,
 	struct pm_vec3 wo;
 	struct pm_rgb f;
 
-	if (x->depth > max_depth ||
+	if ((max_depth >= 0 && x->depth > max_depth) ||
 	    pm_dot(pm_dir_unpack(x->normal), nrm) <= PM_IRR_COS)
 		return false;
 	wo = pm_to_local(fr, pm_dir_unpack(x->dir));
@@ -226,15 +255,41 @@ direct_light(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 	return pm_rgb_scale(L, 1.0f / (float)n);
 }
 
+/* Irradiance at p (normal nrm) from the nearest compatible record, or
+ * estimated there from the global map where no record is near (rare:
+ * small or thin features between records). */
+static struct pm_rgb
+records_irradiance(const struct pm_photon_maps *m, struct pm_vec3 p,
+    struct pm_vec3 nrm)
+{
+	struct pm_irradiance_opts io = {
+		.stride = 1, .k = m->lookup_size, .max_r2 = m->global_r2,
+		.fixed_radius = m->fixed_radius,
+		.max_depth = m->gather_max_depth, .threads = 1,
+	};
+	struct pm_rgb E;
+
+	if (pm_irradiance_lookup(m->irradiance_grid, p, nrm, &E))
+		return E;
+	return pm_irradiance_estimate(m->global, m->nglobal, m->global_scale, p,
+	    nrm, &io);
+}
+
 /*
- * Radiance leaving the first non-specular surface along a gather ray;
- * specular surfaces on the way are followed.  With irradiance records
- * the surface's radiance is its reflectance times E / pi, E from the
- * nearest record of compatible normal (exact for a Lambertian surface
- * under any light; for plastic and measured BRDFs, one BSDF sample
- * weighs E / pi, which is exact when the light arriving there is
- * uniform, and a sample of a specular coating goes on as a gather ray).
- * Without records, the whole global map is looked up there.
+ * Radiance arriving along a gather ray: from the first surface that holds
+ * photons, specular surfaces on the way followed.  With irradiance
+ * records the surface's radiance is its reflectance times E / pi, E from
+ * the nearest record of compatible normal (exact for a Lambertian surface
+ * under any light; for plastic and matte measured BRDFs, one BSDF sample
+ * weighs E / pi, which is exact when the light arriving there is uniform,
+ * and a sample of a specular coating goes on as a gather ray).  Glossy
+ * lobes (rough conductors, shiny measured BRDFs, roughplastic's coating)
+ * reflect the light around them as unevenly as it arrives (a rough coat
+ * mirrors the lamp), which E / pi cannot stand for: the gather ray path
+ * traces them as camera paths do, a light sample with multiple importance
+ * sampling and a BSDF sample that goes on, counting the emitters it meets
+ * (roughplastic's base still takes E / pi).  Without records, the whole
+ * global map is looked up at the first surface that holds photons.
  */
 struct pm_rgb
 pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
@@ -242,7 +297,11 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 {
 	const struct pm_photon_maps *m = ctx->maps;
 	const struct pm_scene *s = ctx->scene;
-	struct pm_rgb beta = pm_rgb1(1.0f);
+	struct pm_rgb beta = pm_rgb1(1.0f), L = pm_rgb1(0.0f);
+	struct pm_bsdf glossy_tmp, base_tmp;
+	struct pm_vec3 prev_p = o;
+	float prev_pdf = 0.0f;
+	bool traced = false, prev_delta = false;
 	int bounce;
 
 	if (t != NULL)
@@ -250,52 +309,74 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 	for (bounce = 0; bounce < 16; bounce++) {
 		struct pm_hit h;
 		const struct pm_bsdf *b;
+		struct pm_bsdf bt;	/* b with its textures looked up */
 		struct pm_frame fr;
 		struct pm_vec3 wi, nrm;
 		struct pm_bsdf_sample bs;
+		bool hit;
 		float u1, u2, u3;
 
-		if (!pm_accel_intersect(ctx->accel, o, d, 0.0f, INFINITY, &h))
+		hit = pm_accel_intersect(ctx->accel, o, d, 0.0f, INFINITY, &h);
+		/* light met after a glossy bounce: the light sample there
+		 * took the rest of it (MIS) */
+		if (traced)
+			L = pm_rgb_madd(L, beta, pm_lights_emitted(ctx->lights, s,
+			    hit ? &h : NULL, d, prev_p, prev_pdf, prev_delta));
+		if (!hit)
 			break;
 		if (t != NULL && bounce == 0)
 			*t = h.t;
-		b = &s->bsdfs[s->shapes[h.shape].bsdf];
+		b = pm_bsdf_at(s, &h, &bt);
 		fr = pm_frame_from_normal(h.ns);
 		wi = pm_to_local(fr, pm_neg(d));
 		nrm = side_normal(&h, d);
 		if (has_nonspecular(b) && m->irradiance_grid == NULL)
-			return pm_rgb_mul(beta, estimate(m->global, m->nglobal,
+			return pm_rgb_madd(L, beta, estimate(m->global, m->nglobal,
 			    m->global_scale, m->global_r2, m->lookup_size, m->fixed_radius,
 			    0, 0, false, b, h.p, nrm, m->gather_max_depth, fr, wi));
+		if (has_nonspecular(b) && (is_glossy(b) ||
+		    b->type == PM_BSDF_ROUGHPLASTIC)) {
+			const struct pm_bsdf *bg = split_lobe(b, PM_LOBE_GLOSSY,
+			    &glossy_tmp);
+
+			if (b->type == PM_BSDF_ROUGHPLASTIC) {
+				const struct pm_bsdf *bb = split_lobe(b,
+				    PM_LOBE_DIFFUSE, &base_tmp);
+
+				u1 = pm_rng_float(rng);
+				u2 = pm_rng_float(rng);
+				u3 = pm_rng_float(rng);
+				if (pm_bsdf_sample(bb, wi, u1, u2, u3, PM_RADIANCE,
+				    &bs))
+					L = pm_rgb_madd(L, pm_rgb_mul(beta,
+					    bs.weight), pm_rgb_scale(records_irradiance(m,
+					    h.p, nrm), 1.0f / PM_PI));
+			}
+			L = pm_rgb_madd(L, beta, direct_light(ctx, bg, &h, fr, wi,
+			    1, true, NULL, rng));
+			b = bg;
+		}
 		u1 = pm_rng_float(rng);
 		u2 = pm_rng_float(rng);
 		u3 = pm_rng_float(rng);
 		if (!pm_bsdf_sample(b, wi, u1, u2, u3, PM_RADIANCE, &bs))
 			break;
 		beta = pm_rgb_mul(beta, bs.weight);
-		if (!(bs.lobe & PM_LOBE_DELTA)) {
-			struct pm_rgb E;
-
-			if (!pm_irradiance_lookup(m->irradiance_grid, h.p, nrm, &E)) {
-				/* No record near: estimate here (rare: small or
-				 * thin features between records). */
-				struct pm_irradiance_opts io = {
-					.stride = 1, .k = m->lookup_size,
-					.max_r2 = m->global_r2,
-					.fixed_radius = m->fixed_radius,
-					.max_depth = m->gather_max_depth,
-					.threads = 1,
-				};
-
-				E = pm_irradiance_estimate(m->global, m->nglobal,
-				    m->global_scale, h.p, nrm, &io);
-			}
-			return pm_rgb_mul(beta, pm_rgb_scale(E, 1.0f / PM_PI));
-		}
+		if (!(bs.lobe & PM_LOBE_DELTA) && has_nonspecular(b) &&
+		    !is_glossy(b) && b->type != PM_BSDF_ROUGHPLASTIC)
+			return pm_rgb_madd(L, beta, pm_rgb_scale(records_irradiance(m,
+			    h.p, nrm), 1.0f / PM_PI));
+		if (!(bs.lobe & PM_LOBE_DELTA) && has_nonspecular(b))
+			traced = true;
+		prev_p = h.p;
+		prev_pdf = bs.pdf;
+		/* no light sample was taken at glass, clear or rough: what
+		 * it lets through counts in full */
+		prev_delta = (bs.lobe & PM_LOBE_DELTA) || !has_nonspecular(b);
 		d = pm_normalize(pm_to_world(fr, bs.wo));
 		o = pm_hit_origin(&h, d);
 	}
-	return pm_rgb1(0.0f);
+	return L;
 }
 
 /* Indirect light at a diffuse hit by final gathering: BSDF-sampled rays;
@@ -375,8 +456,8 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 	for (depth = 1;; depth++) {
 		struct pm_hit h;
 		bool hit;
-		const struct pm_shape *sh;
 		const struct pm_bsdf *b;
+		struct pm_bsdf bt;	/* b with its textures looked up */
 		struct pm_bsdf_sample bs;
 		struct pm_frame fr;
 		struct pm_vec3 wi;
@@ -388,10 +469,9 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			    hit ? &h : NULL, pa.d, pa.prev_p, pa.prev_pdf, pa.prev_delta));
 		if (!hit)
 			break;
-		sh = &s->shapes[h.shape];
 		if (ctx->max_depth >= 0 && depth >= ctx->max_depth)
 			break;
-		b = &s->bsdfs[sh->bsdf];
+		b = pm_bsdf_at(s, &h, &bt);
 		fr = pm_frame_from_normal(h.ns);
 		wi = pm_to_local(fr, pm_neg(pa.d));
 
@@ -401,7 +481,12 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			    1, true, lu, rng));
 			lu = NULL;
 		} else if (has_nonspecular(b)) {
-			struct pm_rgb E = direct_light(ctx, b, &h, fr, wi,
+			/* roughplastic: its diffuse base here, its coating
+			 * below */
+			struct pm_bsdf base_tmp;
+			const struct pm_bsdf *bb = split_lobe(b,
+			    PM_LOBE_DIFFUSE, &base_tmp);
+			struct pm_rgb E = direct_light(ctx, bb, &h, fr, wi,
 			    m->direct_samples, false, lu, rng);
 
 			lu = NULL;
@@ -415,7 +500,7 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			E = pm_rgb_add(E, estimate(m->caustic, m->ncaustic,
 			    m->caustic_scale, m->caustic_r2, m->lookup_size,
 			    m->fixed_radius, 0, 0, true,
-			    b, h.p, nrm, dcap, fr, wi));
+			    bb, h.p, nrm, dcap, fr, wi));
 			/* A gather ray adds a segment and its surface's
 			 * photons at least one more. */
 			bool gather_fits = ctx->max_depth < 0 ||
@@ -423,19 +508,35 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 
 			if (m->final_gather) {
 				if (gather_fits)
-					E = pm_rgb_add(E, indirect(ctx, b, &h, fr,
+					E = pm_rgb_add(E, indirect(ctx, bb, &h, fr,
 					    wi, nrm, depth, fx, fy, rng));
 			} else
 				E = pm_rgb_add(E, estimate(m->global, m->nglobal,
 				    m->global_scale, m->global_r2, m->lookup_size,
 				    m->fixed_radius, PM_PHOTON_VIA_DIFFUSE, PM_PHOTON_VIA_DIFFUSE, false,
-				    b, h.p, nrm, dcap, fr, wi));
+				    bb, h.p, nrm, dcap, fr, wi));
 			L = pm_rgb_madd(L, pa.beta, E);
-			if (!(b->lobes & PM_LOBE_DELTA))
+			if (!(b->lobes & (PM_LOBE_DELTA | PM_LOBE_GLOSSY)))
 				break;
 		}
 
-		if (!is_glossy(b) && has_nonspecular(b)) {
+		if (b->type == PM_BSDF_ROUGHPLASTIC) {
+			/* A diffuse base with a rough coating: the base is
+			 * estimated above, the coating path traced as a rough
+			 * conductor is (light sampling with MIS here, then
+			 * a sample of the coating alone), every time. */
+			struct pm_bsdf coat_tmp;
+			const struct pm_bsdf *bc = split_lobe(b,
+			    PM_LOBE_GLOSSY, &coat_tmp);
+
+			L = pm_rgb_madd(L, pa.beta, direct_light(ctx, bc, &h, fr,
+			    wi, 1, true, NULL, rng));
+			u1 = pm_rng_float(rng);
+			u2 = pm_rng_float(rng);
+			u3 = pm_rng_float(rng);
+			if (!pm_bsdf_sample(bc, wi, u1, u2, u3, PM_RADIANCE, &bs))
+				break;
+		} else if (!is_glossy(b) && has_nonspecular(b)) {
 			/* A diffuse base with a smooth coating: the base is
 			 * estimated above, the coating followed every time
 			 * (one path, so no splitting blow-up). */

@@ -146,19 +146,6 @@ pm_mesh_validate(struct pm_mesh *m, uint32_t *dropped, struct pm_error *err)
 	return PM_OK;
 }
 
-/* Angle between two vectors, stable for small and large angles alike. */
-static double
-angle_between(const double a[3], const double b[3])
-{
-	double c[3], d;
-
-	c[0] = a[1] * b[2] - a[2] * b[1];
-	c[1] = a[2] * b[0] - a[0] * b[2];
-	c[2] = a[0] * b[1] - a[1] * b[0];
-	d = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-	return atan2(sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]), d);
-}
-
 /*
  * Angle-weighted vertex normals (Thuermer and Wuethrich 1998): each face
  * adds its unit normal times the angle it spans at the vertex, so that the
@@ -188,7 +175,7 @@ pm_mesh_compute_normals(struct pm_mesh *m, struct pm_error *err)
 
 	for (t = 0; t < m->ntris; t++) {
 		const uint32_t *tri = m->idx + 3 * t;
-		double c[3], len;
+		double c[3], len, angle[3];
 
 		if (tri[0] >= m->nverts || tri[1] >= m->nverts ||
 		    tri[2] >= m->nverts) {
@@ -202,20 +189,30 @@ pm_mesh_compute_normals(struct pm_mesh *m, struct pm_error *err)
 		len = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
 		if (!(len > 0.0) || !isfinite(len))
 			continue;
+		/*
+		 * The cross product of a corner's two edges is the face's
+		 * at every corner, so a corner's angle is atan2(len, the
+		 * edges' dot product), stable for small and large angles
+		 * alike; the three sum to pi, which saves the last atan2.
+		 */
 		for (k = 0; k < 3; k++) {
 			const float *p = m->pos + 3 * (size_t)tri[k];
 			const float *q = m->pos + 3 * (size_t)tri[(k + 1) % 3];
 			const float *r = m->pos + 3 * (size_t)tri[(k + 2) % 3];
-			double e1[3], e2[3], w;
+			double d = 0.0;
 			int j;
 
-			for (j = 0; j < 3; j++) {
-				e1[j] = (double)q[j] - p[j];
-				e2[j] = (double)r[j] - p[j];
+			if (k < 2) {
+				for (j = 0; j < 3; j++)
+					d += ((double)q[j] - p[j]) *
+					    ((double)r[j] - p[j]);
+				angle[k] = atan2(len, d);
+			} else {
+				angle[2] = fmax(M_PI - angle[0] - angle[1], 0.0);
 			}
-			w = angle_between(e1, e2) / len;
 			for (j = 0; j < 3; j++)
-				acc[3 * (size_t)tri[k] + j] += c[j] * w;
+				acc[3 * (size_t)tri[k] + j] += c[j] *
+				    (angle[k] / len);
 		}
 	}
 
@@ -340,8 +337,19 @@ pm_mesh_rectangle(struct pm_mesh *m, struct pm_error *err)
 
 /*
  * Cube [-1,1]^3: four vertices per face so that each face keeps its own
- * flat normal and maps onto [0,1]^2 in uv, as Mitsuba's cube does.
+ * flat normal and maps onto [0,1]^2 in uv, oriented on each face as
+ * Mitsuba 3's cube is (its vertex table, read back through Mitsuba's
+ * Python API): u = (su p[iu] + 1) / 2, v = (sv p[iv] + 1) / 2 with, per
+ * face -x, +x, -y, +y, -z, +z, the axes and signs below.
  */
+static const struct {
+	int iu, su, iv, sv;
+} cube_uv[6] = {
+	{1, 1, 2, 1}, {1, 1, 2, -1},	/* x faces: listed -, + */
+	{2, 1, 0, 1}, {0, -1, 2, -1},	/* y */
+	{1, -1, 0, 1}, {1, 1, 0, 1},	/* z */
+};
+
 enum pm_err
 pm_mesh_cube(struct pm_mesh *m, struct pm_error *err)
 {
@@ -373,10 +381,12 @@ pm_mesh_cube(struct pm_mesh *m, struct pm_error *err)
 			p[axis] = sign;
 			p[(axis + 1) % 3] = s;
 			p[(axis + 2) % 3] = t;
+			int f = 2 * axis + (sign > 0.0f);
+
 			set_vertex(m, base + (uint32_t)c, pm_v3(p[0], p[1], p[2]),
 			    pm_v3(n[0], n[1], n[2]),
-			    (corner[c][0] + 1.0f) * 0.5f,
-			    (corner[c][1] + 1.0f) * 0.5f);
+			    ((float)cube_uv[f].su * p[cube_uv[f].iu] + 1.0f) * 0.5f,
+			    ((float)cube_uv[f].sv * p[cube_uv[f].iv] + 1.0f) * 0.5f);
 		}
 		set_tri(m, 2 * (uint32_t)face, base, base + 1, base + 2);
 		set_tri(m, 2 * (uint32_t)face + 1, base + 2, base + 3, base);

@@ -12,6 +12,7 @@
 
 #include "merl.h"
 #include "scene.h"
+#include "texture.h"
 
 /* Mitsuba's perspective camera defaults to a 50 mm lens on 36 x 24 mm film,
  * that is a diagonal field of view of 2 atan(sqrt(36^2 + 24^2) / 100). */
@@ -40,8 +41,8 @@ pm_scene_init(struct pm_scene *s)
 	s->integrator.max_depth = -1;
 	s->integrator.rr_depth = 5;
 	s->integrator.hide_emitters = false;
-	s->integrator.photon.global_photons = 100000;
-	s->integrator.photon.caustic_photons = 100000;
+	s->integrator.photon.global_photons = -1;	/* pm-shoot decides */
+	s->integrator.photon.caustic_photons = -1;
 	s->integrator.photon.global_lookup_radius = 0.05f;
 	s->integrator.photon.caustic_lookup_radius = 0.0125f;
 	s->integrator.photon.lookup_size = 120;
@@ -69,6 +70,9 @@ pm_scene_free(struct pm_scene *s)
 	for (i = 0; i < s->nmerls; i++)
 		pm_merl_free(s->merls[i]);
 	free(s->merls);
+	for (i = 0; i < s->ntextures; i++)
+		pm_texture_free(&s->textures[i]);
+	free(s->textures);
 	free(s->path);
 	memset(s, 0, sizeof(*s));
 	s->env_light = -1;
@@ -145,6 +149,16 @@ pm_scene_add_merl(struct pm_scene *s, struct pm_merl *m)
 	return (int)s->nmerls++;
 }
 
+/* Takes ownership of a texture's texels; its index, or -1. */
+int
+pm_scene_add_texture(struct pm_scene *s, const struct pm_texture *t)
+{
+	if (grow((void **)&s->textures, s->ntextures, sizeof(*s->textures)) < 0)
+		return -1;
+	s->textures[s->ntextures] = *t;
+	return (int)s->ntextures++;
+}
+
 /*
  * The sphere around the bounding box of what the ray caster sees: the
  * vertices of the meshes' triangles (not unused vertices) and the
@@ -201,8 +215,17 @@ pm_scene_prepare(struct pm_scene *s, struct pm_error *err)
 	const double pi = 3.14159265358979323846;
 	size_t i;
 
-	for (i = 0; i < s->nbsdfs; i++)
+	for (i = 0; i < s->nbsdfs; i++) {
+		const struct pm_bsdf *b = &s->bsdfs[i];
+		size_t nt = s->ntextures;
+
+		if (b->tex_diffuse < 0 || (size_t)b->tex_diffuse > nt ||
+		    b->tex_specular < 0 || (size_t)b->tex_specular > nt ||
+		    b->tex_alpha < 0 || (size_t)b->tex_alpha > nt)
+			return pm_fail(err, PM_ERR_INVALID, "BSDF %zu: texture "
+			    "index out of range (%zu textures)", i, nt);
 		pm_bsdf_prepare(&s->bsdfs[i]);
+	}
 	scene_bsphere(s);
 
 	for (i = 0; i < s->nshapes; i++) {

@@ -18,6 +18,8 @@
 #include "transform.h"
 #include "vec.h"
 
+struct pm_texture;
+
 enum pm_shape_type {
 	PM_SHAPE_MESH,		/* obj, ply, rectangle, cube, disk */
 	PM_SHAPE_SPHERE,
@@ -28,6 +30,9 @@ struct pm_shape {
 	struct pm_mesh mesh;		/* PM_SHAPE_MESH, world space */
 	struct pm_vec3 center;		/* PM_SHAPE_SPHERE */
 	float radius;
+	struct pm_frame axes;		/* sphere: its object x, y, z axes in
+					 * world space, for uv; all zero: the
+					 * world's */
 	bool flip_normals;		/* spheres: normals point inwards */
 	int bsdf;			/* index into scene.bsdfs */
 	int light;			/* index into scene.lights, or -1 */
@@ -97,9 +102,10 @@ enum pm_integrator_type {
  * photon tools use them, the path tracer ignores them.
  */
 struct pm_photon_params {
-	long global_photons;		/* globalPhotons, 100000 (Mitsuba 0.6:
-				 * 250000): photon paths emitted */
-	long caustic_photons;		/* causticPhotons, 100000 (250000) */
+	long global_photons;		/* globalPhotons, 250000 as in Mitsuba
+				 * 0.6: photon paths emitted; -1 (no
+				 * photonmapper): pm_shoot_default_paths */
+	long caustic_photons;		/* causticPhotons, likewise */
 	float global_lookup_radius;	/* globalLookupRadius, 0.05: a fraction */
 	float caustic_lookup_radius;	/* causticLookupRadius, 0.0125: of the
 					 * scene's bounding-sphere radius */
@@ -140,6 +146,10 @@ struct pm_scene {
 	 * freed with the scene. */
 	struct pm_merl **merls;
 	size_t nmerls;
+	/* Textures that BSDFs name by index (texture.h); their texels are
+	 * freed with the scene. */
+	struct pm_texture *textures;
+	size_t ntextures;
 	/* Filled by pm_scene_prepare: the sphere around the geometry's
 	 * bounding box, computed here once for everything that needs the
 	 * scene's extent (the environment's power and its photons' disk,
@@ -160,6 +170,9 @@ int pm_scene_add_light(struct pm_scene *s);
 /* Hands the scene a MERL table to own; its index, or -1 when out of
  * memory (m is then still the caller's). */
 int pm_scene_add_merl(struct pm_scene *s, struct pm_merl *m);
+/* Appends a copy of *t, whose texels the scene then owns; its index, or
+ * -1 when out of memory (t is then still the caller's). */
+int pm_scene_add_texture(struct pm_scene *s, const struct pm_texture *t);
 
 /*
  * After loading: prepares BSDFs, computes the bounding sphere, light areas

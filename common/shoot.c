@@ -10,6 +10,9 @@
  * weight as survival probability keeps surviving photons' flux similar
  * (Jensen 2004, sec. 5.3).
  *
+ * Rough dielectrics count as specular here: photons are not stored on
+ * them and cross them on caustic paths (the camera pass traces them).
+ *
  * Caustic pass: photons are aimed at the bounding spheres of the specular
  * shapes, the direction drawn from the mixture of the cones they subtend
  * (lights far away, the environment and directional lights: the origin
@@ -28,16 +31,19 @@
 #include "rng.h"
 #include "sampling.h"
 #include "shoot.h"
+#include "texture.h"
 
 /* A photon stuck between mirrors, or inside glass by total internal
  * reflection, stops here even when the depth is unlimited. */
 #define HARD_MAX_BOUNCES 1000
 #define CHUNK 2048
 
+/* Surfaces that hold photons.  Not a rough dielectric: light crosses it as
+ * it crosses glass, and it passes photons on as glass does (below). */
 static bool
 bsdf_has_nonspecular(const struct pm_bsdf *b)
 {
-	return b->type != PM_BSDF_NULL &&
+	return b->type != PM_BSDF_NULL && b->type != PM_BSDF_ROUGHDIELECTRIC &&
 	    (b->lobes & (PM_LOBE_DIFFUSE | PM_LOBE_GLOSSY | PM_LOBE_GLOSSY_TRANSMISSION));
 }
 
@@ -52,10 +58,23 @@ bsdf_reflects(const struct pm_bsdf *b)
 	    pm_rgb1(0) : b->specular)) > 0.0f;
 }
 
+/* Surfaces that make caustics: a delta component, or a rough dielectric,
+ * whose every scattering keeps a photon on a caustic path (frosted glass
+ * focuses light less sharply than clear glass, but the camera pass can
+ * only see light through it in the caustic map: it traces the glass and
+ * estimates the diffuse surface behind). */
 static bool
 bsdf_has_specular(const struct pm_bsdf *b)
 {
-	return b->type != PM_BSDF_NULL && (b->lobes & PM_LOBE_DELTA);
+	return b->type != PM_BSDF_NULL && ((b->lobes & PM_LOBE_DELTA) ||
+	    b->type == PM_BSDF_ROUGHDIELECTRIC);
+}
+
+/* Whether a sampled event keeps a photon's path specular. */
+static bool
+event_specular(const struct pm_bsdf *b, const struct pm_bsdf_sample *bs)
+{
+	return (bs->lobe & PM_LOBE_DELTA) || b->type == PM_BSDF_ROUGHDIELECTRIC;
 }
 
 void
@@ -72,7 +91,9 @@ pm_shoot_effects(const struct pm_scene *s, struct pm_effects *e)
 			nrefl++;
 		if (bsdf_has_specular(b))
 			nspec++;
-		if (b->type == PM_BSDF_DIELECTRIC || b->type == PM_BSDF_THINDIELECTRIC)
+		if (b->type == PM_BSDF_DIELECTRIC ||
+		    b->type == PM_BSDF_THINDIELECTRIC ||
+		    b->type == PM_BSDF_ROUGHDIELECTRIC)
 			nrefr++;
 	}
 	e->nspecular = nspec;
@@ -94,6 +115,31 @@ pm_shoot_effects(const struct pm_scene *s, struct pm_effects *e)
 	no[2].name = "refraction";
 	snprintf(no[2].text, sizeof(no[2].text), "%s (%d dielectric shape%s)",
 	    e->refraction ? "yes" : "no", nrefr, nrefr == 1 ? "" : "s");
+}
+
+/*
+ * The time a photon map saves is spent again rendering with it, so the
+ * count that gives the least error in a given time grows with the render:
+ * on data/cornell-box.xml and data/bunny.xml at 128x128 from 2 to 256
+ * samples per pixel, the error per second was best with about one photon
+ * path per ten camera samples (docs/accuracy.md); below 10000 paths the
+ * irradiance records' noise shows even at one sample per pixel, and above
+ * a million the map costs more to shoot and balance than it saves.
+ */
+long long
+pm_shoot_default_paths(const struct pm_scene *s)
+{
+	double n;
+
+	if (!s->has_camera)
+		return PM_PATHS_NO_CAMERA;
+	n = (double)s->camera.width * s->camera.height * s->camera.spp /
+	    PM_SAMPLES_PER_PATH;
+	if (n < PM_PATHS_MIN)
+		return PM_PATHS_MIN;
+	if (n > PM_PATHS_MAX)
+		return PM_PATHS_MAX;
+	return (long long)(n + 0.5);
 }
 
 void
@@ -443,6 +489,7 @@ trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 	for (depth = 0;; depth++) {
 		struct pm_hit h;
 		const struct pm_bsdf *b;
+		struct pm_bsdf bt;	/* b with its textures looked up */
 		struct pm_frame fr;
 		struct pm_vec3 wi_local;
 		struct pm_bsdf_sample bs;
@@ -450,7 +497,7 @@ trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 
 		if (!pm_accel_intersect(sh->accel, o, d, 0.0f, INFINITY, &h))
 			break;
-		b = &s->bsdfs[s->shapes[h.shape].bsdf];
+		b = pm_bsdf_at(s, &h, &bt);
 		if (depth == 0 && bsdf_has_specular(b))
 			co->paths_specular++;
 		if (bsdf_has_nonspecular(b) &&
@@ -491,7 +538,7 @@ trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 		u3 = pm_rng_float(&rng);
 		if (!pm_bsdf_sample(b, wi_local, u1, u2, u3, PM_IMPORTANCE, &bs))
 			break;
-		if (opts->pass == PM_PASS_CAUSTIC && !(bs.lobe & PM_LOBE_DELTA))
+		if (opts->pass == PM_PASS_CAUSTIC && !event_specular(b, &bs))
 			break;
 		/* Russian roulette: survive with the probability the surface
 		 * scatters this photon, so survivors keep their flux. */
@@ -499,7 +546,7 @@ trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 		if (!(q > 0.0f) || pm_rng_float(&rng) >= q)
 			break;
 		flux = pm_rgb_scale(pm_rgb_mul(flux, bs.weight), 1.0f / q);
-		if (!(bs.lobe & PM_LOBE_DELTA)) {
+		if (!event_specular(b, &bs)) {
 			specular_only = false;
 			via_diffuse = true;
 		}
@@ -690,6 +737,23 @@ fnv_i(uint64_t h, int64_t v)
 	return fnv(h, &v, sizeof(v));
 }
 
+/* A texture's identity: its parameters and texels. */
+static uint64_t
+texture_hash(uint64_t h, const struct pm_texture *t)
+{
+	int i;
+
+	h = fnv_i(h, t->type);
+	for (i = 0; i < 6; i++)
+		h = fnv_f(h, t->to_uv[i]);
+	h = fnv_rgb(fnv_rgb(h, t->color0), t->color1);
+	h = fnv_i(fnv_i(h, t->width), t->height);
+	if (t->rgb != NULL)
+		h = fnv(h, t->rgb, sizeof(float) * 3 * (size_t)t->width *
+		    (size_t)t->height);
+	return fnv_i(fnv_i(h, t->nearest), t->wrap);
+}
+
 uint64_t
 pm_scene_hash(const struct pm_scene *s)
 {
@@ -744,6 +808,22 @@ pm_scene_hash(const struct pm_scene *s)
 			h = fnv_i(h, b->merl->crc);
 			h = fnv_i(h, b->merl_flags);
 		}
+		/* textures, again only when there are any */
+		if (b->tex_diffuse > 0)
+			h = texture_hash(fnv_i(h, 1), &s->textures[b->tex_diffuse - 1]);
+		if (b->tex_specular > 0)
+			h = texture_hash(fnv_i(h, 2), &s->textures[b->tex_specular - 1]);
+		if (b->tex_alpha > 0)
+			h = texture_hash(fnv_i(h, 3), &s->textures[b->tex_alpha - 1]);
+	}
+	/* where textures are, the uv they are looked up by */
+	for (i = 0; s->ntextures > 0 && i < s->nshapes; i++) {
+		const struct pm_shape *sh = &s->shapes[i];
+
+		if (sh->type == PM_SHAPE_SPHERE)
+			h = fnv(h, &sh->axes, sizeof(sh->axes));
+		else if (sh->mesh.uv != NULL)
+			h = fnv(h, sh->mesh.uv, sizeof(float) * 2 * sh->mesh.nverts);
 	}
 	h = fnv_i(h, (int64_t)s->nlights);
 	for (i = 0; i < s->nlights; i++) {

@@ -39,6 +39,18 @@ struct pm_effects {
 /* Decides which maps a scene needs (see pm_effects). */
 void pm_shoot_effects(const struct pm_scene *s, struct pm_effects *e);
 
+/*
+ * Photon paths per map when neither the command line nor the scene's
+ * photonmapper integrator gives a count: one path per PM_SAMPLES_PER_PATH
+ * camera samples of the scene's own film and sampler, within
+ * [PM_PATHS_MIN, PM_PATHS_MAX]; PM_PATHS_NO_CAMERA without a sensor.
+ */
+#define PM_SAMPLES_PER_PATH 10
+#define PM_PATHS_MIN 10000
+#define PM_PATHS_MAX 1000000
+#define PM_PATHS_NO_CAMERA 100000
+long long pm_shoot_default_paths(const struct pm_scene *s);
+
 /* A growable array of photons. */
 struct pm_photon_buf {
 	struct pm_photon *p;

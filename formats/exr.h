@@ -33,8 +33,8 @@ const char *pm_exr_attrs_get(const struct pm_exr_attrs *a, const char *name);
 void pm_exr_attrs_free(struct pm_exr_attrs *a);
 
 /*
- * Writes im as a scanline RGB file, float32 or (half = true) half, PIZ
- * compressed.  Writes to a temporary file beside path and renames it, so
+ * Writes im as a scanline RGB file, float32 uncompressed or (half = true)
+ * half, PIZ compressed.  Writes to a temporary file beside path and renames it, so
  * that a failed write never leaves a partial file.
  */
 enum pm_err pm_exr_write(const char *path, const struct pm_image *im, bool half,

@@ -159,3 +159,75 @@ pm_png_write_fast(const char *path, const uint8_t *rgb, int width,
 {
 	return write_png(path, rgb, width, height, true, err);
 }
+
+/* The largest image a texture may be: 2^27 texels (16384 x 8192, 1.5 GiB
+ * of float RGB). */
+#define PNG_MAX_PIXELS ((size_t)1 << 27)
+
+/*
+ * Reads through libpng's simplified interface, which does the colour
+ * conversions (palette, grey) itself and reports errors in the image's
+ * message rather than through a handler.  16-bit files come as its
+ * "linear" 16-bit samples, which for a file without a gamma chunk are the
+ * file's own, with the colour premultiplied by alpha, undone here.
+ */
+enum pm_err
+pm_png_read(const char *path, void **rgba, int *bits, int *width,
+    int *height, struct pm_error *err)
+{
+	png_image im;
+	size_t n, i;
+	void *buf;
+
+	*rgba = NULL;
+	memset(&im, 0, sizeof(im));
+	im.version = PNG_IMAGE_VERSION;
+	if (!png_image_begin_read_from_file(&im, path)) {
+		enum pm_err e = pm_fail(err, errno == ENOENT ? PM_ERR_IO :
+		    PM_ERR_FORMAT, "%s: %s", path, im.message);
+
+		png_image_free(&im);
+		return e;
+	}
+	n = (size_t)im.width * (size_t)im.height;
+	if (im.width < 1 || im.height < 1 || im.width > INT32_MAX ||
+	    im.height > INT32_MAX || n > PNG_MAX_PIXELS) {
+		png_image_free(&im);
+		return pm_fail(err, PM_ERR_LIMIT, "%s: %ux%u pixels is more "
+		    "than pm reads", path, im.width, im.height);
+	}
+	*bits = (im.format & PNG_FORMAT_FLAG_LINEAR) ? 16 : 8;
+	im.format = *bits == 16 ? PNG_FORMAT_LINEAR_RGB_ALPHA : PNG_FORMAT_RGBA;
+	if ((buf = malloc(n * 4 * (size_t)(*bits / 8))) == NULL) {
+		png_image_free(&im);
+		return pm_fail(err, PM_ERR_NOMEM, "%s: no memory for %ux%u "
+		    "pixels", path, im.width, im.height);
+	}
+	if (!png_image_finish_read(&im, NULL, buf, 0, NULL)) {
+		enum pm_err e = pm_fail(err, PM_ERR_FORMAT, "%s: %s", path,
+		    im.message);
+
+		free(buf);
+		png_image_free(&im);
+		return e;
+	}
+	if (*bits == 16) {
+		uint16_t *p = buf;
+
+		for (i = 0; i < n; i++, p += 4)
+			if (p[3] > 0 && p[3] < 65535) {
+				int c;
+
+				for (c = 0; c < 3; c++) {
+					unsigned v = ((unsigned)p[c] * 65535u +
+					    p[3] / 2u) / p[3];
+
+					p[c] = (uint16_t)(v > 65535u ? 65535u : v);
+				}
+			}
+	}
+	*width = (int)im.width;
+	*height = (int)im.height;
+	*rgba = buf;
+	return PM_OK;
+}

@@ -331,9 +331,9 @@ main(int argc, char *argv[])
 			goto fail;
 		}
 		if (verbosity >= 2)
-			fprintf(stderr, "%s: %s: %dx%d OpenEXR, %s, PIZ\n",
+			fprintf(stderr, "%s: %s: %dx%d OpenEXR, %s\n",
 			    PROG, output, out.width, out.height,
-			    half ? "half" : "float");
+			    half ? "half, PIZ" : "float, uncompressed");
 	} else {
 		srgb = malloc((size_t)out.width * out.height * 3);
 		if (srgb == NULL) {

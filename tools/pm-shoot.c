@@ -35,9 +35,11 @@ static const char help_text[] =
     "  -o, --output OUT.pmap     the map; - is standard output\n"
     "  -f, --force               overwrite an existing output\n"
     "      --photons N           photon paths to emit for the global map\n"
-    "                            (default: the scene's globalPhotons)\n"
+    "                            (default: the scene's globalPhotons, else\n"
+    "                            film pixels x spp / 10, from 10^4 to 10^6)\n"
     "      --caustic-photons N   photon paths to emit for the caustic map\n"
-    "                            (default: the scene's causticPhotons)\n"
+    "                            (default: the scene's causticPhotons, else\n"
+    "                            as --photons)\n"
     "      --seed S              random seed (default 0)\n"
     "      --first-index I       index of the first path, for shards\n"
     "      --max-depth D         bounces a photon may make; -1: unlimited\n"
@@ -249,8 +251,12 @@ main(int argc, char **argv)
 	}
 	if (nglobal < 0)
 		nglobal = scene.integrator.photon.global_photons;
+	if (nglobal < 0)
+		nglobal = pm_shoot_default_paths(&scene);
 	if (ncaustic < 0)
 		ncaustic = scene.integrator.photon.caustic_photons;
+	if (ncaustic < 0)
+		ncaustic = pm_shoot_default_paths(&scene);
 	/* The scene's max_depth counts path segments, camera to light; a
 	 * photon of d bounces seen from a camera's first hit makes d + 2. */
 	if (max_depth == -2)

@@ -54,7 +54,8 @@ conductor_params(struct ld *ld, struct plist *pl, struct pm_bsdf *b)
 		return sx_fail(ld, sx_prop_find(pl, "material")->n, PM_ERR_INVALID,
 		    "%s: unknown conductor material \"%s\"", pl->what, mat);
 	}
-	return sx_get_color(ld, pl, "specular_reflectance", 1.0f, &b->specular);
+	return sx_get_color_tex(ld, pl, "specular_reflectance", 1.0f,
+	    &b->specular, &b->tex_specular);
 }
 
 /*
@@ -106,6 +107,62 @@ build_merl(struct ld *ld, struct xnode *n, struct plist *pl,
 	return PM_OK;
 }
 
+/*
+ * The microfacet parameters of the rough plugins: distribution
+ * ("beckmann", Mitsuba's default, or "ggx"), sample_visible, and alpha or
+ * alpha_u and alpha_v (isotropic only: pm's shading frames do not follow
+ * a surface parameterisation, so anisotropy would have no direction).
+ */
+static enum pm_err
+microfacet_params(struct ld *ld, struct xnode *n, struct plist *pl,
+    struct pm_bsdf *b, bool alpha_tex)
+{
+	const char *s;
+	double a, au, av;
+	enum pm_err e;
+
+	if ((e = sx_get_string(ld, pl, "distribution", "beckmann", &s))
+	    != PM_OK ||
+	    (e = sx_get_bool(ld, pl, "sample_visible", true,
+	    &b->sample_visible)) != PM_OK)
+		return e;
+	if (strcmp(s, "beckmann") == 0)
+		b->beckmann = true;
+	else if (strcmp(s, "ggx") != 0)
+		return sx_fail(ld, sx_prop_find(pl, "distribution")->n,
+		    PM_ERR_UNSUPPORTED, "%s: distribution \"%s\" is not "
+		    "supported (\"beckmann\" or \"ggx\")", pl->what, s);
+	if (sx_has(pl, "alpha_u") || sx_has(pl, "alpha_v")) {
+		if (sx_has(pl, "alpha"))
+			return sx_fail(ld, sx_prop_find(pl, "alpha")->n,
+			    PM_ERR_INVALID, "%s: give either alpha or "
+			    "alpha_u and alpha_v", pl->what);
+		if ((e = sx_get_float(ld, pl, "alpha_u", -1, 1e-4, 10, &au))
+		    != PM_OK || (e = sx_get_float(ld, pl, "alpha_v", -1, 1e-4,
+		    10, &av)) != PM_OK)
+			return e;
+		if (au != av)
+			return sx_fail(ld, n, PM_ERR_UNSUPPORTED, "%s: "
+			    "anisotropic roughness (alpha_u %g != alpha_v %g) "
+			    "is not supported", pl->what, au, av);
+		a = au;
+	} else if (alpha_tex && (e = sx_get_texture(ld, pl, "alpha",
+	    &b->tex_alpha)) != PM_OK) {
+		return e;
+	} else if (b->tex_alpha > 0) {
+		/* the mean until a hit looks it up (texture.h) */
+		struct pm_rgb m = pm_texture_mean(
+		    &ld->s->textures[b->tex_alpha - 1]);
+
+		a = 0.212671 * m.r + 0.715160 * m.g + 0.072169 * m.b;
+	} else if ((e = sx_get_float(ld, pl, "alpha", 0.1, 1e-4, 10, &a))
+	    != PM_OK) {
+		return e;
+	}
+	b->alpha = (float)a;
+	return PM_OK;
+}
+
 static enum pm_err
 build_twosided(struct ld *ld, struct plist *pl, struct pm_bsdf *b)
 {
@@ -141,8 +198,7 @@ enum pm_err
 sx_build_bsdf(struct ld *ld, struct xnode *n, struct pm_bsdf *b)
 {
 	struct plist pl;
-	const char *type, *s;
-	double a, au, av;
+	const char *type;
 	float iint, iext;
 	enum pm_err e;
 
@@ -155,51 +211,26 @@ sx_build_bsdf(struct ld *ld, struct xnode *n, struct pm_bsdf *b)
 	n->busy = true;
 	if (strcmp(type, "diffuse") == 0) {
 		b->type = PM_BSDF_DIFFUSE;
-		e = sx_get_color(ld, &pl, "reflectance", 0.5f, &b->diffuse);
+		e = sx_get_color_tex(ld, &pl, "reflectance", 0.5f, &b->diffuse,
+		    &b->tex_diffuse);
 	} else if (strcmp(type, "conductor") == 0) {
 		b->type = PM_BSDF_CONDUCTOR;
 		e = conductor_params(ld, &pl, b);
 	} else if (strcmp(type, "roughconductor") == 0) {
 		b->type = PM_BSDF_ROUGHCONDUCTOR;
-		if ((e = conductor_params(ld, &pl, b)) != PM_OK ||
-		    (e = sx_get_string(ld, &pl, "distribution", "beckmann", &s))
-		    != PM_OK ||
-		    (e = sx_get_bool(ld, &pl, "sample_visible", true,
-		    &b->sample_visible)) != PM_OK)
+		if ((e = conductor_params(ld, &pl, b)) == PM_OK)
+			e = microfacet_params(ld, n, &pl, b, true);
+	} else if (strcmp(type, "roughdielectric") == 0) {
+		b->type = PM_BSDF_ROUGHDIELECTRIC;
+		if ((e = get_ior(ld, &pl, "int_ior", IOR_BK7, &iint)) != PM_OK ||
+		    (e = get_ior(ld, &pl, "ext_ior", IOR_AIR, &iext)) != PM_OK ||
+		    (e = sx_get_color(ld, &pl, "specular_reflectance", 1.0f,
+		    &b->specular)) != PM_OK ||
+		    (e = sx_get_color(ld, &pl, "specular_transmittance", 1.0f,
+		    &b->transmittance)) != PM_OK ||
+		    (e = microfacet_params(ld, n, &pl, b, false)) != PM_OK)
 			goto out;
-		if (strcmp(s, "beckmann") == 0)
-			b->beckmann = true;
-		else if (strcmp(s, "ggx") != 0) {
-			e = sx_fail(ld, sx_prop_find(&pl, "distribution")->n,
-			    PM_ERR_UNSUPPORTED, "%s: distribution \"%s\" is "
-			    "not supported (\"beckmann\" or \"ggx\")", pl.what,
-			    s);
-			goto out;
-		}
-		if (sx_has(&pl, "alpha_u") || sx_has(&pl, "alpha_v")) {
-			if (sx_has(&pl, "alpha")) {
-				e = sx_fail(ld, sx_prop_find(&pl, "alpha")->n,
-				    PM_ERR_INVALID, "%s: give either alpha or "
-				    "alpha_u and alpha_v", pl.what);
-				goto out;
-			}
-			if ((e = sx_get_float(ld, &pl, "alpha_u", -1, 1e-4, 10,
-			    &au)) != PM_OK || (e = sx_get_float(ld, &pl,
-			    "alpha_v", -1, 1e-4, 10, &av)) != PM_OK)
-				goto out;
-			if (au != av) {
-				e = sx_fail(ld, n, PM_ERR_UNSUPPORTED, "%s: "
-				    "anisotropic roughness (alpha_u %g != "
-				    "alpha_v %g) is not supported", pl.what,
-				    au, av);
-				goto out;
-			}
-			a = au;
-		} else if ((e = sx_get_float(ld, &pl, "alpha", 0.1, 1e-4, 10,
-		    &a)) != PM_OK) {
-			goto out;
-		}
-		b->alpha = (float)a;
+		b->ior = iint / iext;
 	} else if (strcmp(type, "dielectric") == 0 ||
 	    strcmp(type, "thindielectric") == 0) {
 		b->type = type[0] == 'd' ? PM_BSDF_DIELECTRIC :
@@ -212,12 +243,17 @@ sx_build_bsdf(struct ld *ld, struct xnode *n, struct pm_bsdf *b)
 		    &b->transmittance)) != PM_OK)
 			goto out;
 		b->ior = iint / iext;
-	} else if (strcmp(type, "plastic") == 0) {
-		b->type = PM_BSDF_PLASTIC;
-		if ((e = sx_get_color(ld, &pl, "diffuse_reflectance", 0.5f,
-		    &b->diffuse)) != PM_OK ||
-		    (e = sx_get_color(ld, &pl, "specular_reflectance", 1.0f,
-		    &b->specular)) != PM_OK ||
+	} else if (strcmp(type, "plastic") == 0 ||
+	    strcmp(type, "roughplastic") == 0) {
+		b->type = type[0] == 'p' ? PM_BSDF_PLASTIC :
+		    PM_BSDF_ROUGHPLASTIC;
+		if (b->type == PM_BSDF_ROUGHPLASTIC &&
+		    (e = microfacet_params(ld, n, &pl, b, false)) != PM_OK)
+			goto out;
+		if ((e = sx_get_color_tex(ld, &pl, "diffuse_reflectance", 0.5f,
+		    &b->diffuse, &b->tex_diffuse)) != PM_OK ||
+		    (e = sx_get_color_tex(ld, &pl, "specular_reflectance", 1.0f,
+		    &b->specular, &b->tex_specular)) != PM_OK ||
 		    (e = get_ior(ld, &pl, "int_ior", IOR_POLYPROPYLENE, &iint))
 		    != PM_OK ||
 		    (e = get_ior(ld, &pl, "ext_ior", IOR_AIR, &iext)) != PM_OK ||
@@ -238,8 +274,9 @@ sx_build_bsdf(struct ld *ld, struct xnode *n, struct pm_bsdf *b)
 		e = build_merl(ld, n, &pl, b);
 	} else {
 		e = sx_unknown_plugin(ld, n, type, "diffuse, conductor, "
-		    "roughconductor, dielectric, thindielectric, plastic, "
-		    "merl, twosided and null");
+		    "roughconductor, dielectric, thindielectric, "
+		    "roughdielectric, plastic, roughplastic, merl, twosided "
+		    "and null");
 		goto out;
 	}
 	if (e == PM_OK && (e = sx_finish(ld, &pl)) == PM_OK)

@@ -3,8 +3,8 @@
  * the point, spot, directional, constant and envmap lights.
  */
 #include "private.h"
-#include "../exr.h"
 #include "../rgbe.h"
+#include "../texture.h"
 
 /* The environment: at most one constant or envmap, as in Mitsuba. */
 static enum pm_err
@@ -17,8 +17,8 @@ claim_environment(struct ld *ld, const struct xnode *n, int i)
 	return PM_OK;
 }
 
-/* envmap: a latitude-longitude OpenEXR or Radiance HDR image (see
- * common/envmap.h). */
+/* envmap: a latitude-longitude image, OpenEXR, Radiance HDR, PNG or JPEG
+ * (see common/envmap.h). */
 static enum pm_err
 load_envmap(struct ld *ld, struct xnode *n, struct plist *pl,
     struct pm_light *l)
@@ -45,19 +45,30 @@ load_envmap(struct ld *ld, struct xnode *n, struct plist *pl,
 		    PM_ERR_UNSUPPORTED, "%s: to_world must be a rotation "
 		    "(uniform scale and translation are ignored)", pl->what);
 	M.m[0][3] = M.m[1][3] = M.m[2][3] = 0.0f;
-	dot = strrchr(fname, '.');
-	if (dot == NULL || (strcasecmp(dot, ".exr") != 0 &&
-	    strcasecmp(dot, ".hdr") != 0 && strcasecmp(dot, ".rgbe") != 0 &&
-	    strcasecmp(dot, ".pic") != 0))
-		return sx_fail(ld, sx_prop_find(pl, "filename")->n,
-		    PM_ERR_UNSUPPORTED, "%s: \"%s\": pm reads environment maps "
-		    "from OpenEXR (.exr) and Radiance HDR (.hdr, .rgbe, .pic) "
-		    "files only", pl->what, fname);
 	if ((e = sx_resolve(ld, sx_prop_find(pl, "filename")->n, n->dir, fname,
 	    &path)) != PM_OK)
 		return e;
-	e = strcasecmp(dot, ".exr") == 0 ? pm_exr_read(path, &im, ld->err) :
-	    pm_rgbe_read(path, &im, ld->err);
+	/* Radiance HDR by its name; OpenEXR, PNG and JPEG by their first
+	 * bytes, through the bitmap reader (8-bit images decoded from
+	 * sRGB, as Mitsuba decodes them) */
+	dot = strrchr(fname, '.');
+	if (dot != NULL && (strcasecmp(dot, ".hdr") == 0 ||
+	    strcasecmp(dot, ".rgbe") == 0 || strcasecmp(dot, ".pic") == 0)) {
+		e = pm_rgbe_read(path, &im, ld->err);
+	} else {
+		struct pm_texture t;
+
+		pm_texture_init(&t, PM_TEXTURE_BITMAP);
+		e = pm_bitmap_read(path, false, &t, ld->err);
+		if (e == PM_OK) {
+			/* the texels move to the image */
+			im.width = t.width;
+			im.height = t.height;
+			im.rgb = t.rgb;
+			t.rgb = NULL;
+		}
+		pm_texture_free(&t);
+	}
 	if (e != PM_OK)
 		return sx_wrap(ld, sx_prop_find(pl, "filename")->n, pl->what, e);
 	if ((l->env = calloc(1, sizeof(*l->env))) == NULL) {

@@ -24,6 +24,7 @@ build_scene(struct ld *ld)
 	struct pm_bsdf tmp;
 	const char *type;
 	enum pm_err e;
+	int ti;
 
 	if ((e = sx_build_idmap(ld)) != PM_OK)
 		return e;
@@ -44,11 +45,7 @@ build_scene(struct ld *ld)
 		else if (strcmp(k->tag, "integrator") == 0)
 			e = sx_load_integrator(ld, k);
 		else if (strcmp(k->tag, "texture") == 0)
-			e = sx_fail(ld, k, PM_ERR_UNSUPPORTED, "textures are not "
-			    "supported (<texture%s%s%s>)",
-			    sx_attr(k, "id") ? " id=\"" : "",
-			    sx_attr(k, "id") ? sx_attr(k, "id") : "",
-			    sx_attr(k, "id") ? "\"" : "");
+			e = sx_texture_index(ld, k, &ti);	/* once, if used */
 		else if (sx_is_object_tag(k->tag) || sx_ptype_of(k->tag) >= 0)
 			e = sx_fail(ld, k, PM_ERR_INVALID, "<%s> cannot appear "
 			    "directly inside <scene>", k->tag);

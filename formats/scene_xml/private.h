@@ -30,6 +30,7 @@
 #include "../obj.h"
 #include "../ply.h"
 #include "../scene_xml.h"
+#include "../texture.h"
 
 #define MAX_DEPTH		64	/* element nesting */
 #define MAX_INCLUDE_DEPTH	32
@@ -154,10 +155,12 @@ struct plist {
 	size_t n;
 	struct xnode *obj[16];	/* nested objects and refs */
 	size_t nobj;
-	/* The first nested <texture>: unsupported, but reported only once
-	 * the plugin's type is known to be one pm reads (sx_finish,
+	/* Nested <texture>s not yet taken by a parameter (sx_get_texture
+	 * removes what it takes); one left over is reported only once the
+	 * plugin's type is known to be one pm reads (sx_finish,
 	 * sx_missing), so that an unknown plugin is named first. */
-	const struct xnode *texture;
+	struct xnode *tex[16];
+	size_t ntex;
 };
 
 /* doc.c */
@@ -232,6 +235,13 @@ enum pm_err sx_parse_spectrum(struct ld *ld, const struct xnode *k,
     struct prop *p);
 struct pm_rgb sx_spectrum_rgb(const struct sx_spectrum *sp, bool emitter,
     bool unbounded);
+
+/* texture.c */
+enum pm_err sx_get_color_tex(struct ld *ld, struct plist *pl,
+    const char *name, float def, struct pm_rgb *out, int *tex);
+enum pm_err sx_get_texture(struct ld *ld, struct plist *pl, const char *name,
+    int *tex);
+enum pm_err sx_texture_index(struct ld *ld, struct xnode *n, int *out);
 
 /* bsdf.c */
 enum pm_err sx_bsdf_index(struct ld *ld, struct xnode *n, int *out);

@@ -153,8 +153,10 @@ sx_collect(struct ld *ld, const struct xnode *owner, const char *kind,
 					    p->name, pl->p[i].n->line);
 			pl->n++;
 		} else if (strcmp(k->tag, "texture") == 0) {
-			if (pl->texture == NULL)
-				pl->texture = k;
+			if (pl->ntex == sizeof(pl->tex) / sizeof(pl->tex[0]))
+				return sx_fail(ld, k, PM_ERR_LIMIT,
+				    "%s: too many nested textures", pl->what);
+			pl->tex[pl->ntex++] = k;
 		} else if (sx_is_object_tag(k->tag)) {
 			if (pl->nobj == sizeof(pl->obj) / sizeof(pl->obj[0]))
 				return sx_fail(ld, k, PM_ERR_LIMIT,
@@ -192,22 +194,25 @@ sx_wrong_type(struct ld *ld, struct plist *pl, struct prop *p, const char *want)
 	    "%s, found <%s>", pl->what, p->name, want, ptype_name[p->type]);
 }
 
-/* The plugin's nested <texture>, which pm does not read. */
+/* A nested <texture> that no parameter took: pm does not read a texture
+ * there. */
 static enum pm_err
 texture_error(struct ld *ld, struct plist *pl)
 {
-	const char *nm = sx_attr(pl->texture, "name");
+	const char *nm = sx_attr(pl->tex[0], "name");
 
-	return sx_fail(ld, pl->texture, PM_ERR_UNSUPPORTED, "%s: textures are "
-	    "not supported (<texture%s%s%s>)", pl->what, nm ? " name=\"" : "",
-	    nm ? nm : "", nm ? "\"" : "");
+	if (nm == NULL)
+		return sx_fail(ld, pl->tex[0], PM_ERR_INVALID, "%s: a nested "
+		    "<texture> needs a name, the parameter it gives", pl->what);
+	return sx_fail(ld, pl->tex[0], PM_ERR_UNSUPPORTED, "%s: textures are "
+	    "not supported here (<texture name=\"%s\">)", pl->what, nm);
 }
 
 enum pm_err
 sx_missing(struct ld *ld, struct plist *pl, const char *name, const char *want)
 {
 	/* a parameter given as a texture is missing for that reason */
-	if (pl->texture != NULL)
+	if (pl->ntex > 0)
 		return texture_error(ld, pl);
 	return sx_fail(ld, pl->owner, PM_ERR_INVALID, "%s: missing required "
 	    "parameter \"%s\" (%s)", pl->what, name, want);
@@ -353,7 +358,7 @@ sx_finish(struct ld *ld, struct plist *pl)
 {
 	size_t i;
 
-	if (pl->texture != NULL)
+	if (pl->ntex > 0)
 		return texture_error(ld, pl);
 	for (i = 0; i < pl->n; i++)
 		if (!pl->p[i].used)
@@ -375,8 +380,9 @@ sx_no_objects(struct ld *ld, struct plist *pl)
 	    sx_deref(ld, pl->obj[0], &t) == PM_OK &&
 	    strcmp(t->tag, "texture") == 0)
 		return sx_fail(ld, pl->obj[0], PM_ERR_UNSUPPORTED, "%s: textures "
-		    "are not supported (<ref id=\"%s\"> names the <texture> at "
-		    "line %d)", pl->what, sx_attr(pl->obj[0], "id"), t->line);
+		    "are not supported here (<ref id=\"%s\"> names the "
+		    "<texture> at line %d)", pl->what, sx_attr(pl->obj[0], "id"),
+		    t->line);
 	return sx_fail(ld, pl->obj[0], PM_ERR_INVALID,
 	    "unexpected <%s> inside %s", pl->obj[0]->tag, pl->what);
 }

@@ -213,6 +213,10 @@ sx_load_shape(struct ld *ld, struct xnode *n, const char *naming_dir)
 		sh->type = PM_SHAPE_SPHERE;
 		sh->center = pm_xform_point(&M, center);
 		sh->radius = (float)radius * scale;
+		/* the object frame that uv is measured in */
+		sh->axes.s = pm_v3(M.m[0][0], M.m[1][0], M.m[2][0]);
+		sh->axes.t = pm_v3(M.m[0][1], M.m[1][1], M.m[2][1]);
+		sh->axes.n = pm_v3(M.m[0][2], M.m[1][2], M.m[2][2]);
 	} else {
 		sh->type = PM_SHAPE_MESH;
 		if ((e = finish_mesh(ld, n, pl.what, &sh->mesh, &M,

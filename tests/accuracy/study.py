@@ -42,23 +42,24 @@ BIN = os.path.join(ROOT, "bin")
 RES = 128
 
 # The documented pipeline (README, pm-render(1)): pm-shoot, pm-balance and
-# pm-render with their defaults, only the samples per pixel chosen; this
-# is the line the headline compares with Mitsuba.  The other sweeps move
-# one knob at a time from it (at 16 spp) to show what each costs and buys.
-# A config: photon paths per map (0: pm-shoot's default), spp, and extra
-# pm-render and pm-balance arguments.  The caustic map is shot only where
-# a scene has specular surfaces (pm-shoot decides).
-DEFAULT_PHOTONS = 100000      # pm-shoot's default, each map (pm-scene(5))
-BASE = {"global": DEFAULT_PHOTONS, "caustic": DEFAULT_PHOTONS, "spp": 16,
-        "render": [], "balance": []}
-RECOMMENDED_SPP = [1, 4, 16, 64, 256, 1024]
+# pm-render with their defaults, only the samples per pixel chosen, given
+# to both pm-shoot and pm-render as the scene's $spp (-D spp=N), as a user
+# sets a scene's sample_count; this is the line the headline compares with
+# Mitsuba.  The other sweeps move one knob at a time from it (at 16 spp)
+# to show what each costs and buys.  A config: photon paths per map (0:
+# pm-shoot's default, one path per ten camera samples of the scene's film
+# and sampler, pm-shoot(1)), spp, and extra pm-render and pm-balance
+# arguments.  The caustic map is shot only where a scene has specular
+# surfaces (pm-shoot decides).
+BASE = {"global": 0, "caustic": 0, "spp": 16, "render": [], "balance": []}
+RECOMMENDED_SPP = [1, 2, 4, 16, 64, 256, 1024]
 SWEEPS = [
     # (name, method, [(label, overrides)]): photon counts show the bias
-    # of the records and caustics falling with photons.
+    # of the records and caustics falling with photons; at 16 spp the
+    # default is 26k paths per map.
     ("photons", "pm", [("photons=%dk" % (v // 1000),
                         {"global": v, "caustic": v})
-                       for v in (25000, 400000, 1600000)] +
-                       [("photons=100k", {})]),
+                       for v in (10000, 100000, 400000, 1600000)]),
     # At 16 spp the default cache is every 2nd pixel with 64 rays.
     ("cache", "pm", [("cache-step 1", {"render": ["--cache-step", "1"]}),
                      ("cache-step 4", {"render": ["--cache-step", "4"]}),
@@ -85,9 +86,9 @@ SWEEPS = [
         for v in (4, 16, 64)]),
 ]
 PROG_PASSES = 16
-PROG = {"global": DEFAULT_PHOTONS, "caustic": DEFAULT_PHOTONS, "spp": 4,
+PROG = {"global": 100000, "caustic": 100000, "spp": 4,
         "render": [], "balance": []}
-MI_SPP = [4, 16, 64, 256, 1024, 2048]
+MI_SPP = [4, 8, 16, 32, 64, 128, 256, 1024, 2048]
 QUICK_MI_SPP = [4, 16]
 
 
@@ -187,7 +188,8 @@ class Study:
             rec["relmse"], "  FLIP %.4f" % rec["flip"] if "flip" in rec
             else ""), flush=True)
 
-    def pm_map(self, scene, seed, nglobal, ncaustic, tag, balance=()):
+    def pm_map(self, scene, seed, nglobal, ncaustic, tag, balance=(),
+               spp=None):
         """Shoots and balances one map; returns (path, shoot s, balance s)."""
         shot = os.path.join(self.tmp, tag + "-shot.pmap")
         bal = os.path.join(self.tmp, tag + ".pmap")
@@ -197,8 +199,9 @@ class Study:
         if ncaustic:
             counts += ["--caustic-photons", str(ncaustic)]
         t_shoot = sh([os.path.join(BIN, "pm-shoot"), "-q", "-f", "--seed",
-                      str(seed)] + counts + ["-D", "res=%d" % RES, "-o",
-                                             shot, scene])
+                      str(seed)] + counts + ["-D", "res=%d" % RES] +
+                     (["-D", "spp=%d" % spp] if spp else []) +
+                     ["-o", shot, scene])
         t_bal = sh([os.path.join(BIN, "pm-balance"), "-q", "-f"] +
                    list(balance) + ["-o", bal, shot])
         os.remove(shot)
@@ -207,7 +210,8 @@ class Study:
     def pm_render(self, scene, pmap, c, out, seed=0, extra=()):
         cmd = [os.path.join(BIN, "pm-render"), "-q", "-f", "--seed", str(seed),
                "--spp", str(c["spp"]), "--size", "%dx%d" % (RES, RES),
-               "-D", "res=%d" % RES] + list(c["render"])
+               "-D", "res=%d" % RES, "-D", "spp=%d" % c["spp"]] + \
+            list(c["render"])
         cmd += list(extra) + ["-o", out, scene, pmap]
         return sh(cmd)
 
@@ -223,7 +227,8 @@ class Study:
             return
         tag = name
         pmap, t_shoot, t_bal = self.pm_map(scene, 1, c["global"],
-                                           c["caustic"], tag, c["balance"])
+                                           c["caustic"], tag, c["balance"],
+                                           spp=c["spp"])
         raw = os.path.join(self.tmp, tag + "-raw.exr")
         final = os.path.join(self.tmp, tag + ".exr")
         t_render = self.pm_render(scene, pmap, c, raw)

@@ -45,7 +45,7 @@ agree data/caustics.xml caustics 2048
 # path segments, camera to light, and pm-shoot, pm-balance and pm-render
 # keep the photon paths to it (3: direct light and one bounce; 4: two).
 for md in 3 4; do
-	if $B/pm-shoot -q -f -D max_depth=$md --seed 5 -o "$tmp/md.shot" data/cornell-box.xml &&
+	if $B/pm-shoot -q -f -D max_depth=$md --seed 5 --photons 100000 -o "$tmp/md.shot" data/cornell-box.xml &&
 	    $B/pm-balance -q -f -o "$tmp/md.pmap" "$tmp/md.shot" &&
 	    $B/pm-render -q -f -D max_depth=$md --spp 64 --size 32x32 -o "$tmp/md-pm.exr" \
 	        data/cornell-box.xml "$tmp/md.pmap" 2>"$tmp/md.err" &&
@@ -60,7 +60,7 @@ for md in 3 4; do
 	fi
 done
 # A map shot without the limit is seen to be wrong for it.
-$B/pm-shoot -q -f --seed 5 -o "$tmp/nolimit.shot" data/cornell-box.xml &&
+$B/pm-shoot -q -f --seed 5 --photons 100000 -o "$tmp/nolimit.shot" data/cornell-box.xml &&
     $B/pm-balance -q -f -o "$tmp/nolimit.pmap" "$tmp/nolimit.shot"
 check "a map shot for another max_depth gets one warning" sh -c \
     "$B/pm-render -D max_depth=3 --spp 1 --size 4x4 -o $tmp/w.exr data/cornell-box.xml $tmp/nolimit.pmap 2>$tmp/w.err && test \$(wc -l <$tmp/w.err) -eq 1 && grep -q 'photon bounces: no limit in the map, 1 for the scene' $tmp/w.err"

@@ -14,15 +14,29 @@
 # scancel talk to this cluster.  start exits 0 when the node is idle, 3 with
 # the reason on standard error when Slurm cannot run here (not root,
 # packages missing, a daemon that does not come up), 1 otherwise; on any
-# failure it stops what it started.  The ports are PM_SLURM_PORT (6917) and
-# the next one.
+# failure it stops what it started.  The ports are PM_SLURM_PORT and the
+# next one; unset, the first pair from 6917 up on which nothing listens, so
+# that daemons left over by a killed run do not answer for this one.
 
 usage() { echo "usage: slurm-local.sh start|stop DIR" >&2; exit 2; }
 [ $# -eq 2 ] || usage
 cmd=$1
 mkdir -p "$2" || exit 1
 D=$(cd "$2" && pwd) || exit 1
-port=${PM_SLURM_PORT:-6917}
+
+# port_busy N: something listens on TCP port N (IPv4 or IPv6).
+port_busy() {
+	cat /proc/net/tcp /proc/net/tcp6 2>/dev/null | awk -v h="$(printf ':%04X' "$1")" \
+	    '$4 == "0A" && substr($2, length($2) - 4) == h { f = 1 } END { exit !f }'
+}
+
+port=${PM_SLURM_PORT:-}
+if [ -z "$port" ]; then
+	port=6917
+	while { port_busy $port || port_busy $((port + 1)); } && [ $port -lt 7115 ]; do
+		port=$((port + 2))
+	done
+fi
 
 # stop_pid FILE: ends the daemon whose pid FILE holds, waiting up to 10 s.
 stop_pid() {

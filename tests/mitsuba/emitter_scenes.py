@@ -12,7 +12,8 @@ directional light: envmap.xml (the map turned by to_world and scaled,
 lighting a diffuse ground and two diffuse spheres floating above it, seen
 from above), envmap-view.xml (the same map seen directly, a wide view of
 the sun and the horizon; envmap-view-hdr.xml the same from sky.hdr, the
-map in Radiance's RGBE format), envmap-glass.xml (one sphere of glass,
+map in Radiance's RGBE format; envmap-view-png.xml from an 8-bit sRGB
+PNG), envmap-glass.xml (one sphere of glass,
 for the sun's caustics), spot-envmap.xml (the map dimmed, and a
 small spot light), envmap-flat.xml (a map of one
 colour: it must light as a constant emitter does) and directional.xml (a
@@ -126,8 +127,12 @@ def main():
     import mitsuba as mi
     mi.set_variant("scalar_rgb")
     mi.Bitmap(sky()).write(os.path.join(d, "sky.exr"))
-    # the same map as Radiance HDR (RGBE, run-length scanlines)
+    # the same map as Radiance HDR (RGBE, run-length scanlines), and as
+    # an 8-bit sRGB PNG (the sun clipped to white)
     mi.Bitmap(sky()).write(os.path.join(d, "sky.hdr"))
+    mi.Bitmap(np.clip(sky(), 0.0, 1.0)).convert(
+        mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8, True).write(
+        os.path.join(d, "sky.png"))
     flat = np.full((16, 32, 3), (0.6, 0.7, 0.9), dtype=np.float32)
     mi.Bitmap(flat).write(os.path.join(d, "flat.exr"))
     with open(os.path.join(d, "envmap.xml"), "w") as f:
@@ -151,6 +156,13 @@ def main():
 """)
     # Glass under the map: caustics of the map's sun, which the caustic
     # pass aims at the sphere.
+    with open(os.path.join(d, "envmap-view-png.xml"), "w") as f:
+        f.write(head("0, 0, 0", "-1, 0.3, -0.6", "0, 1, 0", 100) +
+                ENVMAP.replace("sky.exr", "sky.png") + """	<shape type="sphere">
+		<point name="center" x="0" y="0" z="50"/>
+	</shape>
+</scene>
+""")
     with open(os.path.join(d, "envmap-glass.xml"), "w") as f:
         f.write(HEAD + ENVMAP + OBJECTS.replace("""		<bsdf type="diffuse">
 			<rgb name="reflectance" value="0.7, 0.4, 0.3"/>

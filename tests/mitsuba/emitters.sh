@@ -125,6 +125,7 @@ against envmap-glass envmap-glass
 # Seen directly there is nothing to gather: path mode says it all.
 against envmap-view envmap-view path
 against envmap-view-hdr envmap-view-hdr path
+against envmap-view-png envmap-view-png path
 # The flat map against Mitsuba's constant emitter of the same colour.
 sed 's|<emitter type="envmap">|<emitter type="constant">|; s|<string name="filename" value="flat.exr"/>|<rgb name="radiance" value="0.6, 0.7, 0.9"/>|' \
     "$DIR/envmap-flat.xml" >"$DIR/constant.xml"

@@ -902,6 +902,502 @@ test_sampling_plastic(void **state)
 	check_sampling(&b, dir(1.2, 0.3), 26, "plastic");
 }
 
+/* ---- roughdielectric and roughplastic ---- */
+
+static struct pm_bsdf
+mk_roughglass(float alpha, bool beckmann, bool visible, float ior)
+{
+	struct pm_bsdf b = mk(PM_BSDF_ROUGHDIELECTRIC);
+
+	b.alpha = alpha;
+	b.beckmann = beckmann;
+	b.sample_visible = visible;
+	b.ior = ior;
+	pm_bsdf_prepare(&b);
+	return b;
+}
+
+static struct pm_bsdf
+mk_roughplastic(float alpha, bool beckmann, float ior, struct pm_rgb diffuse,
+    bool nonlinear)
+{
+	struct pm_bsdf b = mk(PM_BSDF_ROUGHPLASTIC);
+
+	b.alpha = alpha;
+	b.beckmann = beckmann;
+	b.ior = ior;
+	b.diffuse = diffuse;
+	b.nonlinear = nonlinear;
+	pm_bsdf_prepare(&b);
+	return b;
+}
+
+/* The smaller cosine between the facet normal joining wi and wo (for a
+ * glass of relative IOR ior) and either direction, in double: where it is
+ * near zero, refraction is near its critical angle, 1 - F changes
+ * steeply, and float answers differ in their third digit. */
+static double
+facet_cos(struct pm_vec3 wi, struct pm_vec3 wo, float ior)
+{
+	double ei = wi.z > 0 ? 1.0 : ior, eo = wo.z > 0 ? 1.0 : ior;
+	double h[3], l, a, c;
+
+	if (wi.z * wo.z > 0)
+		ei = eo = 1.0;
+	h[0] = ei * wi.x + eo * wo.x;
+	h[1] = ei * wi.y + eo * wo.y;
+	h[2] = ei * wi.z + eo * wo.z;
+	l = sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
+	if (!(l > 0))
+		return 0.0;
+	a = fabs((wi.x * h[0] + wi.y * h[1] + wi.z * h[2]) / l);
+	c = fabs((wo.x * h[0] + wo.y * h[1] + wo.z * h[2]) / l);
+	return fmin(a, c);
+}
+
+/* Roughdielectric against Walter et al.'s formulas written out: GGX's
+ * D and G1 in their textbook form, the half vectors of eqs. 13 and 16,
+ * the BTDF of eq. 21 (radiance: its eta_o^2 cancelled by the 1/eta^2 of
+ * crossing, Mitsuba's convention). */
+static void
+test_roughglass_analytic(void **state)
+{
+	static const float alphas[] = { 0.05f, 0.3f, 0.8f };
+	struct pm_rng rng = pm_rng_seed(41, 0, 0);
+	struct pm_bsdf b;
+	struct pm_vec3 wi, wo;
+	double a2, th, d, g, f, ei, eo, expect, im, om, mx[3], l;
+	struct pm_rgb e;
+	size_t i;
+	int k, checked = 0;
+
+	(void)state;
+	for (i = 0; i < sizeof(alphas) / sizeof(alphas[0]); i++) {
+		b = mk_roughglass(alphas[i], false, true, 1.5f);
+		b.transmittance = pm_rgb(1.0f, 0.5f, 0.25f);
+		a2 = (double)alphas[i] * alphas[i];
+		for (k = 0; k < 400; k++) {
+			wi = pm_square_to_uniform_sphere(pm_rng_float(&rng),
+			    pm_rng_float(&rng));
+			wo = pm_square_to_uniform_sphere(pm_rng_float(&rng),
+			    pm_rng_float(&rng));
+			if (fabsf(wi.z) < 0.05f || fabsf(wo.z) < 0.05f)
+				continue;
+			ei = wi.z > 0 ? 1.0 : 1.5;
+			eo = wo.z > 0 ? 1.0 : 1.5;
+			if (wi.z * wo.z > 0)
+				ei = eo = 1.0;
+			mx[0] = ei * wi.x + eo * wo.x;
+			mx[1] = ei * wi.y + eo * wo.y;
+			mx[2] = ei * wi.z + eo * wo.z;
+			l = sqrt(mx[0] * mx[0] + mx[1] * mx[1] +
+			    mx[2] * mx[2]);
+			if (mx[2] < 0)
+				l = -l;
+			mx[0] /= l;
+			mx[1] /= l;
+			mx[2] /= l;
+			im = wi.x * mx[0] + wi.y * mx[1] + wi.z * mx[2];
+			om = wo.x * mx[0] + wo.y * mx[1] + wo.z * mx[2];
+			e = pm_bsdf_eval(&b, wi, wo, PM_RADIANCE);
+			if (im * wi.z <= 0 || om * wo.z <= 0) {
+				assert_true(pm_rgb_is_black(e));
+				continue;
+			}
+			if (facet_cos(wi, wo, 1.5f) < 0.02)
+				continue;
+			th = acos(mx[2]);
+			d = a2 / (M_PI * pow(cos(th), 4.0) *
+			    pow(a2 + tan(th) * tan(th), 2.0));
+			g = 2.0 / (1.0 + sqrt(1.0 + a2 * (1.0 - wi.z * wi.z) /
+			    (wi.z * wi.z)));
+			g *= 2.0 / (1.0 + sqrt(1.0 + a2 * (1.0 - wo.z * wo.z) /
+			    (wo.z * wo.z)));
+			f = pm_fresnel_dielectric((float)im, 1.5f, NULL);
+			if (wi.z * wo.z > 0)
+				expect = f * d * g / (4.0 * fabs(wi.z));
+			else
+				expect = 0.25 * fabs(im * om) * (1.0 - f) * d *
+				    g * ei * ei / (fabs(wi.z) *
+				    pow(ei * im + eo * om, 2.0));
+			if (!close_to(wi.z * wo.z > 0 ? e.r : e.b, expect,
+			    2e-4 * expect + 1e-9, "roughglass eval"))
+				fail();
+			checked++;
+		}
+	}
+	assert_true(checked > 500);
+}
+
+/* Sampler, pdf() and eval() agree sample by sample, in both modes; the
+ * mean weight (the albedo, reflection plus transmission, in importance
+ * mode) never exceeds one, is near one for a nearly smooth interface,
+ * and equals the integral of eval() under the other sampling technique
+ * (GGX: all normals against visible normals). */
+static void
+check_roughglass_energy(const struct pm_bsdf *b, struct pm_vec3 wi,
+    uint64_t seed, const char *name, double want_min)
+{
+	struct pm_rng rng = pm_rng_seed(seed, 3, 4);
+	struct pm_bsdf other = *b;
+	struct pm_bsdf_sample s;
+	struct stat w, e;
+	struct pm_rgb f;
+	float pdf;
+	int i, n = 200000;
+
+	memset(&w, 0, sizeof(w));
+	memset(&e, 0, sizeof(e));
+	other.sample_visible = !b->sample_visible;
+	for (i = 0; i < n; i++) {
+		float u1 = pm_rng_float(&rng), u2 = pm_rng_float(&rng);
+		float u3 = pm_rng_float(&rng);
+
+		if (!pm_bsdf_sample(b, wi, u1, u2, u3, PM_IMPORTANCE, &s)) {
+			stat_add(&w, 0.0);
+		} else {
+			assert_true(s.lobe == PM_LOBE_GLOSSY ||
+			    s.lobe == PM_LOBE_GLOSSY_TRANSMISSION);
+			assert_true((s.lobe == PM_LOBE_GLOSSY) ==
+			    (s.wo.z * wi.z > 0.0f));
+			assert_true(fabsf(pm_length(s.wo) - 1.0f) < 1e-4f);
+			stat_add(&w, s.weight.g);
+			if (facet_cos(wi, s.wo, b->ior) < 0.02)
+				goto other;
+			pdf = pm_bsdf_pdf(b, wi, s.wo);
+			if (!close_to(s.pdf, pdf, 2e-3 * pdf + 1e-6,
+			    "roughglass sample pdf"))
+				fail_msg("%s", name);
+			f = pm_bsdf_eval(b, wi, s.wo, PM_IMPORTANCE);
+			if (!close_to(s.weight.g, f.g / s.pdf,
+			    2e-3 * s.weight.g + 1e-6, "roughglass weight"))
+				fail_msg("%s", name);
+			/* radiance differs by 1/eta^2 across */
+			assert_true(pm_bsdf_sample(b, wi, u1, u2, u3,
+			    PM_RADIANCE, &s));
+			f = pm_bsdf_eval(b, wi, s.wo, PM_RADIANCE);
+			if (!close_to(s.weight.g, f.g / s.pdf,
+			    2e-3 * s.weight.g + 1e-6, "roughglass weight R"))
+				fail_msg("%s", name);
+		}
+other:
+		if (b->beckmann)
+			continue;
+		if (!pm_bsdf_sample(&other, wi, u1, u2, u3, PM_IMPORTANCE,
+		    &s)) {
+			stat_add(&e, 0.0);
+			continue;
+		}
+		f = pm_bsdf_eval(b, wi, s.wo, PM_IMPORTANCE);
+		stat_add(&e, f.g / pm_bsdf_pdf(&other, wi, s.wo));
+	}
+	print_message("%s: albedo %.5f +- %.5f\n", name, w.mean, stat_err(&w));
+	if (w.mean > 1.0 + NSIGMA * stat_err(&w))
+		fail_msg("%s: albedo %g > 1", name, w.mean);
+	if (w.mean < want_min)
+		fail_msg("%s: albedo %g < %g", name, w.mean, want_min);
+	if (!b->beckmann && !close_to(w.mean, e.mean, NSIGMA *
+	    hypot(stat_err(&w), stat_err(&e)) + 1e-4, name))
+		fail_msg("%s: the two techniques disagree", name);
+}
+
+static void
+test_roughglass_energy(void **state)
+{
+	static const double thetas[] = { 0.0, 0.7, 1.25 };
+	char name[96];
+	struct pm_bsdf b;
+	size_t i;
+	int k, side;
+
+	(void)state;
+	for (k = 0; k < 6; k++) {
+		float alpha = k % 3 == 0 ? 0.01f : k % 3 == 1 ? 0.3f : 0.7f;
+		bool beck = k >= 3;
+
+		b = mk_roughglass(alpha, beck, true, 1.5f);
+		for (side = 0; side < 2; side++)
+			for (i = 0; i < 3; i++) {
+				double th = side ? M_PI - thetas[i] :
+				    thetas[i];
+				/* masking costs little at low roughness,
+				 * except at grazing angles */
+				double want = alpha < 0.05f && i < 2 ?
+				    0.99 : 0.5;
+
+				snprintf(name, sizeof(name), "roughglass %s "
+				    "%g theta %.2f", beck ? "beckmann" : "ggx",
+				    alpha, th);
+				check_roughglass_energy(&b, dir(th, 0.4),
+				    500 + 10 * k + 3 * side + i, name, want);
+			}
+	}
+}
+
+/* Reflection is symmetric; transmission in radiance mode gains eta^2
+ * (the relative IOR of wo's side over wi's) when the directions swap, and
+ * the importance BTDF is the radiance BTDF with its arguments swapped. */
+static void
+test_roughglass_reciprocity(void **state)
+{
+	struct pm_rng rng = pm_rng_seed(43, 0, 0);
+	struct pm_bsdf bs[3];
+	struct pm_vec3 wi, wo;
+	struct pm_rgb a, b2, c;
+	float eta;
+	size_t j;
+	int i, nt = 0;
+
+	(void)state;
+	bs[0] = mk_roughglass(0.3f, false, true, 1.5f);
+	bs[1] = mk_roughglass(0.3f, true, true, 1.33f);
+	bs[2] = mk_roughglass(0.7f, false, false, 1.0f / 1.5f);
+	for (j = 0; j < 3; j++)
+		for (i = 0; i < 20000; i++) {
+			wi = pm_square_to_uniform_sphere(pm_rng_float(&rng),
+			    pm_rng_float(&rng));
+			wo = pm_square_to_uniform_sphere(pm_rng_float(&rng),
+			    pm_rng_float(&rng));
+			if (fabsf(wi.z) < 1e-3f || fabsf(wo.z) < 1e-3f)
+				continue;
+			a = pm_rgb_scale(pm_bsdf_eval(&bs[j], wi, wo,
+			    PM_RADIANCE), 1.0f / fabsf(wo.z));
+			b2 = pm_rgb_scale(pm_bsdf_eval(&bs[j], wo, wi,
+			    PM_RADIANCE), 1.0f / fabsf(wi.z));
+			c = pm_rgb_scale(pm_bsdf_eval(&bs[j], wi, wo,
+			    PM_IMPORTANCE), 1.0f / fabsf(wo.z));
+			if (facet_cos(wi, wo, bs[j].ior) < 0.02)
+				continue;
+			eta = wi.z * wo.z > 0.0f ? 1.0f :
+			    wi.z > 0.0f ? bs[j].ior : 1.0f / bs[j].ior;
+			nt += wi.z * wo.z < 0.0f && a.g > 0.0f;
+			if (!close_to(a.g * eta * eta, b2.g, 1e-3 * b2.g + 1e-7,
+			    "roughglass reciprocity") ||
+			    !close_to(c.g, b2.g, 1e-3 * b2.g + 1e-7,
+			    "roughglass adjoint"))
+				fail();
+		}
+	assert_true(nt > 1000);
+}
+
+static void
+test_sampling_roughglass(void **state)
+{
+	struct pm_bsdf b;
+
+	(void)state;
+	b = mk_roughglass(0.3f, false, true, 1.5f);
+	check_sampling(&b, dir(0.6, 0.4), 61, "roughglass ggx 0.3 visible");
+	check_sampling(&b, dir(M_PI - 0.5, 1.0), 62,
+	    "roughglass ggx 0.3 from inside");
+	b = mk_roughglass(0.5f, false, false, 1.5f);
+	check_sampling(&b, dir(1.1, -0.4), 63, "roughglass ggx 0.5 all");
+	b = mk_roughglass(0.3f, true, true, 1.5f);
+	check_sampling(&b, dir(0.9, 0.4), 64, "roughglass beckmann 0.3");
+	check_sampling(&b, dir(M_PI - 0.3, 2.0), 65,
+	    "roughglass beckmann 0.3 from inside");
+	b = mk_roughglass(0.6f, true, true, 1.33f);
+	check_sampling(&b, dir(1.3, 0.0), 66, "roughglass beckmann 0.6");
+}
+
+/* The coating's tables: transmittance against the rough dielectric's own
+ * transmitted energy (importance weights of its sampler), 1 - Fresnel as
+ * the coating smooths out, and the internal reflectance by Mitsuba's
+ * rule against the rough dielectric's reflected energy from inside. */
+static void
+test_roughplastic_tables(void **state)
+{
+	static const int nodes[] = { 0, 9, 31, 50, 63 };
+	struct pm_bsdf p, g;
+	struct pm_bsdf_sample s;
+	size_t i;
+	int k, j, n = 100000;
+
+	(void)state;
+	for (k = 0; k < 4; k++) {
+		float alpha = k % 2 ? 0.4f : 0.1f;
+		bool beck = k >= 2;
+		double rint = 0.0;
+
+		p = mk_roughplastic(alpha, beck, 1.49f, pm_rgb1(0.5f), false);
+		g = mk_roughglass(alpha, beck, true, 1.49f);
+		for (i = 0; i < sizeof(nodes) / sizeof(nodes[0]); i++) {
+			struct pm_rng rng = pm_rng_seed(70 + k, i, 0);
+			float mu = fmaxf(1e-6f, nodes[i] / 63.0f);
+			struct pm_vec3 wi = pm_v3(sqrtf(1 - mu * mu), 0, mu);
+			struct stat t;
+
+			memset(&t, 0, sizeof(t));
+			for (j = 0; j < n; j++) {
+				if (pm_bsdf_sample(&g, wi, pm_rng_float(&rng),
+				    pm_rng_float(&rng), pm_rng_float(&rng),
+				    PM_IMPORTANCE, &s) &&
+				    s.lobe == PM_LOBE_GLOSSY_TRANSMISSION)
+					stat_add(&t, s.weight.g);
+				else
+					stat_add(&t, 0.0);
+			}
+			if (!close_to(p.rough_t[nodes[i]], t.mean,
+			    NSIGMA * stat_err(&t) + 2e-3, "rough_t"))
+				fail_msg("alpha %g beckmann %d node %d", alpha,
+				    beck, nodes[i]);
+		}
+		/* internal reflectance: 2 mean(R(mu) mu) over the nodes */
+		g.ior = 1.0f / 1.49f;
+		for (i = 0; i < 64; i++) {
+			struct pm_rng rng = pm_rng_seed(80 + k, i, 0);
+			float mu = fmaxf(1e-6f, i / 63.0f);
+			struct pm_vec3 wi = pm_v3(sqrtf(1 - mu * mu), 0, mu);
+			double r = 0.0;
+
+			for (j = 0; j < 20000; j++)
+				if (pm_bsdf_sample(&g, wi, pm_rng_float(&rng),
+				    pm_rng_float(&rng), pm_rng_float(&rng),
+				    PM_IMPORTANCE, &s) &&
+				    s.lobe == PM_LOBE_GLOSSY)
+					r += s.weight.g;
+			rint += r / 20000.0 * mu;
+		}
+		rint *= 2.0 / 64.0;
+		print_message("roughplastic alpha %g beckmann %d: fdr_int %.4f "
+		    "(Monte Carlo %.4f)\n", alpha, beck, p.fdr_int, rint);
+		assert_true(close_to(p.fdr_int, rint, 3e-3, "fdr_int"));
+	}
+	/* a nearly smooth coating transmits 1 - F */
+	p = mk_roughplastic(1e-3f, false, 1.49f, pm_rgb1(0.5f), false);
+	for (k = 1; k < 60; k++) {
+		float mu = k / 63.0f;
+
+		assert_true(close_to(p.rough_t[k], 1.0 -
+		    pm_fresnel_dielectric(mu, 1.49f, NULL), 2e-3,
+		    "smooth rough_t"));
+	}
+}
+
+/* Roughplastic: the coating plus the base; `only` selects either, their
+ * sum is the whole; the sampler steers by Mitsuba's rule. */
+static void
+test_roughplastic_eval(void **state)
+{
+	struct pm_rng rng = pm_rng_seed(45, 0, 0);
+	struct pm_bsdf b, c, d;
+	struct pm_bsdf_sample s;
+	struct pm_vec3 wi, wo, h;
+	struct pm_rgb e, ec, ed;
+	double a2, th, dd, g, f, t, expect;
+	int k;
+
+	(void)state;
+	b = mk_roughplastic(0.3f, false, 1.49f, pm_rgb(0.2f, 0.4f, 0.6f),
+	    false);
+	b.specular = pm_rgb1(0.8f);
+	pm_bsdf_prepare(&b);
+	c = d = b;
+	c.only = PM_LOBE_GLOSSY;
+	d.only = PM_LOBE_DIFFUSE;
+	a2 = 0.09;
+	for (k = 0; k < 200; k++) {
+		wi = pm_square_to_uniform_hemisphere(pm_rng_float(&rng),
+		    pm_rng_float(&rng));
+		wo = pm_square_to_uniform_hemisphere(pm_rng_float(&rng),
+		    pm_rng_float(&rng));
+		if (wi.z < 0.02f || wo.z < 0.02f)
+			continue;
+		e = pm_bsdf_eval(&b, wi, wo, PM_RADIANCE);
+		ec = pm_bsdf_eval(&c, wi, wo, PM_RADIANCE);
+		ed = pm_bsdf_eval(&d, wi, wo, PM_RADIANCE);
+		assert_true(close_to(e.b, ec.b + ed.b, 1e-5 * e.b, "sum"));
+		h = pm_normalize(pm_add(wi, wo));
+		th = acos(h.z);
+		dd = a2 / (M_PI * pow(cos(th), 4.0) *
+		    pow(a2 + tan(th) * tan(th), 2.0));
+		g = 2.0 / (1.0 + sqrt(1.0 + a2 * (1.0 - wi.z * wi.z) /
+		    (wi.z * wi.z)));
+		g *= 2.0 / (1.0 + sqrt(1.0 + a2 * (1.0 - wo.z * wo.z) /
+		    (wo.z * wo.z)));
+		f = pm_fresnel_dielectric(pm_dot(wi, h), 1.49f, NULL);
+		expect = 0.8 * f * dd * g / (4.0 * wi.z);
+		assert_true(close_to(ec.g, expect, 2e-4 * expect + 1e-9,
+		    "roughplastic coating"));
+		/* the base: rho / (1 - fdr) T(wi) T(wo) cos / (pi eta^2),
+		 * T interpolated in the table */
+		t = 1.0;
+		for (int q = 0; q < 2; q++) {
+			double x = (q ? wo.z : wi.z) * 63.0;
+			int ix = (int)x < 62 ? (int)x : 62;
+
+			t *= b.rough_t[ix] + (x - ix) *
+			    (b.rough_t[ix + 1] - b.rough_t[ix]);
+		}
+		expect = 0.6 / (1.0 - b.fdr_int) * t * wo.z /
+		    (M_PI * 1.49 * 1.49);
+		assert_true(close_to(ed.b, expect, 1e-4 * expect,
+		    "roughplastic base"));
+		/* each part samples itself alone */
+		assert_true(close_to(pm_bsdf_pdf(&d, wi, wo), wo.z / M_PI,
+		    1e-6, "base pdf"));
+		if (pm_bsdf_sample(&c, wi, pm_rng_float(&rng),
+		    pm_rng_float(&rng), pm_rng_float(&rng), PM_RADIANCE, &s))
+			assert_true(s.lobe == PM_LOBE_GLOSSY);
+		assert_true(pm_bsdf_sample(&d, wi, pm_rng_float(&rng),
+		    pm_rng_float(&rng), pm_rng_float(&rng), PM_RADIANCE, &s));
+		assert_true(s.lobe == PM_LOBE_DIFFUSE);
+	}
+	/* Mitsuba's steering: (1 - T) w against T (1 - w) */
+	wi = dir(1.0, 0.0);
+	wo = dir(0.5, 2.0);
+	{
+		double ti = b.rough_t[(int)(wi.z * 63.0)] + (wi.z * 63.0 -
+		    (int)(wi.z * 63.0)) * (b.rough_t[(int)(wi.z * 63.0) + 1] -
+		    b.rough_t[(int)(wi.z * 63.0)]);
+		double w = b.specular_sampling_weight;
+		double ps = (1 - ti) * w / ((1 - ti) * w + ti * (1 - w));
+
+		assert_true(close_to(w, 0.8 / 1.2, 1e-6, "ssw"));
+		assert_true(close_to(pm_bsdf_pdf(&b, wi, wo),
+		    ps * pm_bsdf_pdf(&c, wi, wo) + (1 - ps) * wo.z / M_PI,
+		    1e-5 * pm_bsdf_pdf(&b, wi, wo), "steering"));
+	}
+}
+
+static void
+test_roughplastic_albedo(void **state)
+{
+	struct pm_bsdf b;
+
+	(void)state;
+	b = mk_roughplastic(0.3f, false, 1.49f, pm_rgb(0.5f, 0.5f, 0.5f),
+	    false);
+	check_albedo(&b, "roughplastic ggx 0.3", -1.0f);
+	b = mk_roughplastic(0.2f, true, 1.7f, pm_rgb(0.9f, 0.3f, 0.1f), true);
+	check_albedo(&b, "roughplastic beckmann 0.2 nonlinear", -1.0f);
+	b = mk_roughplastic(0.6f, true, 1.49f, pm_rgb1(1.0f), false);
+	check_albedo(&b, "roughplastic white beckmann 0.6", -1.0f);
+	b = mk_roughplastic(0.3f, false, 1.49f, pm_rgb(0.3f, 0.5f, 0.7f), false);
+	check_reciprocity(&b, "roughplastic ggx", false);
+	b = mk_roughplastic(0.3f, true, 1.6f, pm_rgb(0.3f, 0.5f, 0.7f), true);
+	check_reciprocity(&b, "roughplastic beckmann nonlinear", false);
+	b.twosided = true;
+	check_reciprocity(&b, "roughplastic twosided", true);
+}
+
+static void
+test_sampling_roughplastic(void **state)
+{
+	struct pm_bsdf b;
+
+	(void)state;
+	b = mk_roughplastic(0.3f, false, 1.49f, pm_rgb(0.5f, 0.3f, 0.2f), false);
+	check_sampling(&b, dir(1.0, 0.3), 91, "roughplastic ggx 0.3");
+	b = mk_roughplastic(0.2f, true, 1.49f, pm_rgb(0.2f, 0.3f, 0.2f), false);
+	check_sampling(&b, dir(0.5, 0.3), 92, "roughplastic beckmann 0.2");
+	b.sample_visible = false;
+	check_sampling(&b, dir(1.3, 2.3), 93, "roughplastic beckmann 0.2 b");
+	b = mk_roughplastic(0.4f, false, 1.49f, pm_rgb(0.2f, 0.3f, 0.2f), false);
+	b.sample_visible = false;
+	check_sampling(&b, dir(1.3, 2.3), 94, "roughplastic ggx 0.4 all");
+}
+
 /*
  * Twosided: from below, a material is its mirror image through the
  * surface; without the adapter it is black from below.
@@ -1088,6 +1584,14 @@ main(void)
 		cmocka_unit_test(test_sampling_diffuse),
 		cmocka_unit_test(test_sampling_rough),
 		cmocka_unit_test(test_sampling_plastic),
+		cmocka_unit_test(test_roughglass_analytic),
+		cmocka_unit_test(test_roughglass_energy),
+		cmocka_unit_test(test_roughglass_reciprocity),
+		cmocka_unit_test(test_sampling_roughglass),
+		cmocka_unit_test(test_roughplastic_tables),
+		cmocka_unit_test(test_roughplastic_eval),
+		cmocka_unit_test(test_roughplastic_albedo),
+		cmocka_unit_test(test_sampling_roughplastic),
 		cmocka_unit_test(test_twosided),
 		cmocka_unit_test(test_delta_directions),
 	};

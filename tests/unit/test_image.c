@@ -576,9 +576,10 @@ test_exr_attributes(void **state)
 
 /*
  * Noise that does not compress, in chunks of a realistic width.  The
- * writer uses PIZ because OpenEXRCore 3.1.5 corrupted one ZIP chunk of a
- * real render (data/caustics.xml, 96x96, 1024 spp, seed 5); this noise does
- * not trigger that bug, but guards the incompressible path of PIZ.
+ * writer never uses ZIP because OpenEXRCore 3.1.5 corrupted one ZIP chunk
+ * of a real render (data/caustics.xml, 96x96, 1024 spp, seed 5); float
+ * files are now uncompressed and half ones PIZ, and this round trip of
+ * float noise guards the writer's handling of data no codec shrinks.
  */
 static void
 test_exr_roundtrip_incompressible(void **state)

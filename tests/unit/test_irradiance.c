@@ -345,6 +345,23 @@ test_furnace_final_gather(void **state)
 	assert_true(fabs(mean[0] / (Le.r / (1 - rho)) - 1.0) < 0.02);
 	assert_true(fabs(mean[1] / (Le.g / (1 - rho)) - 1.0) < 0.02);
 	assert_true(fabs(mean[2] / (Le.b / (1 - rho)) - 1.0) < 0.02);
+	pm_image_free(&im);
+
+	/* Without records, gather rays end in the whole global map, every
+	 * photon of every depth when the depth is unlimited (pm-render's
+	 * gather_max_depth -1): the same answer. */
+	maps.irradiance_grid = NULL;
+	maps.gather_max_depth = -1;
+	assert_int_equal(pm_render(&ctx, &s.camera, &ro, &im, &rs, &err), PM_OK);
+	mean[0] = mean[1] = mean[2] = 0.0;
+	for (i = 0; i < npix; i++)
+		for (c = 0; c < 3; c++)
+			mean[c] += im.rgb[3 * i + c] / (double)npix;
+	print_message("the same from the global map: %.4f %.4f %.4f\n", mean[0],
+	    mean[1], mean[2]);
+	assert_true(fabs(mean[0] / (Le.r / (1 - rho)) - 1.0) < 0.02);
+	assert_true(fabs(mean[1] / (Le.g / (1 - rho)) - 1.0) < 0.02);
+	assert_true(fabs(mean[2] / (Le.b / (1 - rho)) - 1.0) < 0.02);
 
 	pm_image_free(&im);
 	pm_irr_grid_free(&grid);

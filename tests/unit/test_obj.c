@@ -52,6 +52,78 @@ assert_tri(const struct pm_mesh *m, uint32_t t, uint32_t a, uint32_t b,
 	assert_int_equal(m->idx[3 * t + 2], c);
 }
 
+/*
+ * Numbers are read without strtof where that is exact (at most 7
+ * significant digits, no exponent): every form, random and at the edges,
+ * must give strtof's float bit for bit.
+ */
+static void
+test_numbers_as_strtof(void **state)
+{
+	static const char *edge[] = { "0", "-0", "+0", "0.", ".5", "-.5",
+	    "1.", "9999999", "16777217", "0.1", "0.0000000001",
+	    "0.00000000001", "1e3", "-2.5E-3", "123.4567", "1234567.",
+	    "0000001.5", "3.4028235e38", "1.17549435e-38", "7.0000001",
+	    "0.30000001", "-0.0378297" };
+	enum { NV = 3000 };
+	char *text, *q, num[3 * NV][40];
+	struct pm_mesh m;
+	struct pm_error err;
+	uint32_t x = 7, i;
+	size_t n;
+
+	(void)state;
+	n = 3 * NV * 48 + NV * 16;
+	text = malloc(n);
+	assert_non_null(text);
+	q = text;
+	for (i = 0; i < 3 * NV; i++) {
+		char *d = num[i];
+		int k, ni, nf;
+
+		if (i < sizeof(edge) / sizeof(edge[0])) {
+			snprintf(d, sizeof(num[i]), "%s", edge[i]);
+			continue;
+		}
+		x = x * 1664525u + 1013904223u;
+		if (x >> 30 == 1)
+			*d++ = '-';
+		else if (x >> 30 == 2 && (x & 1))
+			*d++ = '+';
+		ni = (int)((x >> 20) % 9);
+		nf = (int)((x >> 10) % 13);
+		for (k = 0; k < ni; k++) {
+			x = x * 1664525u + 1013904223u;
+			*d++ = (char)('0' + (x >> 24) % 10);
+		}
+		if (nf > 0 || ni == 0)
+			*d++ = '.';
+		for (k = 0; k < nf || (ni == 0 && k == 0); k++) {
+			x = x * 1664525u + 1013904223u;
+			*d++ = (char)('0' + (x >> 24) % 10);
+		}
+		if ((x >> 8) % 16 == 0)
+			d += sprintf(d, "e%d", (int)((x >> 4) % 21) - 10);
+		*d = '\0';
+	}
+	for (i = 0; i < NV; i++)
+		q += sprintf(q, "v %s %s %s\n", num[3 * i], num[3 * i + 1],
+		    num[3 * i + 2]);
+	for (i = 0; i < NV; i += 3)
+		q += sprintf(q, "f %u %u %u\n", i + 1, i + 2, i + 3);
+	assert_int_equal(parse(text, &m, &err), PM_OK);
+	assert_int_equal(m.nverts, NV);
+	for (i = 0; i < 3 * NV; i++) {
+		float want = strtof(num[i], NULL);
+
+		if (memcmp(&want, &m.pos[i], sizeof(want)) != 0)
+			fail_msg("'%s': %.9g, strtof gives %.9g", num[i],
+			    m.pos[i], want);
+	}
+	pm_mesh_free(&m);
+	free(text);
+}
+
 static void
 test_triangle(void **state)
 {
@@ -477,6 +549,7 @@ main(void)
 		cmocka_unit_test(test_nan_dropped_by_validate),
 		cmocka_unit_test(test_read_file),
 		cmocka_unit_test(test_bunny),
+		cmocka_unit_test(test_numbers_as_strtof),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);

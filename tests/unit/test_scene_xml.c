@@ -270,6 +270,94 @@ test_bsdfs(void **state)
 	pm_scene_free(&s);
 }
 
+/* roughdielectric and roughplastic: Mitsuba's defaults (Beckmann, alpha
+ * 0.1, visible normals, bk7 glass, polypropylene plastic) and each
+ * parameter read. */
+static void
+test_rough_bsdfs(void **state)
+{
+	struct pm_scene s;
+	const struct pm_bsdf *b;
+	float water;
+
+	(void)state;
+	load_ok("<scene version=\"3.0.0\">\n"
+	    " <shape type=\"rectangle\"><bsdf type=\"roughdielectric\"/>"
+	    "</shape>\n"
+	    " <shape type=\"rectangle\"><bsdf type=\"roughdielectric\">"
+	    "  <string name=\"distribution\" value=\"ggx\"/>"
+	    "  <float name=\"alpha_u\" value=\"0.3\"/>"
+	    "  <float name=\"alpha_v\" value=\"0.3\"/>"
+	    "  <boolean name=\"sample_visible\" value=\"false\"/>"
+	    "  <string name=\"int_ior\" value=\"water\"/>"
+	    "  <float name=\"ext_ior\" value=\"1\"/>"
+	    "  <rgb name=\"specular_reflectance\" value=\"0.9\"/>"
+	    "  <rgb name=\"specular_transmittance\" value=\"0.5, 0.6, 0.7\"/>"
+	    " </bsdf></shape>\n"
+	    " <shape type=\"rectangle\"><bsdf type=\"roughplastic\"/>"
+	    "</shape>\n"
+	    " <shape type=\"rectangle\"><bsdf type=\"roughplastic\">"
+	    "  <string name=\"distribution\" value=\"ggx\"/>"
+	    "  <float name=\"alpha\" value=\"0.25\"/>"
+	    "  <rgb name=\"diffuse_reflectance\" value=\"0.2, 0.4, 0.6\"/>"
+	    "  <float name=\"int_ior\" value=\"1.6\"/>"
+	    "  <boolean name=\"nonlinear\" value=\"true\"/>"
+	    " </bsdf></shape>\n"
+	    "</scene>\n", &s);
+	assert_int_equal(s.nshapes, 4);
+
+	b = shape_bsdf(&s, 0);
+	assert_int_equal(b->type, PM_BSDF_ROUGHDIELECTRIC);
+	assert_true(b->beckmann && b->sample_visible);
+	NEAR(b->alpha, 0.1, 1e-7);
+	NEAR(b->ior, 1.5046 / 1.000277, 1e-6);
+	assert_rgb(b->specular, 1, 1, 1);
+	assert_rgb(b->transmittance, 1, 1, 1);
+	assert_int_equal(b->lobes, PM_LOBE_GLOSSY | PM_LOBE_GLOSSY_TRANSMISSION);
+
+	b = shape_bsdf(&s, 1);
+	assert_false(b->beckmann || b->sample_visible);
+	NEAR(b->alpha, 0.3, 1e-7);
+	assert_true(pm_ior_lookup("water", &water));
+	NEAR(b->ior, water, 1e-6);
+	assert_rgb(b->specular, 0.9, 0.9, 0.9);
+	assert_rgb(b->transmittance, 0.5, 0.6, 0.7);
+
+	b = shape_bsdf(&s, 2);
+	assert_int_equal(b->type, PM_BSDF_ROUGHPLASTIC);
+	assert_true(b->beckmann && b->sample_visible);
+	NEAR(b->alpha, 0.1, 1e-7);
+	NEAR(b->ior, 1.49 / 1.000277, 1e-6);
+	assert_rgb(b->diffuse, 0.5, 0.5, 0.5);
+	assert_rgb(b->specular, 1, 1, 1);
+	assert_false(b->nonlinear);
+	/* pm_bsdf_prepare has filled the coating's tables */
+	assert_true(b->rough_t[63] > 0.9f && b->rough_t[63] < 1.0f);
+	assert_true(b->fdr_int > 0.3f && b->fdr_int < 0.7f);
+
+	b = shape_bsdf(&s, 3);
+	assert_false(b->beckmann);
+	NEAR(b->alpha, 0.25, 1e-7);
+	assert_rgb(b->diffuse, 0.2, 0.4, 0.6);
+	NEAR(b->ior, 1.6 / 1.000277, 1e-6);
+	assert_true(b->nonlinear);
+	pm_scene_free(&s);
+
+	load_fails("<scene version=\"3.0.0\"><shape type=\"rectangle\">\n"
+	    "<bsdf type=\"roughdielectric\"><float name=\"alpha_u\" "
+	    "value=\"0.1\"/><float name=\"alpha_v\" value=\"0.3\"/></bsdf>"
+	    "</shape></scene>", 2, "anisotropic");
+	load_fails("<scene version=\"3.0.0\"><shape type=\"rectangle\">\n"
+	    "<bsdf type=\"roughplastic\">\n<string name=\"distribution\" "
+	    "value=\"phong\"/></bsdf></shape></scene>", 3,
+	    "distribution \"phong\" is not supported");
+	load_fails("<scene version=\"3.0.0\"><shape type=\"rectangle\">\n"
+	    "<bsdf type=\"roughplastic\">\n<float name=\"alpha\" "
+	    "value=\"0.1\"/><float name=\"alpha_u\" value=\"0.1\"/>"
+	    "<float name=\"alpha_v\" value=\"0.1\"/></bsdf></shape></scene>",
+	    3, "give either alpha or alpha_u and alpha_v");
+}
+
 /* ------------------------------------------------------------ shapes */
 
 static void
@@ -622,9 +710,10 @@ test_envmap_directional(void **state)
 
 	load_fails(HEAD "<emitter type=\"envmap\">\n"
 	    "</emitter></scene>", 2, "missing required parameter \"filename\"");
+	put_file("sky.txt", "not an image\n");
 	load_fails(HEAD "<emitter type=\"envmap\">\n"
-	    "<string name=\"filename\" value=\"sky.png\"/></emitter></scene>",
-	    3, "Radiance HDR (.hdr, .rgbe, .pic) files only");
+	    "<string name=\"filename\" value=\"sky.txt\"/></emitter></scene>",
+	    3, "not a PNG, JPEG");
 	load_fails(HEAD "<emitter type=\"envmap\">\n"
 	    "<string name=\"filename\" value=\"nope.exr\"/></emitter></scene>",
 	    3, "nope.exr");
@@ -1048,8 +1137,8 @@ test_errors(void **state)
 		    "unknown element <bar> in shape \"sphere\""},
 		{HEAD "<shape type=\"teapot\"/></scene>", 2,
 		    "unknown shape type \"teapot\""},
-		{HEAD "<shape type=\"sphere\"><bsdf type=\"roughplastic\"/>"
-		    "</shape></scene>", 2, "unknown bsdf type \"roughplastic\""},
+		{HEAD "<shape type=\"sphere\"><bsdf type=\"principled\"/>"
+		    "</shape></scene>", 2, "unknown bsdf type \"principled\""},
 		{HEAD "<emitter type=\"projector\"/></scene>", 2,
 		    "unknown emitter type \"projector\""},
 		{HEAD "<integrator type=\"aov\"/></scene>", 2,
@@ -1187,18 +1276,52 @@ test_errors(void **state)
 		/* unsupported features and inconsistent scenes */
 		{HEAD "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n"
 		    "<texture name=\"reflectance\" type=\"bitmap\"/></bsdf>"
-		    "</shape></scene>", 3, "textures are not supported"},
-		/* an unknown plugin is named before the texture inside it */
-		{HEAD "<shape type=\"rectangle\">\n<bsdf type=\"roughplastic\">"
-		    "<texture name=\"diffuse_reflectance\" type=\"bitmap\"/>"
-		    "</bsdf></shape></scene>", 3,
-		    "unknown bsdf type \"roughplastic\""},
-		/* a texture by reference is a texture */
+		    "</shape></scene>", 3, "texture \"bitmap\": missing required "
+		    "parameter \"filename\""},
+		/* where pm takes no texture, one is named as not supported */
+		{HEAD "<shape type=\"rectangle\"><bsdf type=\"dielectric\">\n"
+		    "<texture name=\"specular_reflectance\" type=\"checkerboard\"/>"
+		    "</bsdf></shape></scene>", 3, "bsdf \"dielectric\": textures "
+		    "are not supported here (<texture name=\"specular_reflectance\">)"},
+		{HEAD "<texture type=\"checkerboard\" id=\"t\">\n"
+		    "<texture name=\"color0\" type=\"checkerboard\"/></texture>"
+		    "</scene>", 3, "textures are not supported here"},
 		{HEAD "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n"
-		    "<ref name=\"reflectance\" id=\"t\"/></bsdf></shape>\n"
-		    "<texture type=\"checkerboard\" id=\"t\"/></scene>", 3,
-		    "textures are not supported (<ref id=\"t\"> names the "
-		    "<texture> at line 4)"},
+		    "<texture type=\"checkerboard\"/></bsdf></shape></scene>", 3,
+		    "a nested <texture> needs a name"},
+		{HEAD "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n"
+		    "<texture name=\"reflectance\" type=\"noise\"/></bsdf>"
+		    "</shape></scene>", 3, "unknown texture type \"noise\""},
+		{HEAD "<texture type=\"bitmap\" id=\"t\">\n"
+		    "<string name=\"filename\" value=\"absent.png\"/>"
+		    "<string name=\"wrap_mode\" value=\"wrap\"/></texture>"
+		    "</scene>", 3, "wrap_mode \"wrap\" is not one of"},
+		{HEAD "<texture type=\"bitmap\" id=\"t\">\n"
+		    "<string name=\"filename\" value=\"absent.png\"/>"
+		    "</texture></scene>", 2, "cannot find \"absent.png\""},
+		{HEAD "<texture type=\"bitmap\" id=\"t\">\n"
+		    "<string name=\"filename\" value=\"flat.obj\"/>"
+		    "</texture></scene>", 2, "not a PNG, JPEG or OpenEXR file"},
+		{HEAD "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n"
+		    "<rgb name=\"reflectance\" value=\"0.5\"/>"
+		    "<texture name=\"reflectance\" type=\"checkerboard\"/>"
+		    "</bsdf></shape></scene>", 3,
+		    "parameter \"reflectance\" given twice"},
+		{HEAD "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n"
+		    "<ref name=\"reflectance\" id=\"b\"/></bsdf></shape>"
+		    "<bsdf type=\"diffuse\" id=\"b\"/></scene>", 3,
+		    "names a <bsdf>, expected a <texture>"},
+		/* an unknown plugin is named before the texture inside it */
+		{HEAD "<shape type=\"rectangle\">\n<bsdf type=\"principled\">"
+		    "<texture name=\"base_color\" type=\"bitmap\"/>"
+		    "</bsdf></shape></scene>", 3,
+		    "unknown bsdf type \"principled\""},
+		/* a texture by reference is a texture */
+		{HEAD "<shape type=\"rectangle\"><bsdf type=\"dielectric\">\n"
+		    "<ref name=\"specular_transmittance\" id=\"t\"/></bsdf>"
+		    "</shape>\n<texture type=\"checkerboard\" id=\"t\"/>"
+		    "</scene>", 3, "textures are not supported here (<ref "
+		    "id=\"t\"> names the <texture> at line 4)"},
 		/* a required parameter given as a texture */
 		{HEAD "<shape type=\"rectangle\"><emitter type=\"area\">\n"
 		    "<texture name=\"radiance\" type=\"bitmap\"/></emitter>"
@@ -1340,6 +1463,7 @@ main(void)
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_empty_scene_defaults),
 		cmocka_unit_test(test_bsdfs),
+		cmocka_unit_test(test_rough_bsdfs),
 		cmocka_unit_test(test_shapes),
 		cmocka_unit_test(test_meshes),
 		cmocka_unit_test(test_emitters),

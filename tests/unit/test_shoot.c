@@ -176,8 +176,12 @@ test_shards_equal_one_run(void **state)
  * floor; the flux of caustic photons from the aimed pass equals the flux of
  * the caustic-flagged photons of the plain global pass.
  */
+/* A glass sphere (clear, or rough: roughdielectric counts as glass for
+ * photons) over a floor under a small light: the caustic photons the
+ * global pass leaves on the floor carry the flux the aimed caustic pass
+ * finds there, and none is stored on the glass. */
 static void
-test_caustic_aiming_is_unbiased(void **state)
+caustic_aiming(enum pm_bsdf_type type, float alpha, bool beckmann)
 {
 	struct world w;
 	struct pm_scene *s = &w.scene;
@@ -188,7 +192,6 @@ test_caustic_aiming_is_unbiased(void **state)
 	int b, sh, l;
 	size_t i;
 
-	(void)state;
 	pm_scene_init(s);
 	/* The floor: a large flat-shaded disk, facing up. */
 	sh = pm_scene_add_shape(s);
@@ -202,7 +205,10 @@ test_caustic_aiming_is_unbiased(void **state)
 	}
 	s->shapes[sh].bsdf = add_diffuse(s, 0.8f);
 	b = pm_scene_add_bsdf(s);
-	s->bsdfs[b].type = PM_BSDF_DIELECTRIC;
+	s->bsdfs[b].type = type;
+	s->bsdfs[b].alpha = alpha;
+	s->bsdfs[b].beckmann = beckmann;
+	s->bsdfs[b].sample_visible = true;
 	s->bsdfs[b].ior = 1.5f;
 	s->bsdfs[b].specular = pm_rgb1(1.0f);
 	s->bsdfs[b].transmittance = pm_rgb1(1.0f);
@@ -219,8 +225,12 @@ test_caustic_aiming_is_unbiased(void **state)
 	shoot(&w, PM_PASS_GLOBAL, 0, ng, 2, &g);
 	shoot(&w, PM_PASS_CAUSTIC, 0, nc, 2, &c);
 	for (i = 0; i < g.n; i++) {
-		float f;
+		float f, dx = g.p[i].pos[0], dy = g.p[i].pos[1] - 1.5f;
+		float dz = g.p[i].pos[2];
 
+		/* nothing stored on the glass */
+		assert_true(fabsf(sqrtf(dx * dx + dy * dy + dz * dz) - 1.0f) >
+		    1e-3f);
 		/* Caustics on the floor: light, glass+, floor (first arrival). */
 		if (!(g.p[i].flags & PM_PHOTON_CAUSTIC) || g.p[i].pos[1] > 0.01f)
 			continue;
@@ -344,6 +354,15 @@ test_far_light_aiming_is_unbiased(void **state)
 }
 
 static void
+test_caustic_aiming_is_unbiased(void **state)
+{
+	(void)state;
+	caustic_aiming(PM_BSDF_DIELECTRIC, 0.0f, false);
+	caustic_aiming(PM_BSDF_ROUGHDIELECTRIC, 0.3f, true);
+	caustic_aiming(PM_BSDF_ROUGHDIELECTRIC, 0.1f, false);
+}
+
+static void
 test_effects(void **state)
 {
 	struct world w;
@@ -382,6 +401,31 @@ test_scene_hash(void **state)
 	world_free(&b);
 }
 
+/* The default photon count follows the scene's own film and sampler. */
+static void
+test_default_paths(void **state)
+{
+	struct pm_scene s;
+
+	(void)state;
+	pm_scene_init(&s);
+	assert_int_equal(pm_shoot_default_paths(&s), PM_PATHS_NO_CAMERA);
+	s.has_camera = true;
+	s.camera.width = s.camera.height = 128;
+	s.camera.spp = 16;		/* 262144 samples */
+	assert_int_equal(pm_shoot_default_paths(&s), 26214);
+	s.camera.spp = 2;		/* below the floor */
+	assert_int_equal(pm_shoot_default_paths(&s), PM_PATHS_MIN);
+	s.camera.width = s.camera.height = 512;
+	s.camera.spp = 64;		/* above the ceiling */
+	assert_int_equal(pm_shoot_default_paths(&s), PM_PATHS_MAX);
+	s.camera.width = 640;
+	s.camera.height = 480;
+	s.camera.spp = 1;
+	assert_int_equal(pm_shoot_default_paths(&s), 30720);
+	pm_scene_free(&s);
+}
+
 int
 main(void)
 {
@@ -392,6 +436,7 @@ main(void)
 		cmocka_unit_test(test_far_light_aiming_is_unbiased),
 		cmocka_unit_test(test_effects),
 		cmocka_unit_test(test_scene_hash),
+		cmocka_unit_test(test_default_paths),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);

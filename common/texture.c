@@ -1,0 +1,235 @@
+/*
+ * texture.c: lookups of Mitsuba 3's checkerboard and bitmap textures, the
+ * uv coordinates of a hit, and the BSDF of a hit with its textures looked
+ * up (texture.h).
+ *
+ * A bitmap is looked up as Mitsuba (Dr.Jit's texture) does: texel centres
+ * sit at ((i + 1/2) / width, (j + 1/2) / height), row j = 0 at v = 0;
+ * bilinear interpolation weighs the four texels around the point, each
+ * index wrapped on its own; nearest takes the texel the point falls in.
+ */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "texture.h"
+
+void
+pm_texture_init(struct pm_texture *t, enum pm_texture_type type)
+{
+	memset(t, 0, sizeof(*t));
+	t->type = type;
+	t->to_uv[0] = 1.0f;
+	t->to_uv[4] = 1.0f;
+	t->color0 = pm_rgb1(0.4f);
+	t->color1 = pm_rgb1(0.2f);
+	t->wrap = PM_WRAP_REPEAT;
+}
+
+void
+pm_texture_free(struct pm_texture *t)
+{
+	free(t->rgb);
+	t->rgb = NULL;
+	t->width = t->height = 0;
+}
+
+float
+pm_srgb_to_linear(float c)
+{
+	if (c <= 0.04045f)
+		return c / 12.92f;
+	return powf((c + 0.055f) / 1.055f, 2.4f);
+}
+
+/* An integer texel index from a coordinate in texels, safe for any float:
+ * far-out and non-finite coordinates are brought within a range where
+ * the conversion is defined (the wrap then decides). */
+static inline long
+texel_floor(float x)
+{
+	if (!(x > -1e9f))	/* NaN too */
+		x = x != x ? 0.0f : -1e9f;
+	if (x > 1e9f)
+		x = 1e9f;
+	return (long)floorf(x);
+}
+
+static inline int
+wrap_index(long i, int n, enum pm_wrap w)
+{
+	long m;
+
+	switch (w) {
+	case PM_WRAP_CLAMP:
+		return i < 0 ? 0 : i >= n ? n - 1 : (int)i;
+	case PM_WRAP_MIRROR:
+		/* period 2n: n texels forwards, then the same backwards */
+		m = i % (2L * n);
+		if (m < 0)
+			m += 2L * n;
+		return m < n ? (int)m : (int)(2L * n - 1 - m);
+	case PM_WRAP_REPEAT:
+	default:
+		m = i % n;
+		return (int)(m < 0 ? m + n : m);
+	}
+}
+
+static inline struct pm_rgb
+texel(const struct pm_texture *t, int x, int y)
+{
+	const float *p = t->rgb + 3 * ((size_t)y * (size_t)t->width + (size_t)x);
+
+	return pm_rgb(p[0], p[1], p[2]);
+}
+
+static struct pm_rgb
+bitmap_eval(const struct pm_texture *t, float u, float v)
+{
+	float x, y, fx, fy;
+	long ix, iy;
+	int x0, x1, y0, y1;
+	struct pm_rgb a, b;
+
+	if (t->rgb == NULL || t->width <= 0 || t->height <= 0)
+		return pm_rgb1(0.0f);
+	if (t->nearest) {
+		x0 = wrap_index(texel_floor(u * (float)t->width), t->width, t->wrap);
+		y0 = wrap_index(texel_floor(v * (float)t->height), t->height,
+		    t->wrap);
+		return texel(t, x0, y0);
+	}
+	x = u * (float)t->width - 0.5f;
+	y = v * (float)t->height - 0.5f;
+	ix = texel_floor(x);
+	iy = texel_floor(y);
+	fx = x - (float)ix;
+	fy = y - (float)iy;
+	if (!(fx >= 0.0f && fx <= 1.0f))	/* far out or NaN: clamp */
+		fx = 0.0f;
+	if (!(fy >= 0.0f && fy <= 1.0f))
+		fy = 0.0f;
+	x0 = wrap_index(ix, t->width, t->wrap);
+	x1 = wrap_index(ix + 1, t->width, t->wrap);
+	y0 = wrap_index(iy, t->height, t->wrap);
+	y1 = wrap_index(iy + 1, t->height, t->wrap);
+	a = pm_rgb_add(pm_rgb_scale(texel(t, x0, y0), 1.0f - fx),
+	    pm_rgb_scale(texel(t, x1, y0), fx));
+	b = pm_rgb_add(pm_rgb_scale(texel(t, x0, y1), 1.0f - fx),
+	    pm_rgb_scale(texel(t, x1, y1), fx));
+	return pm_rgb_add(pm_rgb_scale(a, 1.0f - fy), pm_rgb_scale(b, fy));
+}
+
+struct pm_rgb
+pm_texture_eval(const struct pm_texture *t, float u, float v)
+{
+	const float *m = t->to_uv;
+	float tu = m[0] * u + m[1] * v + m[2];
+	float tv = m[3] * u + m[4] * v + m[5];
+
+	switch (t->type) {
+	case PM_TEXTURE_CHECKERBOARD: {
+		bool hu = tu - floorf(tu) > 0.5f, hv = tv - floorf(tv) > 0.5f;
+
+		return hu == hv ? t->color0 : t->color1;
+	}
+	case PM_TEXTURE_BITMAP:
+		return bitmap_eval(t, tu, tv);
+	}
+	return pm_rgb1(0.0f);
+}
+
+struct pm_rgb
+pm_texture_mean(const struct pm_texture *t)
+{
+	double s[3] = {0, 0, 0};
+	size_t i, n;
+
+	switch (t->type) {
+	case PM_TEXTURE_CHECKERBOARD:
+		return pm_rgb_scale(pm_rgb_add(t->color0, t->color1), 0.5f);
+	case PM_TEXTURE_BITMAP:
+		if (t->rgb == NULL || t->width <= 0 || t->height <= 0)
+			break;
+		n = (size_t)t->width * (size_t)t->height;
+		for (i = 0; i < n; i++) {
+			s[0] += t->rgb[3 * i];
+			s[1] += t->rgb[3 * i + 1];
+			s[2] += t->rgb[3 * i + 2];
+		}
+		return pm_rgb((float)(s[0] / (double)n), (float)(s[1] / (double)n),
+		    (float)(s[2] / (double)n));
+	}
+	return pm_rgb1(0.0f);
+}
+
+void
+pm_hit_uv(const struct pm_scene *s, const struct pm_hit *h, float *u, float *v)
+{
+	const struct pm_shape *sh = &s->shapes[h->shape];
+
+	if (sh->type == PM_SHAPE_SPHERE) {
+		struct pm_vec3 d = pm_sub(h->p, sh->center), l;
+		const struct pm_frame *a = &sh->axes;
+		float r, phi, ct;
+
+		/* the object frame's axes; none given: the world's */
+		if (pm_dot(a->n, a->n) > 0.0f)
+			l = pm_v3(pm_dot(d, a->s) / pm_dot(a->s, a->s),
+			    pm_dot(d, a->t) / pm_dot(a->t, a->t),
+			    pm_dot(d, a->n) / pm_dot(a->n, a->n));
+		else
+			l = d;
+		r = pm_length(l);
+		ct = r > 0.0f ? l.z / r : 1.0f;
+		ct = fminf(fmaxf(ct, -1.0f), 1.0f);
+		phi = atan2f(l.y, l.x);
+		if (phi < 0.0f)
+			phi += 2.0f * PM_PI;
+		*u = phi * (0.5f / PM_PI);
+		*v = acosf(ct) * (1.0f / PM_PI);
+		return;
+	}
+	if (sh->mesh.uv != NULL) {
+		const uint32_t *t = &sh->mesh.idx[3 * (size_t)h->prim];
+		const float *uv = sh->mesh.uv;
+		float w = 1.0f - h->u - h->v;
+
+		*u = w * uv[2 * t[0]] + h->u * uv[2 * t[1]] + h->v * uv[2 * t[2]];
+		*v = w * uv[2 * t[0] + 1] + h->u * uv[2 * t[1] + 1] +
+		    h->v * uv[2 * t[2] + 1];
+		return;
+	}
+	/* Mitsuba's uv on a mesh without texture coordinates */
+	*u = h->u;
+	*v = h->v;
+}
+
+const struct pm_bsdf *
+pm_bsdf_at(const struct pm_scene *s, const struct pm_hit *h,
+    struct pm_bsdf *tmp)
+{
+	const struct pm_bsdf *b = &s->bsdfs[s->shapes[h->shape].bsdf];
+	float u, v;
+
+	if (b->tex_diffuse == 0 && b->tex_specular == 0 && b->tex_alpha == 0)
+		return b;
+	*tmp = *b;
+	pm_hit_uv(s, h, &u, &v);
+	if (b->tex_diffuse > 0)
+		tmp->diffuse = pm_texture_eval(&s->textures[b->tex_diffuse - 1],
+		    u, v);
+	if (b->tex_specular > 0)
+		tmp->specular = pm_texture_eval(&s->textures[b->tex_specular - 1],
+		    u, v);
+	if (b->tex_alpha > 0) {
+		/* a scalar parameter takes the texture's luminance, as
+		 * Mitsuba's eval_1 does */
+		struct pm_rgb c = pm_texture_eval(&s->textures[b->tex_alpha - 1],
+		    u, v);
+
+		tmp->alpha = 0.212671f * c.r + 0.715160f * c.g + 0.072169f * c.b;
+	}
+	return tmp;
+}

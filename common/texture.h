@@ -1,0 +1,82 @@
+/*
+ * texture.h: Mitsuba 3's 2D textures (checkerboard, bitmap), looked up by
+ * the surface's uv coordinates, and the BSDF of a surface point with its
+ * textured parameters in place.
+ *
+ * A texture is a plain struct; a bitmap's texels are one flat array of
+ * linear RGB floats that the texture owns.  Lookups allocate nothing and
+ * read only, so any number of threads share a texture.  Files are read by
+ * formats/texture.c; nothing here knows of them.
+ */
+#ifndef PM_TEXTURE_H
+#define PM_TEXTURE_H
+
+#include <stdbool.h>
+
+#include "accel.h"
+#include "bsdf.h"
+#include "scene.h"
+#include "vec.h"
+
+enum pm_texture_type {
+	PM_TEXTURE_CHECKERBOARD,
+	PM_TEXTURE_BITMAP,
+};
+
+enum pm_wrap {
+	PM_WRAP_REPEAT,		/* tile (Mitsuba's default) */
+	PM_WRAP_MIRROR,		/* tile, every other copy mirrored */
+	PM_WRAP_CLAMP,		/* the edge texels continue outwards */
+};
+
+struct pm_texture {
+	enum pm_texture_type type;
+	/* to_uv as an affine map of the plane: (u, v) becomes
+	 * (a[0] u + a[1] v + a[2], a[3] u + a[4] v + a[5]). */
+	float to_uv[6];
+	/* checkerboard: color0 where the fractional parts of u and v are
+	 * both at most 1/2 or both above, color1 elsewhere */
+	struct pm_rgb color0, color1;
+	/* bitmap: width x height linear RGB texels, top row first (v = 0
+	 * is the top row, as in Mitsuba), owned by the texture */
+	int width, height;
+	float *rgb;
+	bool nearest;		/* filter_type nearest, else bilinear */
+	enum pm_wrap wrap;
+	char name[64];		/* id, or type and ordinal, for messages */
+};
+
+/* A texture of the given type with the identity to_uv and Mitsuba's
+ * defaults (checkerboard 0.4 and 0.2; bitmap empty, bilinear, repeat). */
+void pm_texture_init(struct pm_texture *t, enum pm_texture_type type);
+/* Frees the texels; t may be initialised again. */
+void pm_texture_free(struct pm_texture *t);
+
+/* The texture's value at surface coordinates (u, v), before to_uv. */
+struct pm_rgb pm_texture_eval(const struct pm_texture *t, float u, float v);
+
+/* The texture's mean value over one period (Mitsuba's mean(): plastic
+ * steers its samples by it). */
+struct pm_rgb pm_texture_mean(const struct pm_texture *t);
+
+/* sRGB's transfer curve undone: an encoded value in [0, 1] to linear. */
+float pm_srgb_to_linear(float c);
+
+/*
+ * The uv coordinates of a hit as Mitsuba defines them: a mesh's vertex
+ * uv interpolated, or, for a mesh without, the barycentrics of vertices
+ * 1 and 2; on a sphere (phi / 2 pi, theta / pi) in its object frame.
+ */
+void pm_hit_uv(const struct pm_scene *s, const struct pm_hit *h, float *u,
+    float *v);
+
+/*
+ * The BSDF at a hit: the scene's own when it has no textured parameter
+ * (nothing is copied), else *tmp filled with the textured values looked
+ * up there.  Derived fields (lobes, plastic's sampling weight) are kept
+ * as pm_bsdf_prepare set them from the textures' means, as in Mitsuba.
+ */
+const struct pm_bsdf *pm_bsdf_at(const struct pm_scene *s,
+    const struct pm_hit *h, struct pm_bsdf *tmp);
+
+#endif
