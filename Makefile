@@ -209,6 +209,7 @@ $(BUILD)/tests/texlookup: tests/mitsuba/texlookup.c $(LIB)
 
 check-mitsuba: $(BINS) $(BUILD)/tests/texlookup
 	@sh tests/mitsuba/compare.sh
+	@sh tests/mitsuba/emitters.sh
 
 install: all
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/man/man1 \

@@ -7,11 +7,37 @@
 
 #include "light.h"
 
+/*
+ * The fraction of an environment's power (taken through the disk of the
+ * bounding sphere, area pi R^2) that can reach the geometry: at most the
+ * mean projected area of the surfaces over that disk.  A convex closed
+ * surface of area A shows A / 4 on average, a flat one A / 2; A / 2 for
+ * everything errs towards the environment.
+ */
+static double
+env_nee_share(const struct pm_scene *s)
+{
+	double area = 0.0, disk = 3.14159265358979323846 * (double)s->radius *
+	    (double)s->radius;
+	size_t i;
+
+	if (s->env_light < 0 || !(disk > 0.0))
+		return 1.0;
+	for (i = 0; i < s->nshapes; i++) {
+		const struct pm_shape *sh = &s->shapes[i];
+
+		area += sh->type == PM_SHAPE_SPHERE ? 4.0 *
+		    3.14159265358979323846 * (double)sh->radius *
+		    (double)sh->radius : pm_mesh_area(&sh->mesh);
+	}
+	return fmin(1.0, 0.5 * area / disk);
+}
+
 enum pm_err
 pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
     struct pm_error *err)
 {
-	double *w = NULL;
+	double *w = NULL, env_share, total;
 	size_t i, j, maxw = s->nlights;
 	enum pm_err rc = PM_OK;
 
@@ -40,8 +66,19 @@ pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
 	rc = pm_distrib_init(&ls->pick, w, s->nlights, err);
 	if (rc != PM_OK)
 		goto out;
+	/* For light samples, an environment's power counts only what can
+	 * fall on the geometry (see light.h): the bounding sphere's disk
+	 * overstates it in an open scene, where most of that disk's flux
+	 * misses everything. */
+	env_share = env_nee_share(s);
 	for (i = 0; i < s->nlights; i++)
-		w[i] = 0.5 * pm_distrib_prob(&ls->pick, i) +
+		w[i] = s->lights[i].power * (i == (size_t)s->env_light ?
+		    env_share : 1.0);
+	total = 0.0;
+	for (i = 0; i < s->nlights; i++)
+		total += w[i];
+	for (i = 0; i < s->nlights; i++)
+		w[i] = (total > 0.0 ? 0.5 * w[i] / total : 0.0) +
 		    0.5 / (double)s->nlights;
 	rc = pm_distrib_init(&ls->nee, w, s->nlights, err);
 	if (rc != PM_OK)
@@ -144,6 +181,30 @@ pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
 		o->value = l->radiance;
 		o->pdf = psel * pm_uniform_sphere_pdf();
 		return true;
+	case PM_LIGHT_ENVMAP: {
+		float pdf;
+
+		o->wi = pm_envmap_sample(l->env, u1, u2, &pdf);
+		if (!(pdf > 0.0f))
+			return false;
+		o->dist = INFINITY;
+		o->p = pm_madd(ref, o->wi, 2.0f * s->radius);
+		o->n = pm_neg(o->wi);
+		o->value = pm_envmap_eval(l->env, o->wi);
+		o->pdf = psel * pdf;
+		return !pm_rgb_is_black(o->value);
+	}
+	case PM_LIGHT_DIRECTIONAL:
+		/* A delta in direction: the light arrives along -direction
+		 * with irradiance E, whatever the point. */
+		o->wi = pm_neg(l->direction);
+		o->dist = INFINITY;
+		o->p = pm_madd(ref, o->wi, 2.0f * s->radius);
+		o->n = l->direction;
+		o->value = l->intensity;
+		o->pdf = psel;
+		o->delta = true;
+		return !pm_rgb_is_black(o->value);
 	case PM_LIGHT_AREA:
 		break;
 	}
@@ -218,12 +279,29 @@ pm_lights_pdf_area(const struct pm_lights *ls, const struct pm_scene *s,
 }
 
 float
-pm_lights_pdf_env(const struct pm_lights *ls, const struct pm_scene *s)
+pm_lights_pdf_env(const struct pm_lights *ls, const struct pm_scene *s,
+    struct pm_vec3 w)
 {
+	const struct pm_light *l;
+
 	if (s->env_light < 0)
 		return 0.0f;
+	l = &s->lights[s->env_light];
 	return (float)pm_distrib_prob(&ls->nee, (size_t)s->env_light) *
-	    pm_uniform_sphere_pdf();
+	    (l->type == PM_LIGHT_ENVMAP ? pm_envmap_pdf(l->env, w) :
+	    pm_uniform_sphere_pdf());
+}
+
+struct pm_rgb
+pm_lights_env_radiance(const struct pm_scene *s, struct pm_vec3 w)
+{
+	const struct pm_light *l;
+
+	if (s->env_light < 0)
+		return pm_rgb1(0.0f);
+	l = &s->lights[s->env_light];
+	return l->type == PM_LIGHT_ENVMAP ? pm_envmap_eval(l->env, w) :
+	    l->radiance;
 }
 
 bool
@@ -255,9 +333,12 @@ pm_lights_emitted(const struct pm_lights *ls, const struct pm_scene *s,
 	if (h == NULL) {
 		if (s->env_light < 0)
 			return pm_rgb1(0.0f);
+		Le = pm_lights_env_radiance(s, d);
+		if (pm_rgb_is_black(Le))
+			return Le;
 		w = prev_delta ? 1.0f :
-		    pm_power_heuristic(prev_pdf, pm_lights_pdf_env(ls, s));
-		return pm_rgb_scale(s->lights[s->env_light].radiance, w);
+		    pm_power_heuristic(prev_pdf, pm_lights_pdf_env(ls, s, d));
+		return pm_rgb_scale(Le, w);
 	}
 	light = s->shapes[h->shape].light;
 	if (light < 0)

@@ -61,6 +61,11 @@ pm_scene_free(struct pm_scene *s)
 		pm_mesh_free(&s->shapes[i].mesh);
 	free(s->shapes);
 	free(s->bsdfs);
+	for (i = 0; i < s->nlights; i++)
+		if (s->lights[i].env != NULL) {
+			pm_envmap_free(s->lights[i].env);
+			free(s->lights[i].env);
+		}
 	free(s->lights);
 	free(s->media);
 	for (i = 0; i < s->nmerls; i++)
@@ -265,9 +270,11 @@ pm_scene_prepare(struct pm_scene *s, struct pm_error *err)
 
 	if (s->env_light != -1 && (s->env_light < 0 ||
 	    (size_t)s->env_light >= s->nlights ||
-	    s->lights[s->env_light].type != PM_LIGHT_CONSTANT))
+	    (s->lights[s->env_light].type != PM_LIGHT_CONSTANT &&
+	    s->lights[s->env_light].type != PM_LIGHT_ENVMAP)))
 		return pm_fail(err, PM_ERR_INVALID,
-		    "environment light index %d is not a constant light",
+		    "environment light index %d is not a constant or envmap "
+		    "light",
 		    s->env_light);
 
 	for (i = 0; i < s->nlights; i++) {
@@ -314,6 +321,23 @@ pm_scene_prepare(struct pm_scene *s, struct pm_error *err)
 			/* Radiance L arriving over the disk of the bounding
 			 * sphere from every direction: pi L times 4 pi R^2. */
 			l->power = pi * pm_rgb_mean(l->radiance) * 4.0 * pi *
+			    (double)s->radius * s->radius;
+			break;
+		case PM_LIGHT_ENVMAP:
+			if (s->env_light != (int)i || l->env == NULL)
+				return pm_fail(err, PM_ERR_INVALID,
+				    "envmap light %zu is not the scene's "
+				    "environment light", i);
+			l->area = 0.0;
+			/* As for constant: the radiance over the sphere of
+			 * directions, through the bounding sphere's disk. */
+			l->power = pi * l->env->integral * (double)s->radius *
+			    s->radius;
+			break;
+		case PM_LIGHT_DIRECTIONAL:
+			l->area = 0.0;
+			/* Irradiance E through the bounding sphere's disk. */
+			l->power = pm_rgb_mean(l->intensity) * pi *
 			    (double)s->radius * s->radius;
 			break;
 		default:

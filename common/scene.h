@@ -12,6 +12,7 @@
 #include <stddef.h>
 
 #include "bsdf.h"
+#include "envmap.h"
 #include "error.h"
 #include "medium.h"
 #include "mesh.h"
@@ -49,6 +50,8 @@ enum pm_light_type {
 	PM_LIGHT_POINT,
 	PM_LIGHT_SPOT,
 	PM_LIGHT_CONSTANT,
+	PM_LIGHT_ENVMAP,	/* Mitsuba's envmap: an image around the scene */
+	PM_LIGHT_DIRECTIONAL,	/* parallel light from one direction */
 };
 
 struct pm_light {
@@ -60,6 +63,11 @@ struct pm_light {
 	struct pm_frame frame;		/* spot: frame.n is the axis */
 	float cutoff_angle;		/* spot, degrees (Mitsuba default 20) */
 	float beam_width;		/* spot, degrees (default 3/4 of cutoff) */
+	struct pm_envmap *env;		/* envmap: owned by the scene */
+	struct pm_vec3 direction;	/* directional: unit, the way light
+					 * travels; intensity holds its
+					 * irradiance (W/m^2 on a surface
+					 * facing it) */
 	/* Filled by pm_scene_prepare: */
 	double power;			/* luminous-ish power (mean of RGB), watts */
 	double area;			/* area: surface area of the shape */
@@ -150,7 +158,8 @@ struct pm_scene {
 	int camera_medium;		/* 1 + index into media, 0: vacuum
 					 * (as pm_shape's interior) */
 	struct pm_integrator integrator;
-	int env_light;			/* index of the constant light, or -1 */
+	int env_light;			/* index of the constant or envmap
+					 * light (at most one), or -1 */
 	char *path;			/* the file it was loaded from */
 	size_t dropped_triangles;	/* degenerate triangles left out of meshes */
 	/* Measured BRDF tables, one per file however many BSDFs use it;

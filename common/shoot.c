@@ -14,9 +14,11 @@
  * them and cross them on caustic paths (the camera pass traces them).
  *
  * Caustic pass: photons are aimed at the bounding spheres of the specular
- * shapes, the direction drawn from the mixture of the cones they subtend,
- * and the flux divided by that mixture's true density, so that nothing is
- * gained or lost; only paths light, specular+, non-specular are stored.
+ * shapes, the direction drawn from the mixture of the cones they subtend
+ * (lights far away, the environment and directional lights: the origin
+ * drawn from the mixture of the spheres' shadow disks), and the flux
+ * divided by that mixture's true density, so that nothing is gained or
+ * lost; only paths light, specular+, non-specular are stored.
  */
 #include <math.h>
 #include <pthread.h>
@@ -318,6 +320,42 @@ sample_shape_point(const struct pm_shooter *sh, int li, float u1, float u2,
 }
 
 /*
+ * A point in the plane through the scene's centre across direction n, for
+ * a caustic photon from far away travelling along -n: inside the shadow
+ * disk of one aiming sphere, chosen uniformly, and uniform within it.
+ * Returns the point's density over that plane: the mixture of the disks,
+ * each uniform, so that overlapping disks are counted right.
+ */
+static struct pm_vec3
+aim_disk_sample(const struct pm_shooter *sh, struct pm_vec3 n,
+    struct pm_frame f, float u0, float u1, float u2, float *pdf)
+{
+	const struct pm_vec3 o = sh->scene->center;
+	int j = (int)(u0 * (float)sh->naim), k;
+	struct pm_vec3 x;
+	float dx, dy, p = 0.0f;
+
+	if (j >= sh->naim)
+		j = sh->naim - 1;
+	pm_square_to_disk(u1, u2, &dx, &dy);
+	x = pm_sub(sh->aim_center[j], pm_scale(n, pm_dot(pm_sub(
+	    sh->aim_center[j], o), n)));
+	x = pm_madd(pm_madd(x, f.s, dx * sh->aim_radius[j]), f.t,
+	    dy * sh->aim_radius[j]);
+	for (k = 0; k < sh->naim; k++) {
+		struct pm_vec3 c = pm_sub(sh->aim_center[k], pm_scale(n,
+		    pm_dot(pm_sub(sh->aim_center[k], o), n)));
+		struct pm_vec3 d = pm_sub(x, c);
+		float r = sh->aim_radius[k];
+
+		if (pm_dot(d, d) <= r * r)
+			p += 1.0f / (PM_PI * r * r);
+	}
+	*pdf = p / (float)sh->naim;
+	return x;
+}
+
+/*
  * Emits photon path `index`: origin, direction and flux.  False if the
  * sampled photon carries nothing (it still counts as emitted).
  */
@@ -376,18 +414,51 @@ emit(const struct pm_shooter *sh, enum pm_map_pass pass, struct pm_rng *rng,
 			*flux = pm_rgb_scale(*flux, pm_spot_falloff(l, w));
 		*o = p;
 		break;
-	case PM_LIGHT_CONSTANT: {
+	case PM_LIGHT_CONSTANT:
+	case PM_LIGHT_ENVMAP:
+	case PM_LIGHT_DIRECTIONAL: {
 		/* From a disk of the bounding sphere's radius, facing the
-		 * scene, outside it: every line through the scene is covered. */
-		struct pm_vec3 dir_to_sky = pm_square_to_uniform_sphere(u3, u4);
-		struct pm_frame f = pm_frame_from_normal(dir_to_sky);
-		float dx, dy, r = s->radius;
+		 * scene, outside it: every line through the scene is covered.
+		 * Flux: radiance (or, directional, irradiance) times the
+		 * disk's area, over the densities of the light and of the
+		 * direction. */
+		struct pm_vec3 dir_to_sky;
+		struct pm_frame f;
+		float dx, dy, r = s->radius, area = PM_PI * r * r;
 
-		pm_square_to_disk(u1, u2, &dx, &dy);
-		p = pm_madd(pm_madd(pm_madd(s->center, dir_to_sky, r), f.s, dx * r),
-		    f.t, dy * r);
+		if (l->type == PM_LIGHT_CONSTANT) {
+			dir_to_sky = pm_square_to_uniform_sphere(u3, u4);
+			*flux = pm_rgb_scale(l->radiance, 4.0f * PM_PI * PM_PI *
+			    r * r / psel);	/* area / (psel / (4 pi)) */
+		} else if (l->type == PM_LIGHT_ENVMAP) {
+			dir_to_sky = pm_envmap_sample(l->env, u3, u4, &pdf_dir);
+			if (!(pdf_dir > 0.0f))
+				return false;
+			*flux = pm_rgb_scale(pm_envmap_eval(l->env, dir_to_sky),
+			    area / (psel * pdf_dir));
+		} else {
+			dir_to_sky = pm_neg(l->direction);
+			*flux = pm_rgb_scale(l->intensity, area / psel);
+		}
+		f = pm_frame_from_normal(dir_to_sky);
+		if (aim) {
+			/* Caustic pass: only from the shadows of the specular
+			 * shapes' spheres: the flux over the disk's uniform
+			 * density, pi r^2, now over the aimed density. */
+			float pdf_area;
+
+			p = aim_disk_sample(sh, dir_to_sky, f, u5, u1, u2,
+			    &pdf_area);
+			if (!(pdf_area > 0.0f))
+				return false;
+			*flux = pm_rgb_scale(*flux, 1.0f / (area * pdf_area));
+			p = pm_madd(p, dir_to_sky, r);
+		} else {
+			pm_square_to_disk(u1, u2, &dx, &dy);
+			p = pm_madd(pm_madd(pm_madd(s->center, dir_to_sky, r),
+			    f.s, dx * r), f.t, dy * r);
+		}
 		w = pm_neg(dir_to_sky);
-		*flux = pm_rgb_scale(l->radiance, 4.0f * PM_PI * PM_PI * r * r / psel);
 		*o = p;
 		break;
 	}
@@ -769,6 +840,22 @@ pm_scene_hash(const struct pm_scene *s)
 		h = fnv_f(fnv_f(fnv_f(h, l->frame.n.x), l->frame.n.y), l->frame.n.z);
 		h = fnv_f(h, l->cutoff_angle);
 		h = fnv_f(h, l->beam_width);
+		/* only for the light types that have them, so that the
+		 * scenes hashed before they existed keep their hashes */
+		if (l->type == PM_LIGHT_DIRECTIONAL)
+			h = fnv_f(fnv_f(fnv_f(h, l->direction.x),
+			    l->direction.y), l->direction.z);
+		if (l->type == PM_LIGHT_ENVMAP && l->env != NULL) {
+			const struct pm_envmap *e = l->env;
+			int r, c;
+
+			h = fnv_i(fnv_i(h, e->width), e->height);
+			h = fnv(h, e->rgb, sizeof(float) * 3 *
+			    ((size_t)e->width + 1) * (size_t)e->height);
+			for (r = 0; r < 3; r++)
+				for (c = 0; c < 3; c++)
+					h = fnv_f(h, e->to_world.m[r][c]);
+		}
 	}
 	return h;
 }

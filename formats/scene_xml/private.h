@@ -121,6 +121,24 @@ enum ptype {
 	P_POINT, P_VECTOR, P_TRANSFORM,
 };
 
+/* A <spectrum> as given (spectrum.c); its RGB depends on where it is used. */
+enum sx_spec_kind {
+	SX_SPEC_UNIFORM,	/* value="0.5" */
+	SX_SPEC_PLAIN,		/* type="uniform": a grey everywhere */
+	SX_SPEC_LIST,		/* wavelength:value pairs, from value or a file */
+	SX_SPEC_BLACKBODY,	/* type="blackbody" */
+	SX_SPEC_RGB,		/* type="d65" or "srgb": a colour everywhere */
+};
+
+struct sx_spectrum {
+	enum sx_spec_kind kind;
+	double value;		/* uniform value; blackbody temperature */
+	double wmin, wmax;	/* blackbody: wavelength range, nm */
+	double *wl, *v;		/* list: n pairs */
+	size_t n;
+	struct pm_rgb rgb;	/* d65, srgb */
+};
+
 struct prop {
 	const char *name;
 	enum ptype type;
@@ -130,7 +148,8 @@ struct prop {
 	long i;			/* integer */
 	bool b;
 	const char *s;
-	struct pm_rgb c;	/* rgb, spectrum */
+	struct pm_rgb c;	/* rgb */
+	const struct sx_spectrum *spec;	/* spectrum */
 	struct pm_vec3 v;	/* point, vector */
 	struct pm_mat4 m;
 };
@@ -216,6 +235,12 @@ enum pm_err sx_unknown_plugin(struct ld *ld, const struct xnode *n,
     const char *type, const char *known);
 enum pm_err sx_wrong_type(struct ld *ld, struct plist *pl, struct prop *p,
     const char *want);
+
+/* spectrum.c */
+enum pm_err sx_parse_spectrum(struct ld *ld, const struct xnode *k,
+    struct prop *p);
+struct pm_rgb sx_spectrum_rgb(const struct sx_spectrum *sp, bool emitter,
+    bool unbounded);
 
 /* texture.c */
 enum pm_err sx_get_color_tex(struct ld *ld, struct plist *pl,

@@ -49,6 +49,8 @@ parse_prop(struct ld *ld, const struct xnode *k, enum ptype t, struct prop *p)
 
 	p->type = t;
 	p->n = k;
+	if (t == P_SPECTRUM)
+		return sx_parse_spectrum(ld, k, p);
 	if ((e = sx_check_attrs(ld, k, t == P_TRANSFORM ? ok_t :
 	    t == P_POINT || t == P_VECTOR ? ok_xyz : ok_nv)) != PM_OK ||
 	    (e = sx_need_attr(ld, k, "name", &p->name)) != PM_OK)
@@ -98,14 +100,7 @@ parse_prop(struct ld *ld, const struct xnode *k, enum ptype t, struct prop *p)
 		p->c = cnt == 1 ? pm_rgb1((float)d[0]) :
 		    pm_rgb((float)d[0], (float)d[1], (float)d[2]);
 		break;
-	case P_SPECTRUM:
-		if (strchr(v, ':') != NULL)
-			return sx_fail(ld, k, PM_ERR_UNSUPPORTED, "<spectrum "
-			    "name=\"%s\">: wavelength:value lists are not "
-			    "supported, only a single uniform value", p->name);
-		if ((e = sx_numbers(ld, k, "value", v, d, 1, 1, &cnt)) != PM_OK)
-			return e;
-		p->c = pm_rgb1((float)d[0]);
+	case P_SPECTRUM:	/* sx_parse_spectrum, above */
 		break;
 	case P_POINT:
 	case P_VECTOR:
@@ -295,7 +290,11 @@ sx_get_string(struct ld *ld, struct plist *pl, const char *name,
 	return PM_OK;
 }
 
-/* A colour: <rgb>, a uniform <spectrum>, or a <float>; non-negative. */
+/*
+ * A colour: <rgb>, <spectrum> or <float>; non-negative.  A spectrum's RGB
+ * depends on whether an emitter uses it, and on whether the parameter is
+ * bounded by one (Mitsuba reads a conductor's eta and k unbounded).
+ */
 enum pm_err
 sx_get_color(struct ld *ld, struct plist *pl, const char *name, float def,
     struct pm_rgb *out)
@@ -308,8 +307,12 @@ sx_get_color(struct ld *ld, struct plist *pl, const char *name, float def,
 	p->used = true;
 	if (p->type == P_FLOAT || p->type == P_INTEGER)
 		*out = pm_rgb1((float)p->f);
-	else if (p->type == P_RGB || p->type == P_SPECTRUM)
+	else if (p->type == P_RGB)
 		*out = p->c;
+	else if (p->type == P_SPECTRUM)
+		*out = sx_spectrum_rgb(p->spec,
+		    strcmp(pl->owner->tag, "emitter") == 0,
+		    strcmp(name, "eta") == 0 || strcmp(name, "k") == 0);
 	else
 		return sx_wrong_type(ld, pl, p, "an <rgb>, <spectrum> or <float>");
 	if (!(out->r >= 0.0f && out->g >= 0.0f && out->b >= 0.0f))

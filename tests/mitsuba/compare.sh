@@ -284,6 +284,17 @@ if [ -f data/glass-medium.xml ]; then
 	run haze-ball "$VARIANTS/haze-ball.xml"
 fi
 
+# Spectra (wavelength:value lists, .spd files, blackbody) reduced to RGB
+# as Mitsuba's RGB variants reduce them: noise-free scenes, 1e-4 agreement.
+if [ "$selftest" = 0 ] && wanted spectra; then
+	"$PY" "$HERE/spectra.py" --pm-render "$PM_RENDER" \
+	    --workdir "$OUT/spectra" >"$OUT/spectra.txt" 2>&1
+	_rc=$?
+	grep -v WARN "$OUT/spectra.txt" | diag
+	check "spectra: pm reads spectra as Mitsuba's RGB variants do" \
+	    test "$_rc" = 0
+fi
+
 # Bitmap lookups, point by point, against Mitsuba's (texture_lookup.py).
 if [ "$selftest" = 0 ] && wanted texture-lookups; then
 	if [ ! -x build/tests/texlookup ]; then

@@ -390,7 +390,7 @@ test_small_light_beside_environment(void **state)
 			picked++;
 		else
 			assert_true(fabsf(ls.pdf - pm_lights_pdf_env(
-			    &w.world.lights, &w.scene)) <= 1e-6f * ls.pdf);
+			    &w.world.lights, &w.scene, ls.wi)) <= 1e-6f * ls.pdf);
 	}
 	print_message("point light picked %d of %d times\n", picked, n);
 	assert_true(picked >= (int)(0.24 * n));

@@ -18,6 +18,8 @@
 #include <unistd.h>
 
 #include "../../common/scene.h"
+#include "../../common/spectrum.h"
+#include "../../formats/exr.h"
 #include "../../formats/scene_xml.h"
 
 #define NEAR(a, b, tol) assert_true(fabs((double)(a) - (double)(b)) <= (tol))
@@ -549,7 +551,12 @@ test_emitters(void **state)
 	NEAR(l->frame.n.y, -1, 1e-6);
 	NEAR(l->frame.n.z, 0, 1e-6);
 	theta = (30 + 22.5) / 2 * PI / 180;
-	NEAR(l->power, 2 * PI * (1 - cos(theta)) * 10, 1e-4);
+	/* A uniform spectrum in an emitter is, as in Mitsuba's RGB
+	 * variants, that value times the sRGB of XYZ = (1, 1, 1), whose
+	 * mean is the sum of the sRGB matrix's entries over 3. */
+	NEAR(l->power, 2 * PI * (1 - cos(theta)) * 10 * (3.240479 - 1.537150 -
+	    0.498535 - 0.969256 + 1.875991 + 0.041556 + 0.055648 - 0.204043 +
+	    1.057311) / 3, 1e-4);
 
 	/* Constant: the scene's bounding sphere around the unit sphere's box
 	 * has radius sqrt(3). */
@@ -558,6 +565,174 @@ test_emitters(void **state)
 	assert_int_equal(s.env_light, 3);
 	NEAR(l->power, PI * 2 * 4 * PI * 3, 1e-3);
 	pm_scene_free(&s);
+}
+
+/* ------------------------------------------------------------ spectra */
+
+/*
+ * Spectra as Mitsuba 3's RGB variants read them: a uniform value is a
+ * grey, but in an emitter that value times the sRGB of a flat spectrum; a
+ * list is integrated against the CIE curves (weighted by D65 unless in an
+ * emitter); a file holds the same list; a blackbody is Planck's law.
+ */
+static void
+test_spectra(void **state)
+{
+	static const double wl[4] = {400, 500, 600, 700};
+	static const double v[4] = {0.1, 0.9, 0.2, 0.5};
+	static const double one[3] = {1, 1, 1};
+	struct pm_scene s;
+	struct pm_rgb c, flat = pm_xyz_to_srgb(one);
+
+	(void)state;
+	put_file("s.spd", "# a comment\n400 0.1\n500 0.9\n\n600 0.2\n"
+	    "700 0.5\n");
+	load_ok("<scene version=\"3.0.0\">\n"
+	    " <shape type=\"sphere\"><bsdf type=\"diffuse\">\n"
+	    "  <spectrum name=\"reflectance\" value=\"0.25\"/>\n"
+	    " </bsdf></shape>\n"
+	    " <shape type=\"sphere\"><bsdf type=\"diffuse\">\n"
+	    "  <spectrum name=\"reflectance\" value=\"400:0.1, 500:0.9,"
+	    " 600:0.2, 700:0.5\"/>\n"
+	    " </bsdf></shape>\n"
+	    " <shape type=\"sphere\"><bsdf type=\"diffuse\">\n"
+	    "  <spectrum name=\"reflectance\" filename=\"s.spd\"/>\n"
+	    " </bsdf></shape>\n"
+	    " <shape type=\"sphere\"><bsdf type=\"diffuse\">\n"
+	    "  <spectrum name=\"reflectance\" value=\"300:0.5 900:0.5\"/>\n"
+	    " </bsdf></shape>\n"
+	    " <emitter type=\"point\">\n"
+	    "  <spectrum name=\"intensity\" value=\"2\"/>\n"
+	    " </emitter>\n"
+	    " <emitter type=\"point\">\n"
+	    "  <spectrum name=\"intensity\" filename=\"s.spd\"/>\n"
+	    " </emitter>\n"
+	    " <emitter type=\"point\">\n"
+	    "  <spectrum name=\"intensity\" type=\"blackbody\">\n"
+	    "   <float name=\"temperature\" value=\"3000\"/>\n"
+	    "   <float name=\"wavelength_max\" value=\"700\"/>\n"
+	    "  </spectrum>\n"
+	    " </emitter>\n"
+	    " <emitter type=\"point\">\n"
+	    "  <spectrum name=\"intensity\" type=\"uniform\">\n"
+	    "   <float name=\"value\" value=\"3\"/>\n"
+	    "  </spectrum>\n"
+	    " </emitter>\n"
+	    " <emitter type=\"point\">\n"
+	    "  <spectrum name=\"intensity\" type=\"regular\">\n"
+	    "   <float name=\"wavelength_min\" value=\"400\"/>\n"
+	    "   <float name=\"wavelength_max\" value=\"700\"/>\n"
+	    "   <string name=\"values\" value=\"0.1, 0.9, 0.2, 0.5\"/>\n"
+	    "  </spectrum>\n"
+	    " </emitter>\n"
+	    " <emitter type=\"point\">\n"
+	    "  <spectrum name=\"intensity\" type=\"d65\">\n"
+	    "   <float name=\"scale\" value=\"2\"/>\n"
+	    "  </spectrum>\n"
+	    " </emitter>\n"
+	    "</scene>\n", &s);
+	assert_rgb(shape_bsdf(&s, 0)->diffuse, 0.25, 0.25, 0.25);
+	c = pm_spectrum_to_srgb(wl, v, 4, true, true, NULL);
+	assert_rgb(shape_bsdf(&s, 1)->diffuse, c.r, c.g, c.b);
+	assert_rgb(shape_bsdf(&s, 2)->diffuse, c.r, c.g, c.b);
+	/* A flat reflectance stays grey (D65 is sRGB's white). */
+	NEAR(shape_bsdf(&s, 3)->diffuse.r, 0.5, 2e-3);
+	NEAR(shape_bsdf(&s, 3)->diffuse.g, 0.5, 2e-3);
+	NEAR(shape_bsdf(&s, 3)->diffuse.b, 0.5, 2e-3);
+	assert_rgb(s.lights[0].intensity, 2 * flat.r, 2 * flat.g, 2 * flat.b);
+	c = pm_spectrum_to_srgb(wl, v, 4, false, false, NULL);
+	assert_rgb(s.lights[1].intensity, c.r, c.g, c.b);
+	c = pm_blackbody_to_srgb(3000, 360, 700);
+	NEAR(s.lights[2].intensity.r, c.r, 1e-6 * c.r);
+	NEAR(s.lights[2].intensity.b, c.b, 1e-6 * c.r);
+	assert_true(c.r > c.g && c.g > c.b);
+	assert_rgb(s.lights[3].intensity, 3, 3, 3);
+	/* regular: the same list as value="400:0.1, ..., 700:0.5" */
+	c = pm_spectrum_to_srgb(wl, v, 4, false, false, NULL);
+	assert_rgb(s.lights[4].intensity, c.r, c.g, c.b);
+	/* d65 in an RGB renderer: white (its colour), times scale */
+	assert_rgb(s.lights[5].intensity, 2, 2, 2);
+	pm_scene_free(&s);
+}
+
+#define HEAD "<scene version=\"3.0.0\">\n"
+
+/* ------------------------------------------------------------ envmap,
+ * directional */
+
+static void
+test_envmap_directional(void **state)
+{
+	static float px[4 * 3 * 3];
+	struct pm_image im = {4, 3, px};
+	struct pm_error err;
+	struct pm_scene s;
+	char path[256];
+	int i;
+
+	(void)state;
+	for (i = 0; i < 4 * 3 * 3; i++)
+		px[i] = 0.5f;
+	snprintf(path, sizeof(path), "%s/env.exr", tmpdir);
+	assert_int_equal(pm_exr_write(path, &im, false, &err), PM_OK);
+	load_ok("<scene version=\"3.0.0\">\n"
+	    " <emitter type=\"directional\">\n"
+	    "  <vector name=\"direction\" x=\"0\" y=\"0\" z=\"-2\"/>\n"
+	    " </emitter>\n"
+	    " <emitter type=\"directional\">\n"
+	    "  <rgb name=\"irradiance\" value=\"1, 2, 3\"/>\n"
+	    "  <transform name=\"to_world\"><rotate x=\"1\" angle=\"90\"/>"
+	    "</transform>\n"
+	    " </emitter>\n"
+	    " <emitter type=\"envmap\">\n"
+	    "  <string name=\"filename\" value=\"env.exr\"/>\n"
+	    "  <float name=\"scale\" value=\"4\"/>\n"
+	    "  <boolean name=\"mis_compensation\" value=\"true\"/>\n"
+	    " </emitter>\n"
+	    " <shape type=\"sphere\"/>\n"
+	    "</scene>\n", &s);
+	assert_int_equal(s.nlights, 3);
+	assert_int_equal(s.lights[0].type, PM_LIGHT_DIRECTIONAL);
+	assert_rgb(s.lights[0].intensity, 1, 1, 1);	/* Mitsuba's default */
+	NEAR(s.lights[0].direction.z, -1, 1e-6);
+	assert_rgb(s.lights[1].intensity, 1, 2, 3);
+	NEAR(s.lights[1].direction.y, -1, 1e-6);	/* +z turned by 90 about x */
+	/* E through the bounding sphere's disk: radius sqrt(3) */
+	NEAR(s.lights[1].power, 2 * PI * 3, 1e-4);
+	assert_int_equal(s.lights[2].type, PM_LIGHT_ENVMAP);
+	assert_int_equal(s.env_light, 2);
+	assert_non_null(s.lights[2].env);
+	assert_int_equal(s.lights[2].env->width, 4);
+	NEAR(pm_envmap_eval(s.lights[2].env, pm_v3(0, 1, 0)).g, 2, 1e-6);
+	/* constant radiance 2 over the sphere, through the disk */
+	NEAR(s.lights[2].power, PI * 2 * 4 * PI * 3, 1e-2);
+	pm_scene_free(&s);
+
+	load_fails(HEAD "<emitter type=\"envmap\">\n"
+	    "</emitter></scene>", 2, "missing required parameter \"filename\"");
+	put_file("sky.txt", "not an image\n");
+	load_fails(HEAD "<emitter type=\"envmap\">\n"
+	    "<string name=\"filename\" value=\"sky.txt\"/></emitter></scene>",
+	    3, "not a PNG, JPEG");
+	load_fails(HEAD "<emitter type=\"envmap\">\n"
+	    "<string name=\"filename\" value=\"nope.exr\"/></emitter></scene>",
+	    3, "nope.exr");
+	load_fails(HEAD "<emitter type=\"envmap\">\n"
+	    "<string name=\"filename\" value=\"env.exr\"/>\n"
+	    "<transform name=\"to_world\"><scale x=\"2\"/></transform>"
+	    "</emitter></scene>", 4, "must be a rotation");
+	load_fails(HEAD "<emitter type=\"constant\"/>\n<emitter type=\"envmap\">"
+	    "<string name=\"filename\" value=\"env.exr\"/></emitter></scene>",
+	    3, "more than one environment emitter");
+	load_fails(HEAD "<emitter type=\"directional\">\n"
+	    "<vector name=\"direction\" x=\"0\" y=\"0\" z=\"0\"/>"
+	    "</emitter></scene>", 3, "the direction is zero");
+	load_fails(HEAD "<emitter type=\"directional\">\n"
+	    "<vector name=\"direction\" x=\"1\"/><transform name=\"to_world\"/>"
+	    "</emitter></scene>", 3, "either direction or to_world");
+	load_fails(HEAD "<emitter type=\"directional\">\n"
+	    "<point name=\"direction\" x=\"1\"/></emitter></scene>", 3,
+	    "must be a <vector>");
 }
 
 /* ------------------------------------------------------------ camera */
@@ -938,7 +1113,6 @@ test_transform_order(void **state)
 
 /* ------------------------------------------------------------ errors */
 
-#define HEAD "<scene version=\"3.0.0\">\n"
 
 static void
 test_errors(void **state)
@@ -965,8 +1139,8 @@ test_errors(void **state)
 		    "unknown shape type \"teapot\""},
 		{HEAD "<shape type=\"sphere\"><bsdf type=\"principled\"/>"
 		    "</shape></scene>", 2, "unknown bsdf type \"principled\""},
-		{HEAD "<emitter type=\"envmap\"/></scene>", 2,
-		    "unknown emitter type \"envmap\""},
+		{HEAD "<emitter type=\"projector\"/></scene>", 2,
+		    "unknown emitter type \"projector\""},
 		{HEAD "<integrator type=\"aov\"/></scene>", 2,
 		    "unknown integrator type \"aov\""},
 		{HEAD "<sensor type=\"radiancemeter\"/></scene>", 2,
@@ -1009,8 +1183,37 @@ test_errors(void **state)
 		    "<rgb name=\"reflectance\" value=\"0.1, 0.2\"/></bsdf>"
 		    "</shape></scene>", 3, "expected 1 or 3 numbers"},
 		{HEAD "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n"
-		    "<spectrum name=\"reflectance\" value=\"400:0.1, 700:0.5\"/>"
-		    "</bsdf></shape></scene>", 3, "wavelength:value"},
+		    "<spectrum name=\"reflectance\" value=\"700:0.1, 400:0.5\"/>"
+		    "</bsdf></shape></scene>", 3, "wavelengths must increase"},
+		{HEAD "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n"
+		    "<spectrum name=\"reflectance\" value=\"400:0.1\"/>"
+		    "</bsdf></shape></scene>", 3, "at least two"},
+		{HEAD "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n"
+		    "<spectrum name=\"reflectance\" value=\"400:0.1, 500\"/>"
+		    "</bsdf></shape></scene>", 3, "not a wavelength:value pair"},
+		{HEAD "<emitter type=\"constant\">\n"
+		    "<spectrum name=\"radiance\" type=\"cie\"/>"
+		    "</emitter></scene>", 3, "unknown spectrum type \"cie\""},
+		{HEAD "<emitter type=\"constant\">\n"
+		    "<spectrum name=\"radiance\" type=\"irregular\">"
+		    "<string name=\"wavelengths\" value=\"400 500 600\"/>"
+		    "<string name=\"values\" value=\"1 2\"/></spectrum>"
+		    "</emitter></scene>", 3, "3 wavelengths but 2 values"},
+		{HEAD "<emitter type=\"constant\">\n"
+		    "<spectrum name=\"radiance\" type=\"regular\">"
+		    "<string name=\"values\" value=\"1 x\"/></spectrum>"
+		    "</emitter></scene>", 3, "\"x\" is not a finite number"},
+		{HEAD "<emitter type=\"constant\">\n"
+		    "<spectrum name=\"radiance\" type=\"srgb\"/>"
+		    "</emitter></scene>", 3, "missing required parameter "
+		    "\"color\""},
+		{HEAD "<emitter type=\"constant\">\n"
+		    "<spectrum name=\"radiance\" type=\"blackbody\"/>"
+		    "</emitter></scene>", 3, "missing required parameter "
+		    "\"temperature\""},
+		{HEAD "<emitter type=\"constant\">\n"
+		    "<spectrum name=\"radiance\" filename=\"nope.spd\"/>"
+		    "</emitter></scene>", 3, "nope.spd"},
 		{HEAD "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n"
 		    "<rgb name=\"reflectance\" value=\"-0.5\"/></bsdf>"
 		    "</shape></scene>", 3, "must not be negative"},
@@ -1154,7 +1357,7 @@ test_errors(void **state)
 		{HEAD "<shape type=\"rectangle\">\n<emitter type=\"point\"/>"
 		    "</shape></scene>", 3, "only an \"area\" emitter"},
 		{HEAD "<emitter type=\"constant\"/>\n<emitter type=\"constant\"/>"
-		    "</scene>", 3, "more than one constant emitter"},
+		    "</scene>", 3, "more than one environment emitter"},
 		{HEAD "<emitter type=\"point\">\n"
 		    "<point name=\"position\" value=\"1 2 3\"/>"
 		    "<transform name=\"to_world\"/></emitter></scene>", 3,
@@ -1264,6 +1467,8 @@ main(void)
 		cmocka_unit_test(test_shapes),
 		cmocka_unit_test(test_meshes),
 		cmocka_unit_test(test_emitters),
+		cmocka_unit_test(test_spectra),
+		cmocka_unit_test(test_envmap_directional),
 		cmocka_unit_test(test_sensor),
 		cmocka_unit_test(test_integrators),
 		cmocka_unit_test(test_defaults_and_defines),

@@ -259,6 +259,100 @@ caustic_aiming(enum pm_bsdf_type type, float alpha, bool beckmann)
 	world_free(&w);
 }
 
+/*
+ * The same for lights from far away, whose aimed photons start in the
+ * shadow disks of the specular spheres: a directional light, slanted,
+ * and a constant environment, over a glass sphere and, to make the disks
+ * overlap, a smaller mirror sphere beside it.
+ */
+static void
+far_aiming(enum pm_light_type type)
+{
+	struct world w;
+	struct pm_scene *s = &w.scene;
+	struct pm_photon_buf g = {NULL, 0, 0}, c = {NULL, 0, 0};
+	struct pm_error err;
+	double fg = 0, fc = 0, sqg = 0, sqc = 0, se;
+	const uint64_t ng = 1000000, nc = 100000;
+	int b, m, sh, l;
+	size_t i;
+
+	pm_scene_init(s);
+	sh = pm_scene_add_shape(s);
+	s->shapes[sh].type = PM_SHAPE_MESH;
+	assert_int_equal(pm_mesh_disk(&s->shapes[sh].mesh, 64, &err), PM_OK);
+	{
+		struct pm_mat4 mt = pm_mat4_mul(pm_mat4_rotate(pm_v3(1, 0, 0),
+		    -90.0f), pm_mat4_scale(pm_v3(5, 5, 5)));
+
+		pm_mesh_transform(&s->shapes[sh].mesh, &mt);
+	}
+	s->shapes[sh].bsdf = add_diffuse(s, 0.8f);
+	b = pm_scene_add_bsdf(s);
+	s->bsdfs[b].type = PM_BSDF_DIELECTRIC;
+	s->bsdfs[b].ior = 1.5f;
+	s->bsdfs[b].specular = pm_rgb1(1.0f);
+	s->bsdfs[b].transmittance = pm_rgb1(1.0f);
+	add_sphere(s, pm_v3(0, 1.5f, 0), 1.0f, b, false);
+	m = pm_scene_add_bsdf(s);
+	s->bsdfs[m].type = PM_BSDF_CONDUCTOR;
+	s->bsdfs[m].eta = pm_rgb1(0.0f);
+	s->bsdfs[m].k = pm_rgb1(1.0f);
+	s->bsdfs[m].specular = pm_rgb1(1.0f);
+	add_sphere(s, pm_v3(1.2f, 1.0f, 0.3f), 0.5f, m, false);
+	l = pm_scene_add_light(s);
+	s->lights[l].type = type;
+	if (type == PM_LIGHT_DIRECTIONAL) {
+		s->lights[l].intensity = pm_rgb1(3.0f);
+		s->lights[l].direction = pm_normalize(pm_v3(-0.3f, -1, 0.2f));
+	} else {
+		s->lights[l].radiance = pm_rgb1(1.0f);
+		s->env_light = l;
+	}
+	world_finish(&w);
+	assert_int_equal(w.shooter.naim, 2);
+
+	shoot(&w, PM_PASS_GLOBAL, 0, ng, 2, &g);
+	shoot(&w, PM_PASS_CAUSTIC, 0, nc, 2, &c);
+	for (i = 0; i < g.n; i++) {
+		float f;
+
+		if (!(g.p[i].flags & PM_PHOTON_CAUSTIC) || g.p[i].pos[1] > 0.01f)
+			continue;
+		f = pm_rgbe_unpack(g.p[i].power).g;
+		fg += f;
+		sqg += (double)f * f;
+	}
+	for (i = 0; i < c.n; i++) {
+		float f = pm_rgbe_unpack(c.p[i].power).g;
+
+		assert_true(c.p[i].flags & PM_PHOTON_CAUSTIC);
+		if (c.p[i].pos[1] > 0.01f)
+			continue;
+		fc += f;
+		sqc += (double)f * f;
+	}
+	se = sqrt(sqg / ng / ng + sqc / nc / nc);
+	print_message("%s: caustic flux on the floor: global pass %.4f, aimed "
+	    "pass %.4f, standard error %.4f; aimed photons %zu of %llu paths, "
+	    "global caustic photons %zu\n", type == PM_LIGHT_DIRECTIONAL ?
+	    "directional" : "constant", fg / ng, fc / nc, se, c.n,
+	    (unsigned long long)nc, g.n);
+	assert_true(fc > 0 && fg > 0);
+	assert_true(fabs(fg / ng - fc / nc) < 4 * se);
+	pm_photon_buf_free(&g);
+	pm_photon_buf_free(&c);
+	world_free(&w);
+}
+
+static void
+test_far_light_aiming_is_unbiased(void **state)
+{
+	(void)state;
+	far_aiming(PM_LIGHT_DIRECTIONAL);
+	far_aiming(PM_LIGHT_CONSTANT);
+}
+
 static void
 test_caustic_aiming_is_unbiased(void **state)
 {
@@ -339,6 +433,7 @@ main(void)
 		cmocka_unit_test(test_flux_by_depth),
 		cmocka_unit_test(test_shards_equal_one_run),
 		cmocka_unit_test(test_caustic_aiming_is_unbiased),
+		cmocka_unit_test(test_far_light_aiming_is_unbiased),
 		cmocka_unit_test(test_effects),
 		cmocka_unit_test(test_scene_hash),
 		cmocka_unit_test(test_default_paths),
