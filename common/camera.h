@@ -1,5 +1,6 @@
 /*
- * camera.h: Mitsuba's perspective sensor turned into primary rays.
+ * camera.h: Mitsuba's perspective, orthographic and thinlens sensors
+ * turned into primary rays.
  */
 #ifndef PM_CAMERA_H
 #define PM_CAMERA_H
@@ -8,23 +9,40 @@
 #include "vec.h"
 
 struct pm_camera_rays {
-	struct pm_vec3 origin;
-	struct pm_vec3 dx, dy, dz;	/* world images of the camera axes */
-	float tan_x, tan_y;		/* half extents of the image plane at z = 1 */
+	enum pm_sensor_type type;
+	struct pm_vec3 origin;		/* to_world's image of the local origin */
+	struct pm_vec3 dx, dy, dz;	/* world images of the camera axes; only
+					 * orthographic ones may be scaled */
+	struct pm_vec3 axis;		/* dz normalised: orthographic rays */
+	float tan_x, tan_y;		/* perspective, thinlens: half extents
+					 * of the image plane at z = 1;
+					 * orthographic: of the film at z = 0 */
 	float near_clip, far_clip;
+	float aperture_radius, focus_distance;	/* thinlens */
 	int width, height;
 };
 
 /* Derives the ray generator from the scene's camera description. */
 void pm_camera_setup(struct pm_camera_rays *c, const struct pm_camera *cam);
 
+/* True when the camera's rays need a lens sample (thinlens): then the
+ * caller draws the two numbers that pm_camera_ray's lu and lv take. */
+static inline bool
+pm_camera_needs_lens(const struct pm_camera_rays *c)
+{
+	return c->type == PM_SENSOR_THINLENS;
+}
+
 /*
- * The unit direction through film position (fx, fy), in pixels from the
- * top-left corner, and in *tmin and *tmax the ray's range for the clip
- * planes (Mitsuba measures them along the optical axis).
+ * The unit direction of the ray through film position (fx, fy), in pixels
+ * from the top-left corner; its origin in *o and in *tmin and *tmax its
+ * range for the clip planes, as Mitsuba's sensors measure them (along the
+ * optical axis; orthographic: from the near plane, where *o lies).  (lu,
+ * lv) in [0,1)^2 picks the point on a thin lens's aperture and is ignored
+ * by the other sensors.
  */
 struct pm_vec3 pm_camera_ray(const struct pm_camera_rays *c, float fx, float fy,
-    float *tmin, float *tmax);
+    float lu, float lv, struct pm_vec3 *o, float *tmin, float *tmax);
 
 /* Half-extent tangents of the field of view for the given film size. */
 void pm_camera_tangents(float fov_deg, enum pm_fov_axis axis, int width,

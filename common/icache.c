@@ -73,7 +73,7 @@ build_point(struct icache_job *j, int gx, int gy)
 	float fx = (float)(gx * c->step), fy = (float)(gy * c->step);
 	struct pm_rng rng = pm_rng_seed(j->seed, ICACHE_STREAM +
 	    (uint64_t)gy * (uint64_t)c->gw + (uint64_t)gx, 0);
-	struct pm_vec3 d, n;
+	struct pm_vec3 o, d, n;
 	struct pm_frame fr;
 	struct pm_hit h;
 	double sum[3] = {0, 0, 0}, inv_t = 0.0;
@@ -89,8 +89,9 @@ build_point(struct icache_job *j, int gx, int gy)
 		fx = 0.5f;
 	if (fy < 0.5f)
 		fy = 0.5f;
-	d = pm_camera_ray(j->cr, fx, fy, &tmin, &tmax);
-	if (!pm_accel_intersect(ctx->accel, j->cr->origin, d, tmin, tmax, &h) ||
+	/* the lens's centre: a thin lens's grid point is its pinhole's */
+	d = pm_camera_ray(j->cr, fx, fy, 0.5f, 0.5f, &o, &tmin, &tmax);
+	if (!pm_accel_intersect(ctx->accel, o, d, tmin, tmax, &h) ||
 	    !pm_photon_cacheable(&ctx->scene->bsdfs[ctx->scene->shapes[h.shape].bsdf]))
 		return;
 	n = pm_dot(h.ng, d) < 0.0f ? h.ns : pm_neg(h.ns);

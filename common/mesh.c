@@ -496,3 +496,45 @@ pm_mesh_area(const struct pm_mesh *m)
 	}
 	return sum;
 }
+
+/*
+ * Mitsuba's cylinder, open at both ends: x^2 + y^2 = 1 for z in [0, 1], as
+ * `segments` quads.  The rim's radius is pushed out so that the prism's
+ * area equals the cylinder's 2 pi (segments sin(pi / segments) r = pi r),
+ * as for the disk; normals are the exact radial ones, and interpolating
+ * two of them across a facet points exactly away from the axis at the hit.
+ * uv as Mitsuba's: u = phi / (2 pi), v = z, with a seam of doubled vertices.
+ */
+enum pm_err
+pm_mesh_cylinder(struct pm_mesh *m, uint32_t segments, struct pm_error *err)
+{
+	double r, phi;
+	enum pm_err e;
+	uint32_t i;
+
+	if (segments < 3 || segments > (1u << 24))
+		return pm_fail(err, PM_ERR_INVALID,
+		    "cylinder: %u segments (expected 3 to %u)", segments,
+		    1u << 24);
+	r = M_PI / (segments * sin(M_PI / segments));
+	if ((e = mesh_alloc(m, 2 * (segments + 1), 2 * segments, 1, 1, err))
+	    != PM_OK)
+		return e;
+	for (i = 0; i <= segments; i++) {
+		struct pm_vec3 n;
+		float u = (float)((double)i / segments);
+
+		phi = i == segments ? 0.0 : 2.0 * M_PI * i / segments;
+		n = pm_v3((float)cos(phi), (float)sin(phi), 0.0f);
+		set_vertex(m, 2 * i, pm_v3((float)(r * cos(phi)),
+		    (float)(r * sin(phi)), 0.0f), n, u, 0.0f);
+		set_vertex(m, 2 * i + 1, pm_v3((float)(r * cos(phi)),
+		    (float)(r * sin(phi)), 1.0f), n, u, 1.0f);
+	}
+	/* Counter-clockwise seen from outside. */
+	for (i = 0; i < segments; i++) {
+		set_tri(m, 2 * i, 2 * i, 2 * i + 2, 2 * i + 3);
+		set_tri(m, 2 * i + 1, 2 * i, 2 * i + 3, 2 * i + 1);
+	}
+	return PM_OK;
+}

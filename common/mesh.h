@@ -57,6 +57,11 @@ enum pm_err pm_mesh_disk(struct pm_mesh *m, uint32_t segments,
 enum pm_err pm_mesh_uv_sphere(struct pm_mesh *m, uint32_t rings,
     uint32_t segments, struct pm_error *err);
 
+/* Mitsuba's open cylinder of radius 1 about the z axis, z in [0, 1], outward
+ * exact normals, as `segments` facets whose total area equals 2 pi. */
+enum pm_err pm_mesh_cylinder(struct pm_mesh *m, uint32_t segments,
+    struct pm_error *err);
+
 /* Total surface area. */
 double pm_mesh_area(const struct pm_mesh *m);
 

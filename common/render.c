@@ -135,17 +135,25 @@ render_tile(struct job *j, int tile)
 				    cam->filter_radius, ux, &rng);
 				fy = (float)y + 0.5f + filter_offset(cam->rfilter,
 				    cam->filter_radius, uy, &rng);
-				float tmin, tmax;
-				struct pm_vec3 d = pm_camera_ray(&j->rays, fx, fy,
-				    &tmin, &tmax);
+				float tmin, tmax, lu = 0.5f, lv = 0.5f;
+				struct pm_vec3 o, d;
 				struct pm_rgb L;
+
+				/* A thin lens's aperture point: two more numbers
+				 * of the sample's own stream, drawn only for such
+				 * cameras so that other images stay as they were. */
+				if (pm_camera_needs_lens(&j->rays)) {
+					lu = pm_rng_float(&rng);
+					lv = pm_rng_float(&rng);
+				}
+				d = pm_camera_ray(&j->rays, fx, fy, lu, lv, &o, &tmin,
+				    &tmax);
 
 				cs.fx = fx;
 				cs.fy = fy;
 				L = j->opts->method == PM_METHOD_PHOTON ?
-				    pm_photon_li_px(j->ctx, j->rays.origin, d, tmin, tmax,
-				    &cs, &rng) : pm_path_li(j->ctx, j->rays.origin, d, tmin,
-				    tmax, &rng);
+				    pm_photon_li_px(j->ctx, o, d, tmin, tmax, &cs, &rng) :
+				    pm_path_li(j->ctx, o, d, tmin, tmax, &rng);
 
 				if (!pm_rgb_is_finite(L)) {
 					dropped++;

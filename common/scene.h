@@ -87,11 +87,21 @@ enum pm_rfilter {
 	PM_RFILTER_GAUSSIAN,
 };
 
+enum pm_sensor_type {
+	PM_SENSOR_PERSPECTIVE,
+	PM_SENSOR_ORTHOGRAPHIC,
+	PM_SENSOR_THINLENS,
+};
+
 struct pm_camera {
-	struct pm_mat4 to_world;	/* camera looks down +z, +y up, +x left */
+	enum pm_sensor_type type;
+	struct pm_mat4 to_world;	/* camera looks down +z, +y up, +x left;
+					 * orthographic: may scale the film */
 	float fov;			/* degrees, along fov_axis */
 	enum pm_fov_axis fov_axis;
 	float near_clip, far_clip;
+	float aperture_radius;		/* thinlens: lens radius, scene units */
+	float focus_distance;		/* thinlens: to the plane in focus */
 	int width, height;		/* film size in pixels */
 	int spp;			/* sampler sample_count */
 	enum pm_rfilter rfilter;

@@ -29,6 +29,7 @@
 #include "../merl.h"
 #include "../obj.h"
 #include "../ply.h"
+#include "../serialized.h"
 #include "../scene_xml.h"
 #include "../texture.h"
 
@@ -36,6 +37,7 @@
 #define MAX_INCLUDE_DEPTH	32
 #define MAX_FILE_SIZE		((size_t)256 << 20)
 #define DISK_SEGMENTS		256
+#define CYLINDER_SEGMENTS	1024
 #define PI_D			3.14159265358979323846
 
 /* Default indices of refraction (Mitsuba's table). */
@@ -98,6 +100,9 @@ struct ld {
 	int default_bsdf;
 	struct xnode *sensor, *integrator;
 	int seq;
+	/* While the shapes of a shapegroup are built for an instance: the
+	 * instance's to_world, applied after each shape's own. */
+	const struct pm_mat4 *instance_to_world;
 };
 
 struct doc {				/* one file being read by expat */

@@ -2,6 +2,8 @@
  * sensor.c: <sensor> with its <film>, <rfilter> and <sampler>, into the
  * scene's camera.
  */
+#include <float.h>
+
 #include "private.h"
 
 static enum pm_err
@@ -155,19 +157,81 @@ sensor_medium(struct ld *ld, struct plist *pl, struct xnode *o)
 	return PM_OK;
 }
 
-enum pm_err
-sx_load_sensor(struct ld *ld, struct xnode *n)
+/* perspective and thinlens: fov and fov_axis, or focal_length. */
+static enum pm_err
+load_fov(struct ld *ld, struct plist *pl, const struct xnode *n,
+    struct pm_camera *c)
 {
 	static const char *const axes[] = {"x", "y", "diagonal", "smaller",
 	    "larger", NULL};
+	const char *axis, *focal;
+	double fov;
+	int k;
+	enum pm_err e;
+
+	if (sx_has(pl, "fov") && sx_has(pl, "focal_length"))
+		return sx_fail(ld, sx_prop_find(pl, "focal_length")->n,
+		    PM_ERR_INVALID, "%s: give either fov or focal_length, "
+		    "not both", pl->what);
+	if (sx_has(pl, "fov_axis") && !sx_has(pl, "fov"))
+		return sx_fail(ld, sx_prop_find(pl, "fov_axis")->n, PM_ERR_INVALID,
+		    "%s: fov_axis applies only with fov", pl->what);
+	if (sx_has(pl, "fov")) {
+		if ((e = sx_get_float(ld, pl, "fov", 90.0, 1e-6, 180.0, &fov))
+		    != PM_OK || (e = sx_get_string(ld, pl, "fov_axis", "x",
+		    &axis)) != PM_OK)
+			return e;
+		if (fov >= 180.0)
+			return sx_fail(ld, sx_prop_find(pl, "fov")->n,
+			    PM_ERR_INVALID, "%s: fov must be below 180 "
+			    "degrees", pl->what);
+		for (k = 0; axes[k] != NULL; k++)
+			if (strcasecmp(axis, axes[k]) == 0)
+				break;
+		if (axes[k] == NULL)
+			return sx_fail(ld, sx_prop_find(pl, "fov_axis")->n,
+			    PM_ERR_INVALID, "%s: fov_axis \"%s\" is not one "
+			    "of x, y, diagonal, smaller, larger", pl->what,
+			    axis);
+		c->fov = (float)fov;
+		c->fov_axis = (enum pm_fov_axis)k;
+	} else {
+		/* 35 mm film (36 x 24 mm): the focal length gives the
+		 * diagonal field of view. */
+		char buf[64];
+		size_t len;
+		double f;
+
+		if ((e = sx_get_string(ld, pl, "focal_length", "50mm", &focal))
+		    != PM_OK)
+			return e;
+		len = strlen(focal);
+		if (len >= 2 && strcmp(focal + len - 2, "mm") == 0)
+			len -= 2;
+		snprintf(buf, sizeof(buf), "%.*s", (int)len, focal);
+		if (len >= sizeof(buf) || !sx_number(buf, &f) || !(f > 0.0))
+			return sx_fail(ld, sx_has(pl, "focal_length") ?
+			    sx_prop_find(pl, "focal_length")->n : n,
+			    PM_ERR_PARSE, "%s: focal_length \"%s\" is not of "
+			    "the form <x>mm with x positive", pl->what, focal);
+		c->fov = (float)(2.0 * atan(sqrt(36.0 * 36.0 + 24.0 * 24.0) /
+		    (2.0 * f)) * 180.0 / PI_D);
+		c->fov_axis = PM_FOV_DIAGONAL;
+	}
+	return PM_OK;
+}
+
+enum pm_err
+sx_load_sensor(struct ld *ld, struct xnode *n)
+{
 	struct pm_camera *c = &ld->s->camera;
 	struct plist pl;
 	struct xnode *film = NULL, *sampler = NULL, *o;
-	const char *type, *axis, *focal;
-	double fov, near, far, focus;
+	struct pm_mat4 inv;
+	const char *type;
+	double near, far, focus, aperture;
 	float scale;
 	size_t i;
-	int k;
 	enum pm_err e;
 
 	if (ld->sensor != NULL)
@@ -178,15 +242,25 @@ sx_load_sensor(struct ld *ld, struct xnode *n)
 	if ((e = sx_object_type(ld, n, &type)) != PM_OK ||
 	    (e = sx_collect(ld, n, "sensor", type, &pl)) != PM_OK)
 		return e;
-	if (strcmp(type, "perspective") != 0)
-		return sx_unknown_plugin(ld, n, type, "perspective");
-	if (sx_has(&pl, "fov") && sx_has(&pl, "focal_length"))
-		return sx_fail(ld, sx_prop_find(&pl, "focal_length")->n,
-		    PM_ERR_INVALID, "%s: give either fov or focal_length, "
-		    "not both", pl.what);
-	if (sx_has(&pl, "fov_axis") && !sx_has(&pl, "fov"))
-		return sx_fail(ld, sx_prop_find(&pl, "fov_axis")->n, PM_ERR_INVALID,
-		    "%s: fov_axis applies only with fov", pl.what);
+	if (strcmp(type, "perspective") == 0)
+		c->type = PM_SENSOR_PERSPECTIVE;
+	else if (strcmp(type, "orthographic") == 0)
+		c->type = PM_SENSOR_ORTHOGRAPHIC;
+	else if (strcmp(type, "thinlens") == 0)
+		c->type = PM_SENSOR_THINLENS;
+	else
+		return sx_unknown_plugin(ld, n, type, "perspective, "
+		    "orthographic and thinlens");
+	if (c->type == PM_SENSOR_THINLENS && !sx_has(&pl, "aperture_radius"))
+		return sx_missing(ld, &pl, "aperture_radius", "a <float>");
+	if (c->type == PM_SENSOR_THINLENS) {
+		if ((e = sx_get_float(ld, &pl, "aperture_radius", 0.0, 0.0,
+		    3.4e38, &aperture)) != PM_OK)
+			return e;
+		/* Mitsuba warns and takes its float epsilon for 0. */
+		c->aperture_radius = aperture > 0.0 ? (float)aperture :
+		    FLT_EPSILON;
+	}
 	if ((e = sx_get_float(ld, &pl, "near_clip", 0.01, 1e-30, 3.4e38, &near))
 	    != PM_OK ||
 	    (e = sx_get_float(ld, &pl, "far_clip", 10000.0, 1e-30, 3.4e38, &far))
@@ -200,51 +274,22 @@ sx_load_sensor(struct ld *ld, struct xnode *n)
 		    "smaller than far_clip %g", pl.what, near, far);
 	c->near_clip = (float)near;
 	c->far_clip = (float)far;
-	if (sx_has(&pl, "fov")) {
-		if ((e = sx_get_float(ld, &pl, "fov", 90.0, 1e-6, 180.0, &fov))
-		    != PM_OK || (e = sx_get_string(ld, &pl, "fov_axis", "x",
-		    &axis)) != PM_OK)
-			return e;
-		if (fov >= 180.0)
-			return sx_fail(ld, sx_prop_find(&pl, "fov")->n,
-			    PM_ERR_INVALID, "%s: fov must be below 180 "
-			    "degrees", pl.what);
-		for (k = 0; axes[k] != NULL; k++)
-			if (strcasecmp(axis, axes[k]) == 0)
-				break;
-		if (axes[k] == NULL)
-			return sx_fail(ld, sx_prop_find(&pl, "fov_axis")->n,
-			    PM_ERR_INVALID, "%s: fov_axis \"%s\" is not one "
-			    "of x, y, diagonal, smaller, larger", pl.what,
-			    axis);
-		c->fov = (float)fov;
-		c->fov_axis = (enum pm_fov_axis)k;
-	} else {
-		/* 35 mm film (36 x 24 mm): the focal length gives the
-		 * diagonal field of view. */
-		char buf[64];
-		size_t len;
-		double f;
-
-		if ((e = sx_get_string(ld, &pl, "focal_length", "50mm", &focal))
-		    != PM_OK)
-			return e;
-		len = strlen(focal);
-		if (len >= 2 && strcmp(focal + len - 2, "mm") == 0)
-			len -= 2;
-		snprintf(buf, sizeof(buf), "%.*s", (int)len, focal);
-		if (len >= sizeof(buf) || !sx_number(buf, &f) || !(f > 0.0))
-			return sx_fail(ld, sx_has(&pl, "focal_length") ?
-			    sx_prop_find(&pl, "focal_length")->n : n,
-			    PM_ERR_PARSE, "%s: focal_length \"%s\" is not of "
-			    "the form <x>mm with x positive", pl.what, focal);
-		c->fov = (float)(2.0 * atan(sqrt(36.0 * 36.0 + 24.0 * 24.0) /
-		    (2.0 * f)) * 180.0 / PI_D);
-		c->fov_axis = PM_FOV_DIAGONAL;
-	}
+	c->focus_distance = (float)focus;
+	if (c->type == PM_SENSOR_THINLENS && !(focus > 0.0))
+		return sx_fail(ld, sx_prop_find(&pl, "focus_distance")->n,
+		    PM_ERR_INVALID, "%s: focus_distance must be positive",
+		    pl.what);
+	if (c->type != PM_SENSOR_ORTHOGRAPHIC &&
+	    (e = load_fov(ld, &pl, n, c)) != PM_OK)
+		return e;
 	if ((e = sx_finish(ld, &pl)) != PM_OK)
 		return e;
-	if (!sx_similarity_scale(&c->to_world, &scale) ||
+	/* An orthographic to_world sizes the film, so it may scale. */
+	if (c->type == PM_SENSOR_ORTHOGRAPHIC) {
+		if (!pm_mat4_inverse(c->to_world, &inv))
+			return sx_fail(ld, n, PM_ERR_INVALID, "%s: to_world is "
+			    "singular", pl.what);
+	} else if (!sx_similarity_scale(&c->to_world, &scale) ||
 	    fabsf(scale - 1.0f) > 1e-3f)
 		return sx_fail(ld, n, PM_ERR_INVALID, "%s: to_world must not "
 		    "scale (as in Mitsuba)", pl.what);

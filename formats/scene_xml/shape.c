@@ -1,6 +1,7 @@
 /*
- * shape.c: <shape> elements: meshes from OBJ and PLY files and the
- * analytic shapes, baked into world space with their BSDF and emitter.
+ * shape.c: <shape> elements: meshes from OBJ, PLY and Mitsuba's serialized
+ * files and the analytic shapes, baked into world space with their BSDF and
+ * emitter.
  */
 #include "private.h"
 
@@ -70,6 +71,63 @@ finish_mesh(struct ld *ld, const struct xnode *n, const char *what,
 	return PM_OK;
 }
 
+static float
+comp(struct pm_vec3 v, int i)
+{
+	return i == 0 ? v.x : (i == 1 ? v.y : v.z);
+}
+
+/*
+ * Mitsuba's cylinder: to_world * translate(p0) * frame(p1 - p0) *
+ * scale(radius, radius, |p1 - p0|) on the unit cylinder.  Like Mitsuba,
+ * the result must scale x and y alike without shear (Mitsuba warns and
+ * renders something else; pm refuses), and a negative radius flips the
+ * normals.
+ */
+static enum pm_err
+cylinder_frame(struct ld *ld, struct plist *pl, struct pm_vec3 p0,
+    struct pm_vec3 p1, double *radius, struct pm_mat4 *M, bool *flip)
+{
+	struct pm_vec3 d = pm_sub(p1, p0), c[3];
+	struct pm_frame fr;
+	struct pm_mat4 L = pm_mat4_identity();
+	float len = pm_length(d), r, lx, ly;
+	int i;
+
+	if (!(len > 0.0f))
+		return sx_fail(ld, pl->owner, PM_ERR_INVALID, "%s: p0 and p1 "
+		    "must differ", pl->what);
+	if (!(*radius != 0.0))
+		return sx_fail(ld, sx_prop_find(pl, "radius")->n,
+		    PM_ERR_INVALID, "%s: radius must not be 0", pl->what);
+	if (*radius < 0.0) {
+		*radius = -*radius;
+		*flip = !*flip;
+	}
+	r = (float)*radius;
+	fr = pm_frame_from_normal(pm_scale(d, 1.0f / len));
+	for (i = 0; i < 3; i++) {
+		L.m[i][0] = comp(fr.s, i) * r;
+		L.m[i][1] = comp(fr.t, i) * r;
+		L.m[i][2] = comp(fr.n, i) * len;
+		L.m[i][3] = comp(p0, i);
+	}
+	*M = pm_mat4_mul(*M, L);
+	for (i = 0; i < 3; i++)
+		c[i] = pm_v3(M->m[0][i], M->m[1][i], M->m[2][i]);
+	lx = pm_length(c[0]);
+	ly = pm_length(c[1]);
+	if (!(lx > 0.0f) || fabsf(lx - ly) > 1e-4f * lx ||
+	    fabsf(pm_dot(c[0], c[1])) > 1e-4f * lx * ly ||
+	    fabsf(pm_dot(c[0], c[2])) > 1e-4f * lx * pm_length(c[2]) ||
+	    fabsf(pm_dot(c[1], c[2])) > 1e-4f * ly * pm_length(c[2]))
+		return sx_fail(ld, pl->owner, PM_ERR_UNSUPPORTED, "%s: to_world "
+		    "must keep the cross-section round (no shear, the same "
+		    "scale across the axis), as Mitsuba's cylinder needs",
+		    pl->what);
+	return PM_OK;
+}
+
 /* The BSDF, area light and media of a shape, from nested elements or
  * refs. */
 static enum pm_err
@@ -114,9 +172,87 @@ shape_objects(struct ld *ld, struct plist *pl, int *bsdf, struct xnode **em,
 			    "inside %s", o->tag, pl->what);
 		}
 	}
-	if (bnode == NULL && (*bsdf = sx_default_bsdf(ld)) < 0)
+	/* Mitsuba's default BSDF is diffuse with reflectance 0.5, but 0 on
+	 * a shape that emits (Shape's constructor): an emitter given no
+	 * BSDF reflects nothing. */
+	if (bnode == NULL && *em != NULL) {
+		if ((*bsdf = pm_scene_add_bsdf(ld->s)) < 0)
+			return sx_nomem(ld);
+		ld->s->bsdfs[*bsdf].type = PM_BSDF_DIFFUSE;
+		ld->s->bsdfs[*bsdf].diffuse = pm_rgb1(0.0f);
+	} else if (bnode == NULL && (*bsdf = sx_default_bsdf(ld)) < 0) {
 		return sx_nomem(ld);
+	}
 	return PM_OK;
+}
+
+/* Mitsuba's shapegroup holds shapes only, and no groups or instances. */
+static enum pm_err
+check_group(struct ld *ld, struct xnode *g)
+{
+	struct xnode *k;
+	const char *type;
+	enum pm_err e;
+
+	for (k = g->kids; k != NULL; k = k->next) {
+		if (strcmp(k->tag, "shape") != 0)
+			return sx_fail(ld, k, PM_ERR_INVALID, "shape "
+			    "\"shapegroup\" holds only <shape> elements, found "
+			    "<%s>", k->tag);
+		if ((e = sx_object_type(ld, k, &type)) != PM_OK)
+			return e;
+		if (strcmp(type, "shapegroup") == 0 ||
+		    strcmp(type, "instance") == 0)
+			return sx_fail(ld, k, PM_ERR_INVALID, "a shapegroup "
+			    "cannot hold a shape \"%s\" (nor can Mitsuba's)",
+			    type);
+	}
+	return PM_OK;
+}
+
+/*
+ * An instance of a shapegroup: the group's shapes are built once more
+ * each, with the instance's to_world after their own.  pm flattens
+ * instances into world-space copies rather than using Embree's instancing:
+ * every later stage (light sampling, photon shooting, normals, the scene's
+ * hash) then sees plain meshes and spheres, at the cost of memory per copy.
+ */
+static enum pm_err
+load_instance(struct ld *ld, struct xnode *n, struct plist *pl)
+{
+	struct pm_mat4 M;
+	struct xnode *g, *k;
+	const char *gtype;
+	enum pm_err e;
+
+	if ((e = sx_get_transform(ld, pl, "to_world", &M)) != PM_OK ||
+	    (e = sx_finish(ld, pl)) != PM_OK)
+		return e;
+	if (pl->nobj != 1 || strcmp(pl->obj[0]->tag, "ref") != 0)
+		return sx_fail(ld, pl->nobj > 0 ? pl->obj[pl->nobj - 1] : n,
+		    PM_ERR_INVALID, "%s takes exactly one <ref> to a "
+		    "shapegroup", pl->what);
+	if ((e = sx_deref(ld, pl->obj[0], &g)) != PM_OK)
+		return e;
+	if (strcmp(g->tag, "shape") != 0 ||
+	    sx_object_type(ld, g, &gtype) != PM_OK ||
+	    strcmp(gtype, "shapegroup") != 0)
+		return sx_fail(ld, pl->obj[0], PM_ERR_INVALID, "%s: <ref "
+		    "id=\"%s\"> names a <%s>, expected a shape \"shapegroup\"",
+		    pl->what, sx_attr(pl->obj[0], "id"), g->tag);
+	if (g->busy || ld->instance_to_world != NULL)
+		return sx_fail(ld, n, PM_ERR_INVALID, "%s: instances cannot "
+		    "nest", pl->what);
+	if ((e = check_group(ld, g)) != PM_OK)
+		return e;
+	g->busy = true;
+	ld->instance_to_world = &M;
+	for (k = g->kids; k != NULL; k = k->next)
+		if ((e = sx_load_shape(ld, k, k->dir)) != PM_OK)
+			break;
+	ld->instance_to_world = NULL;
+	g->busy = false;
+	return e;
 }
 
 enum pm_err
@@ -131,28 +267,40 @@ sx_load_shape(struct ld *ld, struct xnode *n, const char *naming_dir)
 	struct xnode *em;
 	const char *type, *fname = NULL, *path, *id;
 	double radius = 1.0;
+	struct pm_vec3 p0, p1;
 	bool face_normals = false, flip = false, flip_tc = true;
-	bool is_file, is_obj;
+	bool is_file, is_obj, is_ser, file_face_normals = false;
+	long shape_index = 0;
 	float scale;
 	int idx, bsdf = -1, li, interior = -1, exterior = -1;
 	uint32_t v;
 	enum pm_err e;
 
 	memset(&mesh, 0, sizeof(mesh));
-	if ((e = sx_object_type(ld, n, &type)) != PM_OK ||
-	    (e = sx_collect(ld, n, "shape", type, &pl)) != PM_OK)
+	if ((e = sx_object_type(ld, n, &type)) != PM_OK)
 		return e;
+	/* A group is drawn only through its instances. */
+	if (strcmp(type, "shapegroup") == 0)
+		return check_group(ld, n);
+	if ((e = sx_collect(ld, n, "shape", type, &pl)) != PM_OK)
+		return e;
+	if (strcmp(type, "instance") == 0)
+		return load_instance(ld, n, &pl);
 	is_obj = strcmp(type, "obj") == 0;
-	is_file = is_obj || strcmp(type, "ply") == 0;
+	is_ser = strcmp(type, "serialized") == 0;
+	is_file = is_obj || is_ser || strcmp(type, "ply") == 0;
 	if (!is_file && strcmp(type, "sphere") != 0 &&
 	    strcmp(type, "rectangle") != 0 && strcmp(type, "cube") != 0 &&
-	    strcmp(type, "disk") != 0)
-		return sx_unknown_plugin(ld, n, type, "obj, ply, sphere, "
-		    "rectangle, cube and disk");
+	    strcmp(type, "disk") != 0 && strcmp(type, "cylinder") != 0)
+		return sx_unknown_plugin(ld, n, type, "obj, ply, serialized, "
+		    "sphere, rectangle, cube, disk, cylinder, shapegroup and "
+		    "instance");
 
 	if ((e = sx_get_transform(ld, &pl, "to_world", &M)) != PM_OK ||
 	    (e = sx_get_bool(ld, &pl, "flip_normals", false, &flip)) != PM_OK)
 		return e;
+	if (ld->instance_to_world != NULL)
+		M = pm_mat4_mul(*ld->instance_to_world, M);
 	if (is_file) {
 		if (!sx_has(&pl, "filename"))
 			return sx_missing(ld, &pl, "filename", "a <string>");
@@ -163,6 +311,19 @@ sx_load_shape(struct ld *ld, struct xnode *n, const char *naming_dir)
 			return e;
 		if (is_obj && (e = sx_get_bool(ld, &pl, "flip_tex_coords", true,
 		    &flip_tc)) != PM_OK)
+			return e;
+		if (is_ser && (e = sx_get_int(ld, &pl, "shape_index", 0, 0,
+		    LONG_MAX, &shape_index)) != PM_OK)
+			return e;
+	} else if (strcmp(type, "cylinder") == 0) {
+		if ((e = sx_get_point(ld, &pl, "p0", pm_v3(0, 0, 0), &p0))
+		    != PM_OK ||
+		    (e = sx_get_point(ld, &pl, "p1", pm_v3(0, 0, 1), &p1))
+		    != PM_OK ||
+		    (e = sx_get_float(ld, &pl, "radius", 1.0, -3.4e38, 3.4e38,
+		    &radius)) != PM_OK ||
+		    (e = cylinder_frame(ld, &pl, p0, p1, &radius, &M, &flip))
+		    != PM_OK)
 			return e;
 	} else if (strcmp(type, "sphere") == 0) {
 		if ((e = sx_get_point(ld, &pl, "center", pm_v3(0, 0, 0), &center))
@@ -183,8 +344,15 @@ sx_load_shape(struct ld *ld, struct xnode *n, const char *naming_dir)
 	if (is_file) {
 		if ((e = sx_resolve(ld, n, naming_dir, fname, &path)) != PM_OK)
 			return e;
-		e = is_obj ? pm_obj_read(path, &mesh, ld->err) :
-		    pm_ply_read(path, &mesh, ld->err);
+		if (is_ser) {
+			e = pm_serialized_read(path, shape_index, &mesh,
+			    &file_face_normals, ld->err);
+			/* the file's flag means face_normals="true" */
+			face_normals = face_normals || file_face_normals;
+		} else {
+			e = is_obj ? pm_obj_read(path, &mesh, ld->err) :
+			    pm_ply_read(path, &mesh, ld->err);
+		}
 		if (e == PM_OK && is_obj && flip_tc && mesh.uv != NULL)
 			for (v = 0; v < mesh.nverts; v++)
 				mesh.uv[2 * v + 1] = 1.0f - mesh.uv[2 * v + 1];
@@ -194,6 +362,8 @@ sx_load_shape(struct ld *ld, struct xnode *n, const char *naming_dir)
 		e = pm_mesh_cube(&mesh, ld->err);
 	} else if (strcmp(type, "disk") == 0) {
 		e = pm_mesh_disk(&mesh, DISK_SEGMENTS, ld->err);
+	} else if (strcmp(type, "cylinder") == 0) {
+		e = pm_mesh_cylinder(&mesh, CYLINDER_SEGMENTS, ld->err);
 	}
 	if (e != PM_OK) {
 		pm_mesh_free(&mesh);
@@ -235,6 +405,10 @@ sx_load_shape(struct ld *ld, struct xnode *n, const char *naming_dir)
 	}
 
 	if (em != NULL) {
+		if (ld->instance_to_world != NULL)
+			return sx_fail(ld, n, PM_ERR_UNSUPPORTED, "%s: a shape "
+			    "in a shapegroup cannot emit (Mitsuba does not "
+			    "instance emitters either)", pl.what);
 		if (em->inst >= 0)
 			return sx_fail(ld, n, PM_ERR_INVALID, "%s: emitter at "
 			    "line %d is already attached to shape %s", pl.what,

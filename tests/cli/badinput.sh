@@ -123,6 +123,13 @@ printf 'ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nend_header\n'
 mesh_refused "a PLY without y and z" "noxyz\\.ply" noxyz.ply ply
 printf 'PLY?\n' >"$tmp/magic.ply"
 mesh_refused "a PLY with a wrong magic" "magic\\.ply" magic.ply ply
+# Mitsuba's serialized meshes: a stream cut short, and no magic at all.
+cp tests/fuzz/corpus/serialized/truncated.serialized "$tmp/trunc.serialized"
+mesh_refused "a truncated serialized mesh" \
+    "trunc\\.serialized: the compressed data ends inside" trunc.serialized serialized
+printf 'PK\003\004 zip' >"$tmp/magic.serialized"
+mesh_refused "a serialized mesh with a wrong magic" \
+    "magic\\.serialized: not a Mitsuba serialized mesh" magic.serialized serialized
 
 # Non-finite vertices and zero-area triangles are dropped, with one warning
 # that counts them; the rest renders.

@@ -12,7 +12,9 @@
 # The scenes: data/cornell-box.xml and the others of data/ listed below
 # (ours, must exist; fog-box and glass-medium have media), Mitsuba's own
 # Cornell box from ../shared/scenes/mitsuba-cbox (skipped when ../shared is
-# absent), and tests/mitsuba/textures.xml (path traced and photon-mapped).
+# absent), tests/mitsuba/textures.xml (path traced and photon-mapped) and
+# the scenes tests/mitsuba/shapes_scene.py writes (shapes and sensors, path
+# traced and photon-mapped).
 # Results are TAP-like lines and a closing "mitsuba cli: N passed,
 # N failed"; the exit status is non-zero when anything failed, including
 # the set-up of Mitsuba itself (no network means failure, never a pass).
@@ -333,6 +335,21 @@ if [ "$selftest" = 0 ]; then
 		[ -f data/$scene.xml ] && wanted $scene-photon &&
 		    against $scene-photon data/$scene.xml photon
 	done
+fi
+
+# Shapes and sensors: an open cylinder (and a cylinder light), two meshes
+# of a .serialized file written here and two instances of a shapegroup,
+# under an orthographic and a thin-lens camera, path traced and from
+# photon maps; in a folder of their own, as the textures.
+if "$PY" "$HERE/shapes_scene.py" "$OUT/shapes" >"$OUT/log" 2>&1; then
+	for cam in ortho thinlens; do
+		run shapes-$cam "$OUT/shapes/shapes-$cam.xml"
+		[ "$selftest" = 1 ] || ! wanted shapes-$cam-photon ||
+		    against shapes-$cam-photon "$OUT/shapes/shapes-$cam.xml" photon
+	done
+else
+	diag <"$OUT/log"
+	check "shapes: tests/mitsuba/shapes_scene.py failed" false
 fi
 
 if [ -f ../shared/scenes/mitsuba-cbox/cbox-rgb.xml ]; then

@@ -5,8 +5,11 @@
  * reflects diffusely with albedo rho, the radiance everywhere is
  * Le / (1 - rho); with max_depth d it is Le (1 + rho + ... + rho^(d-1)).
  * A convex diffuse object of albedo a inside a black emitting sphere
- * reflects a Le exactly.  Also: the image is identical with 1 and 2 threads,
- * and a watch sees only finished tiles, exactly as they end up.
+ * reflects a Le exactly, seen through any sensor: a thin lens or an
+ * orthographic film filled by the object.  Also: the image is identical
+ * with 1 and 2 threads (with a thin lens too, whose lens samples come from
+ * each sample's own stream), and a watch sees only finished tiles, exactly
+ * as they end up.
  */
 #include <math.h>
 #include <pthread.h>
@@ -211,6 +214,57 @@ test_threads_give_identical_images(void **state)
 	furnace_free(&f);
 }
 
+/* A thin lens focused before the object and an orthographic film inside
+ * its outline both see a Le where the object fills the view. */
+static void
+test_other_sensors_in_furnace(void **state)
+{
+	struct furnace f;
+	double m[3];
+
+	(void)state;
+	furnace_build(&f, 0.0f, 0.6f, -1);
+	f.scene.camera.type = PM_SENSOR_THINLENS;
+	f.scene.camera.aperture_radius = 0.3f;
+	f.scene.camera.focus_distance = 2.0f;
+	f.scene.camera.spp = 64;
+	render_mean(&f, 2, 4, m, NULL);
+	assert_close(m, pm_rgb(0.6f, 1.2f, 0.3f), 0.01);
+	furnace_free(&f);
+
+	furnace_build(&f, 0.0f, 0.6f, -1);
+	f.scene.camera.type = PM_SENSOR_ORTHOGRAPHIC;
+	/* the film spans [-0.6, 0.6]^2, inside the unit sphere's outline */
+	f.scene.camera.to_world = pm_mat4_mul(f.scene.camera.to_world,
+	    pm_mat4_scale(pm_v3(0.6f, 0.6f, 1.0f)));
+	f.scene.camera.spp = 64;
+	render_mean(&f, 2, 16, m, NULL);
+	assert_close(m, pm_rgb(0.6f, 1.2f, 0.3f), 0.01);
+	furnace_free(&f);
+}
+
+static void
+test_thinlens_threads_give_identical_images(void **state)
+{
+	struct furnace f;
+	struct pm_image a, b;
+	double m[3];
+
+	(void)state;
+	furnace_build(&f, 0.5f, 0.7f, -1);
+	f.scene.camera.type = PM_SENSOR_THINLENS;
+	f.scene.camera.aperture_radius = 0.5f;
+	f.scene.camera.focus_distance = 3.0f;
+	f.scene.camera.width = 40;
+	f.scene.camera.height = 24;
+	render_mean(&f, 1, 4, m, &a);
+	render_mean(&f, 2, 4, m, &b);
+	assert_memory_equal(a.rgb, b.rgb, sizeof(float) * 3 * 40 * 24);
+	pm_image_free(&a);
+	pm_image_free(&b);
+	furnace_free(&f);
+}
+
 #define MAX_SNAPS 64
 
 /* Another thread's view of a render: snapshots taken while it runs. */
@@ -313,6 +367,8 @@ main(void)
 		cmocka_unit_test(test_closed_furnace_infinite_depth),
 		cmocka_unit_test(test_max_depth_meaning),
 		cmocka_unit_test(test_threads_give_identical_images),
+		cmocka_unit_test(test_other_sensors_in_furnace),
+		cmocka_unit_test(test_thinlens_threads_give_identical_images),
 		cmocka_unit_test(test_watch_sees_finished_tiles_only),
 	};
 

@@ -1143,8 +1143,8 @@ test_errors(void **state)
 		    "unknown emitter type \"projector\""},
 		{HEAD "<integrator type=\"aov\"/></scene>", 2,
 		    "unknown integrator type \"aov\""},
-		{HEAD "<sensor type=\"thinlens\"/></scene>", 2,
-		    "unknown sensor type \"thinlens\""},
+		{HEAD "<sensor type=\"radiancemeter\"/></scene>", 2,
+		    "unknown sensor type \"radiancemeter\""},
 		{HEAD "<shape type=\"sphere\">\n"
 		    "<float name=\"radiuss\" value=\"1\"/></shape></scene>", 3,
 		    "unknown parameter \"radiuss\" for shape \"sphere\""},
