@@ -15,8 +15,8 @@
 
 #include "jpeg.h"
 
-/* as PNG_MAX_PIXELS: 2^27 texels, 1.5 GiB of float RGB */
-#define JPEG_MAX_PIXELS ((size_t)1 << 27)
+/* as PNG_MAX_PIXELS (png.c): 2^26 texels */
+#define JPEG_MAX_PIXELS ((size_t)1 << 26)
 
 struct jpeg_err {
 	struct jpeg_error_mgr mgr;	/* first: libjpeg passes this pointer */

@@ -160,9 +160,11 @@ pm_png_write_fast(const char *path, const uint8_t *rgb, int width,
 	return write_png(path, rgb, width, height, true, err);
 }
 
-/* The largest image a texture may be: 2^27 texels (16384 x 8192, 1.5 GiB
- * of float RGB). */
-#define PNG_MAX_PIXELS ((size_t)1 << 27)
+/* The largest image a texture may be: 2^26 texels (8192 x 8192 or 16384 x
+ * 4096), 768 MiB of float RGB, 1 GiB with the 8-bit image it is decoded
+ * from.  (2^27 let a 232-byte JPEG that claims 62208 x 2048 pixels take
+ * 1.9 GiB, past the 2 GiB the fuzzers allow with their own memory.) */
+#define PNG_MAX_PIXELS ((size_t)1 << 26)
 
 /*
  * Reads through libpng's simplified interface, which does the colour
