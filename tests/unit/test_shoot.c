@@ -180,6 +180,46 @@ test_shards_equal_one_run(void **state)
  * photons) over a floor under a small light: the caustic photons the
  * global pass leaves on the floor carry the flux the aimed caustic pass
  * finds there, and none is stored on the glass. */
+/*
+ * The caustic flux reaching the floor (y <= 0.01) per path, from the global
+ * pass g (its photons flagged caustic) and the aimed caustic pass c, which
+ * stores only caustic photons: both find some and agree within 4 standard
+ * errors.
+ */
+static void
+assert_floor_caustics_agree(const struct pm_photon_buf *g, uint64_t ng,
+    const struct pm_photon_buf *c, uint64_t nc, const char *what)
+{
+	double fg = 0, fc = 0, sqg = 0, sqc = 0, se;
+	size_t i;
+
+	for (i = 0; i < g->n; i++) {
+		float f;
+
+		if (!(g->p[i].flags & PM_PHOTON_CAUSTIC) || g->p[i].pos[1] > 0.01f)
+			continue;
+		f = pm_rgbe_unpack(g->p[i].power).g;
+		fg += f;
+		sqg += (double)f * f;
+	}
+	for (i = 0; i < c->n; i++) {
+		float f = pm_rgbe_unpack(c->p[i].power).g;
+
+		assert_true(c->p[i].flags & PM_PHOTON_CAUSTIC);
+		if (c->p[i].pos[1] > 0.01f)
+			continue;
+		fc += f;
+		sqc += (double)f * f;
+	}
+	se = sqrt(sqg / ng / ng + sqc / nc / nc);
+	print_message("%s: caustic flux on the floor: global pass %.4f, aimed "
+	    "pass %.4f, standard error %.4f; aimed photons %zu of %llu paths, "
+	    "global caustic photons %zu\n", what, fg / ng, fc / nc, se, c->n,
+	    (unsigned long long)nc, g->n);
+	assert_true(fc > 0 && fg > 0);
+	assert_true(fabs(fg / ng - fc / nc) < 4 * se);
+}
+
 static void
 caustic_aiming(enum pm_bsdf_type type, float alpha, bool beckmann)
 {
@@ -187,7 +227,6 @@ caustic_aiming(enum pm_bsdf_type type, float alpha, bool beckmann)
 	struct pm_scene *s = &w.scene;
 	struct pm_photon_buf g = {NULL, 0, 0}, c = {NULL, 0, 0};
 	struct pm_error err;
-	double fg = 0, fc = 0, sqg = 0, sqc = 0, se;
 	const uint64_t ng = 400000, nc = 100000;
 	int b, sh, l;
 	size_t i;
@@ -224,36 +263,15 @@ caustic_aiming(enum pm_bsdf_type type, float alpha, bool beckmann)
 
 	shoot(&w, PM_PASS_GLOBAL, 0, ng, 2, &g);
 	shoot(&w, PM_PASS_CAUSTIC, 0, nc, 2, &c);
+	/* nothing stored on the glass */
 	for (i = 0; i < g.n; i++) {
-		float f, dx = g.p[i].pos[0], dy = g.p[i].pos[1] - 1.5f;
+		float dx = g.p[i].pos[0], dy = g.p[i].pos[1] - 1.5f;
 		float dz = g.p[i].pos[2];
 
-		/* nothing stored on the glass */
 		assert_true(fabsf(sqrtf(dx * dx + dy * dy + dz * dz) - 1.0f) >
 		    1e-3f);
-		/* Caustics on the floor: light, glass+, floor (first arrival). */
-		if (!(g.p[i].flags & PM_PHOTON_CAUSTIC) || g.p[i].pos[1] > 0.01f)
-			continue;
-		f = pm_rgbe_unpack(g.p[i].power).g;
-		fg += f;
-		sqg += (double)f * f;
 	}
-	for (i = 0; i < c.n; i++) {
-		float f = pm_rgbe_unpack(c.p[i].power).g;
-
-		assert_true(c.p[i].flags & PM_PHOTON_CAUSTIC);
-		if (c.p[i].pos[1] > 0.01f)
-			continue;
-		fc += f;
-		sqc += (double)f * f;
-	}
-	se = sqrt(sqg / ng / ng + sqc / nc / nc);
-	print_message("caustic flux on the floor: global pass %.4f, aimed pass "
-	    "%.4f, standard error %.4f; aimed photons %zu of %llu paths, "
-	    "global caustic photons %zu\n", fg / ng, fc / nc, se, c.n,
-	    (unsigned long long)nc, g.n);
-	assert_true(fc > 0 && fg > 0);
-	assert_true(fabs(fg / ng - fc / nc) < 4 * se);
+	assert_floor_caustics_agree(&g, ng, &c, nc, "area light");
 	pm_photon_buf_free(&g);
 	pm_photon_buf_free(&c);
 	world_free(&w);
@@ -272,10 +290,8 @@ far_aiming(enum pm_light_type type)
 	struct pm_scene *s = &w.scene;
 	struct pm_photon_buf g = {NULL, 0, 0}, c = {NULL, 0, 0};
 	struct pm_error err;
-	double fg = 0, fc = 0, sqg = 0, sqc = 0, se;
 	const uint64_t ng = 1000000, nc = 100000;
 	int b, m, sh, l;
-	size_t i;
 
 	pm_scene_init(s);
 	sh = pm_scene_add_shape(s);
@@ -314,32 +330,8 @@ far_aiming(enum pm_light_type type)
 
 	shoot(&w, PM_PASS_GLOBAL, 0, ng, 2, &g);
 	shoot(&w, PM_PASS_CAUSTIC, 0, nc, 2, &c);
-	for (i = 0; i < g.n; i++) {
-		float f;
-
-		if (!(g.p[i].flags & PM_PHOTON_CAUSTIC) || g.p[i].pos[1] > 0.01f)
-			continue;
-		f = pm_rgbe_unpack(g.p[i].power).g;
-		fg += f;
-		sqg += (double)f * f;
-	}
-	for (i = 0; i < c.n; i++) {
-		float f = pm_rgbe_unpack(c.p[i].power).g;
-
-		assert_true(c.p[i].flags & PM_PHOTON_CAUSTIC);
-		if (c.p[i].pos[1] > 0.01f)
-			continue;
-		fc += f;
-		sqc += (double)f * f;
-	}
-	se = sqrt(sqg / ng / ng + sqc / nc / nc);
-	print_message("%s: caustic flux on the floor: global pass %.4f, aimed "
-	    "pass %.4f, standard error %.4f; aimed photons %zu of %llu paths, "
-	    "global caustic photons %zu\n", type == PM_LIGHT_DIRECTIONAL ?
-	    "directional" : "constant", fg / ng, fc / nc, se, c.n,
-	    (unsigned long long)nc, g.n);
-	assert_true(fc > 0 && fg > 0);
-	assert_true(fabs(fg / ng - fc / nc) < 4 * se);
+	assert_floor_caustics_agree(&g, ng, &c, nc, type == PM_LIGHT_DIRECTIONAL ?
+	    "directional" : "constant");
 	pm_photon_buf_free(&g);
 	pm_photon_buf_free(&c);
 	world_free(&w);
