@@ -219,7 +219,7 @@ $(BUILD)/tests/texlookup: tests/mitsuba/texlookup.c $(LIB)
 	@mkdir -p $(dir $@)
 	$(CC) $(PM_CFLAGS) $(CFLAGS) -o $@ tests/mitsuba/texlookup.c $(LIB) $(PM_LIBS)
 
-check-mitsuba: $(BINS) $(BUILD)/tests/texlookup
+check-mitsuba: $(BINS) $(BUILD)/tests/texlookup $(BUILD)/tests/volgen $(DATA_GEN)
 	@sh tests/mitsuba/compare.sh
 	@sh tests/mitsuba/emitters.sh
 
