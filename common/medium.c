@@ -110,6 +110,7 @@ pm_medium_release(struct pm_medium *m)
 		return;
 	pm_grid_free(&m->het->sigma_t.grid);
 	pm_grid_free(&m->het->albedo.grid);
+	free(m->het->maj);
 	free(m->het);
 	m->het = NULL;
 }
@@ -265,6 +266,165 @@ clip_box(const struct pm_hetero *h, struct pm_vec3 o, struct pm_vec3 d,
  * absurdly large for the distance: past it the path ends (weight 0). */
 #define MAX_COLLISIONS (1 << 24)
 
+/*
+ * The majorant grid: sigma_t's voxels in blocks of PM_MAJ_BLOCK per axis,
+ * each cell holding scale times the largest value a lookup inside it can
+ * return (trilinear lookups reach one voxel beyond the block, wrapped as
+ * the volume wraps).  Only for grids whose to_world has no rotation, so
+ * that the unit cube is the medium's box and cells are axis-aligned
+ * there; otherwise the global majorant serves alone.
+ */
+#define PM_MAJ_BLOCK 8
+
+bool
+pm_hetero_prepare(struct pm_hetero *h)
+{
+	const struct pm_volume *v = &h->sigma_t;
+	const struct pm_grid *g = &v->grid;
+	const int nv[3] = {g->nx, g->ny, g->nz};
+	int n[3], c[3], a, b, k, x, y, z;
+	size_t cells;
+
+	free(h->maj);
+	h->maj = NULL;
+	if (g->data == NULL)
+		return true;
+	for (a = 0; a < 3; a++)
+		for (b = 0; b < 3; b++)
+			if (a != b && v->to_local.m[a][b] != 0.0f)
+				return true;
+	for (k = 0; k < 3; k++)
+		n[k] = (nv[k] + PM_MAJ_BLOCK - 1) / PM_MAJ_BLOCK;
+	cells = (size_t)n[0] * (size_t)n[1] * (size_t)n[2];
+	if ((h->maj = malloc(cells * sizeof(float))) == NULL)
+		return false;
+	for (c[2] = 0; c[2] < n[2]; c[2]++)
+		for (c[1] = 0; c[1] < n[1]; c[1]++)
+			for (c[0] = 0; c[0] < n[0]; c[0]++) {
+				int lo[3], hi[3];
+				float mx = 0.0f;
+
+				for (k = 0; k < 3; k++) {
+					lo[k] = c[k] * PM_MAJ_BLOCK - 1;
+					hi[k] = (c[k] + 1) * PM_MAJ_BLOCK;
+					if (hi[k] > nv[k])
+						hi[k] = nv[k];
+				}
+				for (z = lo[2]; z <= hi[2]; z++)
+					for (y = lo[1]; y <= hi[1]; y++)
+						for (x = lo[0]; x <= hi[0]; x++) {
+							struct pm_rgb q = voxel(g,
+							    wrap_index(x, g->nx, v->wrap),
+							    wrap_index(y, g->ny, v->wrap),
+							    wrap_index(z, g->nz, v->wrap));
+
+							mx = fmaxf(mx, pm_rgb_max(q));
+						}
+				h->maj[((size_t)c[2] * (size_t)n[1] + (size_t)c[1]) *
+				    (size_t)n[0] + (size_t)c[0]] = h->scale * mx;
+			}
+	for (k = 0; k < 3; k++)
+		h->nmaj[k] = n[k];
+	return true;
+}
+
+/*
+ * A walk along the ray's part in the medium, cell by cell of the
+ * majorant grid (Amanatides and Woo's traversal, in the unit cube's
+ * coordinates, where the ray keeps its parameter t), or as one segment
+ * under the global majorant.
+ */
+struct walk {
+	const struct pm_hetero *h;
+	double t, t1;
+	int i[3], step[3];
+	double tnext[3], dt[3];
+	bool grid, done;
+};
+
+static bool
+walk_init(struct walk *w, const struct pm_hetero *h, struct pm_vec3 o,
+    struct pm_vec3 d, float tmin, float tmax)
+{
+	struct pm_vec3 ol, dl;
+	double oo[3], dd[3], cs, p;
+	int k;
+
+	w->h = h;
+	w->t = tmin;
+	w->t1 = tmax;
+	w->done = false;
+	w->grid = h->maj != NULL && !h->no_maj_grid;
+	if (!(h->majorant > 0.0f) || !clip_box(h, o, d, &w->t, &w->t1))
+		return false;
+	if (!w->grid)
+		return true;
+	ol = pm_xform_point(&h->sigma_t.to_local, o);
+	dl = pm_xform_vector(&h->sigma_t.to_local, d);
+	oo[0] = ol.x, oo[1] = ol.y, oo[2] = ol.z;
+	dd[0] = dl.x, dd[1] = dl.y, dd[2] = dl.z;
+	for (k = 0; k < 3; k++) {
+		int nv = k == 0 ? h->sigma_t.grid.nx : k == 1 ?
+		    h->sigma_t.grid.ny : h->sigma_t.grid.nz;
+
+		cs = (double)PM_MAJ_BLOCK / nv;	/* a cell, in the cube */
+		p = oo[k] + w->t * dd[k];
+		w->i[k] = (int)floor(p / cs);
+		if (w->i[k] < 0)
+			w->i[k] = 0;
+		if (w->i[k] >= h->nmaj[k])
+			w->i[k] = h->nmaj[k] - 1;
+		if (dd[k] > 0.0) {
+			w->step[k] = 1;
+			w->tnext[k] = ((w->i[k] + 1) * cs - oo[k]) / dd[k];
+			w->dt[k] = cs / dd[k];
+		} else if (dd[k] < 0.0) {
+			w->step[k] = -1;
+			w->tnext[k] = (w->i[k] * cs - oo[k]) / dd[k];
+			w->dt[k] = -cs / dd[k];
+		} else {
+			w->step[k] = 0;
+			w->tnext[k] = INFINITY;
+			w->dt[k] = INFINITY;
+		}
+	}
+	return true;
+}
+
+/* The next segment [*a, *b) and its majorant; false past the end. */
+static bool
+walk_next(struct walk *w, double *a, double *b, float *maj)
+{
+	int k;
+
+	if (w->done)
+		return false;
+	*a = w->t;
+	if (!w->grid) {
+		*b = w->t1;
+		*maj = w->h->majorant;
+		w->done = true;
+		return true;
+	}
+	k = w->tnext[0] < w->tnext[1] ? (w->tnext[0] < w->tnext[2] ? 0 : 2) :
+	    (w->tnext[1] < w->tnext[2] ? 1 : 2);
+	*b = w->tnext[k] < w->t1 ? w->tnext[k] : w->t1;
+	*maj = w->h->maj[((size_t)w->i[2] * (size_t)w->h->nmaj[1] +
+	    (size_t)w->i[1]) * (size_t)w->h->nmaj[0] + (size_t)w->i[0]];
+	w->t = *b;
+	if (!(w->tnext[k] < w->t1)) {
+		w->done = true;
+	} else {
+		w->i[k] += w->step[k];
+		w->tnext[k] += w->dt[k];
+		if (w->i[k] < 0 || w->i[k] >= w->h->nmaj[k])
+			w->done = true;
+	}
+	if (*b < *a)
+		*b = *a;
+	return true;
+}
+
 static inline float
 chan_of(struct pm_rgb c, int i)
 {
@@ -286,9 +446,10 @@ pm_medium_sample_ray(const struct pm_medium *m, struct pm_vec3 o,
 {
 	const struct pm_hetero *h = m->het;
 	struct pm_rgb f = pm_rgb1(1.0f), pdf = pm_rgb1(1.0f), st;
-	double t, t1;
-	float maj, u, mx;
-	long n;
+	struct walk w;
+	double t, a, b;
+	float maj, mx;
+	long n = 0;
 
 	if (h == NULL) {
 		pm_medium_sample(m, tmax - tmin, channel, pm_rng_float(rng), out);
@@ -297,18 +458,23 @@ pm_medium_sample_ray(const struct pm_medium *m, struct pm_vec3 o,
 	channel = channel < 0 ? 0 : channel > 2 ? 2 : channel;
 	out->scattered = false;
 	out->t = tmax - tmin;
-	t = tmin;
-	t1 = tmax;
-	maj = h->majorant;
-	if (maj > 0.0f && clip_box(h, o, d, &t, &t1)) {
-		for (n = 0; n < MAX_COLLISIONS; n++) {
-			u = pm_rng_float(rng);
-			t -= log1p(-(double)u) / maj;
-			if (!(t < t1))
-				break;
-			{
-				struct pm_vec3 p = pm_madd(o, d, (float)t);
+	if (walk_init(&w, h, o, d, tmin, tmax))
+		while (walk_next(&w, &a, &b, &maj)) {
+			if (!(maj > 0.0f))
+				continue;	/* a clear cell */
+			/* Exponential steps are memoryless: a fresh one
+			 * starts at each cell's entry. */
+			for (t = a;; n++) {
+				struct pm_vec3 p;
 
+				if (n >= MAX_COLLISIONS) {
+					f = pm_rgb1(0.0f);
+					goto done;
+				}
+				t -= log1p(-(double)pm_rng_float(rng)) / maj;
+				if (!(t < b))
+					break;
+				p = pm_madd(o, d, (float)t);
 				st = pm_medium_sigma_t_at(m, p);
 				if (pm_rng_float(rng) * maj < chan_of(st, channel)) {
 					f = pm_rgb_mul(f, pm_rgb_scale(pm_rgb_mul(st,
@@ -317,23 +483,21 @@ pm_medium_sample_ray(const struct pm_medium *m, struct pm_vec3 o,
 					    1.0f / maj));
 					out->scattered = true;
 					out->t = (float)(t - tmin);
-					break;
+					goto done;
+				}
+				st = null_ratio(st, maj);
+				f = pm_rgb_mul(f, st);
+				pdf = pm_rgb_mul(pdf, st);
+				/* Only ratios of f and pdf matter: keep them
+				 * in range along long chains of nulls. */
+				mx = pm_rgb_max(pdf);
+				if (mx < 1e-20f && mx > 0.0f) {
+					f = pm_rgb_scale(f, 1.0f / mx);
+					pdf = pm_rgb_scale(pdf, 1.0f / mx);
 				}
 			}
-			st = null_ratio(st, maj);
-			f = pm_rgb_mul(f, st);
-			pdf = pm_rgb_mul(pdf, st);
-			/* Only ratios of f and pdf matter: keep them in
-			 * range along long chains of null collisions. */
-			mx = pm_rgb_max(pdf);
-			if (mx < 1e-20f && mx > 0.0f) {
-				f = pm_rgb_scale(f, 1.0f / mx);
-				pdf = pm_rgb_scale(pdf, 1.0f / mx);
-			}
 		}
-		if (n == MAX_COLLISIONS)
-			f = pm_rgb1(0.0f);
-	}
+done:
 	out->f = f;
 	out->pdf = pdf;
 }
@@ -344,33 +508,37 @@ pm_medium_transmittance_ray(const struct pm_medium *m, struct pm_vec3 o,
 {
 	const struct pm_hetero *h = m->het;
 	struct pm_rgb tr = pm_rgb1(1.0f);
-	double t, t1;
+	struct walk w;
+	double t, a, b;
 	float maj, mx;
-	long n;
+	long n = 0;
 
 	if (h == NULL)
 		return pm_medium_transmittance(m, tmax - tmin);
-	t = tmin;
-	t1 = tmax;
-	maj = h->majorant;
-	if (!(maj > 0.0f) || !clip_box(h, o, d, &t, &t1))
+	if (!walk_init(&w, h, o, d, tmin, tmax))
 		return tr;
-	for (n = 0; n < MAX_COLLISIONS; n++) {
-		t -= log1p(-(double)pm_rng_float(rng)) / maj;
-		if (!(t < t1))
-			return tr;
-		tr = pm_rgb_mul(tr, null_ratio(pm_medium_sigma_t_at(m,
-		    pm_madd(o, d, (float)t)), maj));
-		/* Russian roulette once little is left (weights 1/q keep
-		 * the estimate unbiased). */
-		mx = pm_rgb_max(tr);
-		if (mx < 0.1f) {
-			if (!(mx > 0.0f) || pm_rng_float(rng) >= 0.5f)
+	while (walk_next(&w, &a, &b, &maj)) {
+		if (!(maj > 0.0f))
+			continue;
+		for (t = a;; n++) {
+			if (n >= MAX_COLLISIONS)
 				return pm_rgb1(0.0f);
-			tr = pm_rgb_scale(tr, 2.0f);
+			t -= log1p(-(double)pm_rng_float(rng)) / maj;
+			if (!(t < b))
+				break;
+			tr = pm_rgb_mul(tr, null_ratio(pm_medium_sigma_t_at(m,
+			    pm_madd(o, d, (float)t)), maj));
+			/* Russian roulette once little is left (weights 1/q
+			 * keep the estimate unbiased). */
+			mx = pm_rgb_max(tr);
+			if (mx < 0.1f) {
+				if (!(mx > 0.0f) || pm_rng_float(rng) >= 0.5f)
+					return pm_rgb1(0.0f);
+				tr = pm_rgb_scale(tr, 2.0f);
+			}
 		}
 	}
-	return pm_rgb1(0.0f);
+	return tr;
 }
 
 enum pm_err

@@ -84,7 +84,17 @@ struct pm_hetero {
 	float scale;
 	float majorant;
 	struct pm_vec3 lo, hi;
+	/* A coarse majorant grid (pm_hetero_prepare), NULL for none: per
+	 * cell of nmaj[0] x nmaj[1] x nmaj[2], x fastest, the most sigma_t
+	 * (scale applied) can be in it; no_maj_grid ignores it (tests). */
+	float *maj;
+	int nmaj[3];
+	bool no_maj_grid;
 };
+
+/* Builds h->maj for a grid sigma_t whose to_world does not rotate (the
+ * global majorant serves the others); false when out of memory. */
+bool pm_hetero_prepare(struct pm_hetero *h);
 
 struct pm_medium {
 	enum pm_medium_type type;

@@ -243,6 +243,8 @@ build_hetero(struct ld *ld, struct xnode *n, struct plist *pl,
 		h->hi = pm_v3(fmaxf(h->hi.x, q.x), fmaxf(h->hi.y, q.y),
 		    fmaxf(h->hi.z, q.z));
 	}
+	if (!pm_hetero_prepare(h))
+		return sx_nomem(ld);
 	return PM_OK;
 }
 

@@ -13,7 +13,10 @@
  *     in closed form (piecewise linear, three channels), ratio tracking
  *     averages to exp(-integral) per channel, delta tracking's weights of
  *     flights that pass average to the same, and those of flights that
- *     scatter (albedo 1) to 1 - exp(-integral).
+ *     scatter (albedo 1) to 1 - exp(-integral), with the global majorant
+ *     and with the majorant grid; along oblique rays through a sparse
+ *     grid, ratio tracking with the majorant grid averages to exp of
+ *     minus the integral of the lookups (midpoint rule).
  *   - A constant grid renders as the homogeneous medium it equals (a
  *     coloured, scattering medium around the camera inside an emitter):
  *     means agree within four combined standard errors.
@@ -298,12 +301,13 @@ test_lookups(void **state)
 
 /* ------------------------------------------------------------- tracking */
 
-#define NX 8
+#define NX 24
 
 /*
  * A heterogeneous medium over the box [0, 2] x [0, 1] x [0, 1] from an
  * NX x 2 x 2 RGB grid whose values vary along x only (each channel its
- * own profile), scaled by 3.  Along a ray parallel to x the interpolant
+ * own profile), scaled by 3: three cells of the majorant grid along x,
+ * with majorants of their own.  Along a ray parallel to x the interpolant
  * is piecewise linear between voxel centres and constant beyond them,
  * so its integral is known: *integral gets it per channel for the ray
  * through the whole box.
@@ -322,9 +326,9 @@ ramp_medium(double integral[3], float albedo)
 	m.het = calloc(1, sizeof(*m.het));
 	assert_non_null(m.het);
 	for (x = 0; x < NX; x++) {
-		v[0][x] = 0.05 + 0.1 * x;
+		v[0][x] = 0.05 + 0.02 * x;
 		v[1][x] = 0.6 * (x % 3 == 0) + 0.02;
-		v[2][x] = 0.8 - 0.09 * x;
+		v[2][x] = 0.8 - 0.03 * x;
 	}
 	for (z = 0; z < 2; z++)
 		for (y = 0; y < 2; y++)
@@ -352,22 +356,31 @@ ramp_medium(double integral[3], float albedo)
 	return m;
 }
 
+/* Tracking through ramp_medium, with the global majorant or the grid. */
 static void
-test_tracking(void **state)
+tracking(bool maj_grid)
 {
 	double integral[3], s1[3] = {0}, s2[3] = {0}, p1[3] = {0}, p2[3] = {0};
 	double q1[3] = {0}, q2[3] = {0}, mean, se, w;
 	struct pm_medium m = ramp_medium(integral, 1.0f);
-	struct pm_rng rng = pm_rng_seed(11, 0, 0);
+	struct pm_rng rng = pm_rng_seed(11, maj_grid, 0);
 	/* along x at y, z = 0.25 (voxel centres: no interpolation there),
 	 * from outside the box to beyond it */
 	struct pm_vec3 o = pm_v3(-1.0f, 0.25f, 0.75f), d = pm_v3(1, 0, 0);
 	struct pm_medium_sample ms;
 	const int n = 200000;
 	int i, c, hero;
-	char what[64];
+	char what[96];
 
-	(void)state;
+	if (maj_grid) {
+		assert_true(pm_hetero_prepare(m.het));
+		assert_non_null(m.het->maj);
+		assert_int_equal(m.het->nmaj[0], 3);
+		assert_int_equal(m.het->nmaj[1], 1);
+		/* the first cell holds voxels 0 to 7 and reaches voxel 8 */
+		assert_true(fabsf(m.het->maj[0] - 3.0f * 0.8f) < 1e-6f);
+		assert_true(fabsf(m.het->maj[2] - 3.0f * 0.62f) < 1e-6f);
+	}
 	for (i = 0; i < n; i++) {
 		struct pm_rgb t = pm_medium_transmittance_ray(&m, o, d, 0.5f,
 		    5.0f, &rng);
@@ -392,21 +405,107 @@ test_tracking(void **state)
 
 		mean = s1[c] / n;
 		se = sqrt((s2[c] / n - mean * mean) / (n - 1));
-		snprintf(what, sizeof(what), "ratio tracking, channel %d", c);
+		snprintf(what, sizeof(what), "%s: ratio tracking, channel %d",
+		    maj_grid ? "majorant grid" : "global majorant", c);
 		assert_within(mean, want, se, 4.0, what);
 		mean = p1[c] / n;
 		se = sqrt((p2[c] / n - mean * mean) / (n - 1));
-		snprintf(what, sizeof(what), "delta tracking passes, channel %d",
+		snprintf(what, sizeof(what), "%s: delta tracking passes, "
+		    "channel %d", maj_grid ? "majorant grid" : "global majorant",
 		    c);
 		assert_within(mean, want, se, 4.0, what);
 		mean = q1[c] / n;
 		se = sqrt((q2[c] / n - mean * mean) / (n - 1));
-		snprintf(what, sizeof(what), "delta tracking scatters, channel "
-		    "%d", c);
+		snprintf(what, sizeof(what), "%s: delta tracking scatters, "
+		    "channel %d", maj_grid ? "majorant grid" : "global majorant",
+		    c);
 		assert_within(mean, 1.0 - want, se, 4.0, what);
 	}
 	pm_medium_release(&m);
 	assert_null(m.het);
+}
+
+static void
+test_tracking(void **state)
+{
+	(void)state;
+	tracking(false);
+	tracking(true);
+}
+
+/*
+ * Oblique rays through a sparse random grid (clear blocks of the
+ * majorant grid among dense ones, a non-uniform to_world): ratio tracking
+ * with the majorant grid averages to exp(-integral), the integral of the
+ * lookups along the ray by the midpoint rule (10^5 steps).
+ */
+static void
+test_tracking_oblique(void **state)
+{
+	struct pm_medium m;
+	struct pm_grid g = mk_grid(20, 17, 13, 1);
+	struct pm_rng rng = pm_rng_seed(3, 1, 4);
+	struct pm_mat4 to_world = pm_mat4_mul(pm_mat4_translate(pm_v3(-1.0f,
+	    0.5f, 0.0f)), pm_mat4_scale(pm_v3(2.0f, 1.0f, 1.5f)));
+	const struct pm_vec3 from[3] = {{-2.0f, 0.4f, -0.5f},
+	    {1.5f, 2.0f, 1.6f}, {-1.2f, 1.4f, 0.7f}};
+	const struct pm_vec3 to[3] = {{2.0f, 1.3f, 2.0f},
+	    {-1.5f, 0.3f, -0.2f}, {1.3f, 1.1f, 0.8f}};
+	int x, y, z, k, i;
+	const int n = 100000, steps = 100000;
+
+	(void)state;
+	memset(&m, 0, sizeof(m));
+	m.type = PM_MEDIUM_HETEROGENEOUS;
+	m.het = calloc(1, sizeof(*m.het));
+	assert_non_null(m.het);
+	for (z = 0; z < 13; z++)
+		for (y = 0; y < 17; y++)
+			for (x = 0; x < 20; x++) {
+				/* blocks 8 voxels wide: dense where the block
+				 * index sum is even */
+				float v = ((x / 8 + y / 8 + z / 8) % 2 == 0) ?
+				    pm_rng_float(&rng) : 0.0f;
+
+				g.data[(z * 17 + y) * 20 + x] = v;
+				g.max = fmaxf(g.max, v);
+			}
+	m.het->sigma_t.grid = g;
+	assert_true(pm_mat4_inverse(to_world, &m.het->sigma_t.to_local));
+	m.het->albedo.value = pm_rgb1(1.0f);
+	m.het->albedo.to_local = pm_mat4_identity();
+	m.het->scale = 2.0f;
+	m.het->majorant = 2.0f * g.max;
+	m.het->lo = pm_v3(-1.0f, 0.5f, 0.0f);
+	m.het->hi = pm_v3(1.0f, 1.5f, 1.5f);
+	assert_true(pm_hetero_prepare(m.het));
+	assert_non_null(m.het->maj);
+	for (k = 0; k < 3; k++) {
+		struct pm_vec3 d = pm_sub(to[k], from[k]);
+		float len = pm_length(d);
+		double integral = 0, s1 = 0, s2 = 0, mean, se;
+		char what[64];
+
+		d = pm_scale(d, 1.0f / len);
+		for (i = 0; i < steps; i++)
+			integral += pm_medium_sigma_t_at(&m, pm_madd(from[k], d,
+			    len * ((float)i + 0.5f) / steps)).r;
+		integral *= (double)len / steps;
+		for (i = 0; i < n; i++) {
+			double t = pm_medium_transmittance_ray(&m, from[k], d,
+			    0.0f, len, &rng).g;
+
+			s1 += t;
+			s2 += t * t;
+		}
+		mean = s1 / n;
+		se = sqrt((s2 / n - mean * mean) / (n - 1));
+		snprintf(what, sizeof(what), "oblique ray %d (optical depth "
+		    "%.3f)", k, integral);
+		assert_true(integral > 0.2);
+		assert_within(mean, exp(-integral), se, 4.0, what);
+	}
+	pm_medium_release(&m);
 }
 
 /* ---------------------------------------------- constant grid = uniform */
@@ -674,6 +773,7 @@ main(void)
 		cmocka_unit_test(test_vol_refused),
 		cmocka_unit_test(test_lookups),
 		cmocka_unit_test(test_tracking),
+		cmocka_unit_test(test_tracking_oblique),
 		cmocka_unit_test(test_constant_grid_renders_homogeneous),
 		cmocka_unit_test(test_load),
 	};
