@@ -1,7 +1,9 @@
 /*
  * medium.h: participating media with Mitsuba 3's meaning: the homogeneous
  * medium (extinction sigma_t and single-scattering albedo in RGB, times
- * scale) and its phase functions, isotropic and Henyey-Greenstein.
+ * scale), the heterogeneous one (both from volumes: grids of Mitsuba's
+ * .vol files or constants), and their phase functions, isotropic and
+ * Henyey-Greenstein.
  *
  * A ray travels in at most one medium at a time; shapes say which medium
  * lies on either side of them (scene.h: interior, exterior) and the camera
@@ -19,7 +21,8 @@
  * weights each distance by the chosen channel's density alone, which has
  * the same expectation and more variance.  In a grey medium both are
  * exact analogue sampling: weight 1 along the way, the albedo at a
- * scatter.
+ * scatter.  Heterogeneous media keep this with delta tracking against a
+ * majorant shared by the channels (pm_medium_sample_ray says how).
  */
 #ifndef PM_MEDIUM_H
 #define PM_MEDIUM_H

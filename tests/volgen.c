@@ -3,7 +3,8 @@
  * the scenes and tests use, so that none is stored in the repository:
  *
  *   volgen smoke OUT.vol           a rising plume of smoke, 64 x 112 x 64,
- *                                  one channel (data/smoke.xml's sigma_t)
+ *                                  one channel, values in [0, 1)
+ *                                  (data/smoke.xml's sigma_t)
  *   volgen tint OUT.vol            8 x 14 x 8 RGB albedo, warm below and
  *                                  grey above (data/smoke.xml's albedo)
  *   volgen const OUT.vol NX NY NZ V [V V]
@@ -77,7 +78,9 @@ plume(double x, double y, double z)
 	double n = fbm(6.0 * x, 6.0 * y - 1.7, 6.0 * z);
 
 	v *= fmax(0.0, 1.8 * n - 0.35);
-	return (float)v;
+	/* Saturated towards 1: a flat core keeps the largest value (the
+	 * majorant that tracking samples against) near the typical one. */
+	return (float)(1.0 - exp(-v / 0.12));
 }
 
 static int
