@@ -153,7 +153,14 @@ int pm_medium_after(const struct pm_scene *s, const struct pm_hit *h,
     struct pm_vec3 d, int medium);
 
 /* Transmittance from o, in `medium`, to the light sample ls through media
- * and null-BSDF boundaries; zero where another surface blocks it. */
+ * and null-BSDF boundaries; zero where another surface blocks it.
+ * Heterogeneous media estimate it (ratio tracking) from rng. */
+struct pm_rgb pm_volume_tr(const struct pm_render_ctx *ctx,
+    struct pm_vec3 o, int medium, const struct pm_light_sample *ls,
+    struct pm_rng *rng);
+
+/* pm_volume_tr with a generator seeded from the ray (o, ls->wi): the same
+ * for homogeneous media, which draw nothing. */
 struct pm_rgb pm_volume_shadow(const struct pm_render_ctx *ctx,
     struct pm_vec3 o, int medium, const struct pm_light_sample *ls);
 

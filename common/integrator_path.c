@@ -38,8 +38,8 @@ direct_light(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 		return pm_rgb1(0.0f);
 	if (ctx->scene->nmedia > 0) {
 		/* media: the shadow ray's transmittance */
-		f = pm_rgb_mul(f, pm_volume_shadow(ctx, pm_hit_origin(h, ls.wi),
-		    pm_medium_after(ctx->scene, h, ls.wi, medium), &ls));
+		f = pm_rgb_mul(f, pm_volume_tr(ctx, pm_hit_origin(h, ls.wi),
+		    pm_medium_after(ctx->scene, h, ls.wi, medium), &ls, rng));
 		if (pm_rgb_is_black(f))
 			return f;
 	} else if (pm_light_occluded(ctx->accel, h, &ls)) {
