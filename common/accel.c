@@ -4,7 +4,9 @@
  *
  * Triangles are copied into Embree's own buffers (Embree may read 16 bytes
  * past the last vertex, so sharing our exactly-sized arrays is not safe).
- * Spheres use Embree's analytic sphere primitive.  Geometric normals and
+ * Spheres are Embree user geometry with pm's own ray test (sphere_hits);
+ * Embree's sphere primitive cost a third more a ray one at a time, and
+ * rounded differently in packets than alone.  Geometric normals and
  * hit positions are recomputed from our vertices rather than taken from
  * Embree, so that their orientation and precision are ours to define.
  */
@@ -30,7 +32,6 @@ struct pm_accel {
 	RTCScene scene;
 	const struct pm_scene *s;
 	struct pm_tri_geom **tri;	/* per shape, NULL for spheres */
-	bool packets;			/* triangles only: packets are exact */
 };
 
 /* Packets with fewer live rays than this go one at a time (a packet's
@@ -110,26 +111,148 @@ add_mesh(struct pm_accel *a, const struct pm_shape *sh, unsigned id,
 	return PM_OK;
 }
 
+/*
+ * The nearest t in (tnear, tfar) where o + t d meets sphere sh, in double
+ * precision; false if none.  The discriminant is taken as a |d|^2 (r^2 -
+ * |l|^2), l the sphere centre's offset from the ray's closest point, and
+ * the roots as c / q and q / a (Haines et al., "Precision improvements
+ * for ray/sphere intersection", Ray Tracing Gems 2019), so that neither
+ * loses digits to cancellation, far from the sphere or near it.  The same
+ * code serves single rays and packets, so both give the same bits.
+ */
+static bool
+sphere_hits(const struct pm_shape *sh, const float o[3], const float d[3],
+    float tnear, float tfar, float *t_out)
+{
+	double f[3] = {(double)o[0] - sh->center.x, (double)o[1] - sh->center.y,
+	    (double)o[2] - sh->center.z};
+	double a = (double)d[0] * d[0] + (double)d[1] * d[1] + (double)d[2] * d[2];
+	double bh = -(f[0] * d[0] + f[1] * d[1] + f[2] * d[2]);
+	double r2 = (double)sh->radius * sh->radius, k, l[3], disc, q, t[2];
+	int i;
+
+	if (!(a > 0.0))
+		return false;
+	k = bh / a;
+	l[0] = f[0] + k * d[0];
+	l[1] = f[1] + k * d[1];
+	l[2] = f[2] + k * d[2];
+	disc = a * (r2 - (l[0] * l[0] + l[1] * l[1] + l[2] * l[2]));
+	if (!(disc >= 0.0))
+		return false;
+	q = bh + copysign(sqrt(disc), bh);
+	if (q == 0.0)
+		return false;
+	t[0] = (f[0] * f[0] + f[1] * f[1] + f[2] * f[2] - r2) / q;
+	t[1] = q / a;
+	if (t[0] > t[1]) {
+		double x = t[0];
+
+		t[0] = t[1];
+		t[1] = x;
+	}
+	for (i = 0; i < 2; i++) {
+		float tf = (float)t[i];
+
+		if (tf > tnear && tf < tfar) {
+			*t_out = tf;
+			return true;
+		}
+	}
+	return false;
+}
+
+static void
+sphere_bounds(const struct RTCBoundsFunctionArguments *args)
+{
+	const struct pm_shape *sh = args->geometryUserPtr;
+	struct RTCBounds *b = args->bounds_o;
+	/* a little room: the box is rounded to float, the test is not */
+	float r = sh->radius * (1.0f + 1e-5f) + 1e-6f * (fabsf(sh->center.x) +
+	    fabsf(sh->center.y) + fabsf(sh->center.z));
+
+	b->lower_x = sh->center.x - r;
+	b->lower_y = sh->center.y - r;
+	b->lower_z = sh->center.z - r;
+	b->upper_x = sh->center.x + r;
+	b->upper_y = sh->center.y + r;
+	b->upper_z = sh->center.z + r;
+}
+
+/* Embree's ray and hit layouts for N lanes (rtcore_ray.h): each field an
+ * array of N, in this order. */
+enum { RAY_ORG = 0, RAY_TNEAR = 3, RAY_DIR = 4, RAY_TFAR = 8, RAY_FIELDS = 12,
+	HIT_U = 3, HIT_V = 4, HIT_PRIM = 5, HIT_GEOM = 6, HIT_INST = 7 };
+
+static void
+sphere_intersect(const struct RTCIntersectFunctionNArguments *args)
+{
+	const struct pm_shape *sh = args->geometryUserPtr;
+	unsigned n = args->N, i;
+	float *ray = (float *)args->rayhit;
+	float *hit = ray + RAY_FIELDS * n;
+
+	for (i = 0; i < n; i++) {
+		float o[3], d[3], t;
+
+		if (args->valid[i] != -1)
+			continue;
+		o[0] = ray[(RAY_ORG + 0) * n + i];
+		o[1] = ray[(RAY_ORG + 1) * n + i];
+		o[2] = ray[(RAY_ORG + 2) * n + i];
+		d[0] = ray[(RAY_DIR + 0) * n + i];
+		d[1] = ray[(RAY_DIR + 1) * n + i];
+		d[2] = ray[(RAY_DIR + 2) * n + i];
+		if (!sphere_hits(sh, o, d, ray[RAY_TNEAR * n + i],
+		    ray[RAY_TFAR * n + i], &t))
+			continue;
+		ray[RAY_TFAR * n + i] = t;
+		hit[HIT_U * n + i] = 0.0f;
+		hit[HIT_V * n + i] = 0.0f;
+		((unsigned *)hit)[HIT_PRIM * n + i] = args->primID;
+		((unsigned *)hit)[HIT_GEOM * n + i] = args->geomID;
+		((unsigned *)hit)[HIT_INST * n + i] = RTC_INVALID_GEOMETRY_ID;
+	}
+}
+
+static void
+sphere_occluded(const struct RTCOccludedFunctionNArguments *args)
+{
+	const struct pm_shape *sh = args->geometryUserPtr;
+	unsigned n = args->N, i;
+	float *ray = (float *)args->ray;
+
+	for (i = 0; i < n; i++) {
+		float o[3], d[3], t;
+
+		if (args->valid[i] != -1)
+			continue;
+		o[0] = ray[(RAY_ORG + 0) * n + i];
+		o[1] = ray[(RAY_ORG + 1) * n + i];
+		o[2] = ray[(RAY_ORG + 2) * n + i];
+		d[0] = ray[(RAY_DIR + 0) * n + i];
+		d[1] = ray[(RAY_DIR + 1) * n + i];
+		d[2] = ray[(RAY_DIR + 2) * n + i];
+		if (sphere_hits(sh, o, d, ray[RAY_TNEAR * n + i],
+		    ray[RAY_TFAR * n + i], &t))
+			ray[RAY_TFAR * n + i] = -INFINITY;
+	}
+}
+
 static enum pm_err
 add_sphere(struct pm_accel *a, const struct pm_shape *sh, unsigned id,
     struct pm_error *err)
 {
 	RTCGeometry g;
-	float *vb;
 
-	g = rtcNewGeometry(a->device, RTC_GEOMETRY_TYPE_SPHERE_POINT);
+	g = rtcNewGeometry(a->device, RTC_GEOMETRY_TYPE_USER);
 	if (g == NULL)
 		return embree_error(a->device, err, "rtcNewGeometry");
-	vb = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0,
-	    RTC_FORMAT_FLOAT4, 4 * sizeof(float), 1);
-	if (vb == NULL) {
-		rtcReleaseGeometry(g);
-		return pm_fail(err, PM_ERR_NOMEM, "%s: no memory", sh->name);
-	}
-	vb[0] = sh->center.x;
-	vb[1] = sh->center.y;
-	vb[2] = sh->center.z;
-	vb[3] = sh->radius;
+	rtcSetGeometryUserPrimitiveCount(g, 1);
+	rtcSetGeometryUserData(g, (void *)sh);
+	rtcSetGeometryBoundsFunction(g, sphere_bounds, NULL);
+	rtcSetGeometryIntersectFunction(g, sphere_intersect);
+	rtcSetGeometryOccludedFunction(g, sphere_occluded);
 	rtcCommitGeometry(g);
 	rtcAttachGeometryByID(a->scene, g, id);
 	rtcReleaseGeometry(g);
@@ -160,17 +283,15 @@ pm_accel_build(const struct pm_scene *s, struct pm_accel **out,
 		free(a);
 		return pm_fail(err, PM_ERR_GEOMETRY, "embree: cannot create a device");
 	}
-	a->packets = true;
 	a->scene = rtcNewScene(a->device);
 	rtcSetSceneFlags(a->scene, RTC_SCENE_FLAG_ROBUST);
 	rtcSetSceneBuildQuality(a->scene, PM_ACCEL_QUALITY);
 	for (i = 0; i < s->nshapes; i++) {
 		const struct pm_shape *sh = &s->shapes[i];
 
-		if (sh->type == PM_SHAPE_SPHERE) {
+		if (sh->type == PM_SHAPE_SPHERE)
 			rc = add_sphere(a, sh, (unsigned)i, err);
-			a->packets = false;
-		} else if (sh->mesh.ntris > 0)
+		else if (sh->mesh.ntris > 0)
 			rc = add_mesh(a, sh, (unsigned)i, err);
 		else
 			rc = PM_OK;
@@ -335,7 +456,7 @@ pm_accel_intersect_n(const struct pm_accel *a, const struct pm_ray *r,
 	_Alignas(32) int valid[8];
 	size_t i, k, m;
 
-	if (!a->packets || n < PACKET_MIN) {
+	if (n < PACKET_MIN) {
 		for (i = 0; i < n; i++)
 			hit[i] = pm_accel_intersect(a, r[i].o, r[i].d, r[i].tmin,
 			    r[i].tmax, &h[i]);
@@ -391,7 +512,7 @@ pm_accel_occluded_n(const struct pm_accel *a, const struct pm_ray *r,
 	_Alignas(32) int valid[8];
 	size_t i, k, m;
 
-	if (!a->packets || n < PACKET_MIN) {
+	if (n < PACKET_MIN) {
 		for (i = 0; i < n; i++)
 			occ[i] = pm_accel_occluded(a, r[i].o, r[i].d, r[i].tmin,
 			    r[i].tmax);

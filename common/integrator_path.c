@@ -175,7 +175,7 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 	struct pm_hit hits[PATH_BATCH];
 	bool hitf[PATH_BATCH], occ[PATH_BATCH];
 	uint8_t idx[PATH_BATCH], sidx[PATH_BATCH];
-	size_t i, k, na, ns;
+	size_t i, k, na = n, ns;
 
 	for (i = 0; i < n; i++) {
 		pm_path_start(&l[i].pa, smp[i].o, smp[i].d, smp[i].tmin,
@@ -183,18 +183,23 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 		l[i].L = pm_rgb1(0.0f);
 		l[i].depth = 1;
 		l[i].alive = true;
+		idx[i] = (uint8_t)i;
 	}
 	for (;;) {
-		for (i = na = 0; i < n; i++) {
-			if (!l[i].alive)
+		/* the paths still alive, in idx[0..na) */
+		for (k = i = 0; k < na; k++) {
+			struct path_lane *q = &l[idx[k]];
+
+			if (!q->alive)
 				continue;
-			idx[na] = (uint8_t)i;
-			rays[na].o = l[i].pa.o;
-			rays[na].d = l[i].pa.d;
-			rays[na].tmin = l[i].pa.tmin;
-			rays[na].tmax = l[i].pa.tmax;
-			na++;
+			idx[i] = idx[k];
+			rays[i].o = q->pa.o;
+			rays[i].d = q->pa.d;
+			rays[i].tmin = q->pa.tmin;
+			rays[i].tmax = q->pa.tmax;
+			i++;
 		}
+		na = i;
 		if (na == 0)
 			break;
 		pm_accel_intersect_n(ctx->accel, rays, na, hits, hitf);
