@@ -4,6 +4,8 @@
  * idle while another grinds through a fixed half of the image.  Each pixel
  * writes only its own slot, and its random numbers depend only on (seed,
  * pixel, sample), so the result does not depend on the thread count.
+ * The path tracer takes a tile's samples in batches (render_tile_paths),
+ * whose rays go to Embree in packets.
  */
 #include <math.h>
 #include <pthread.h>
@@ -232,7 +234,7 @@ render_tile(struct job *j, int tile)
 	 * light's cell does not follow the film's. */
 	st.lx = kx < LIGHT_STRATA ? kx : LIGHT_STRATA;
 	st.ly = ky < LIGHT_STRATA ? ky : LIGHT_STRATA;
-	if (j->opts->method != PM_METHOD_PHOTON) {
+	if (j->opts->method == PM_METHOD_PATH) {
 		render_tile_paths(j, &st, x0, y0, x1, y1);
 		return;
 	}
@@ -252,8 +254,10 @@ render_tile(struct job *j, int tile)
 
 				camera_sample(j, &st, x, y, i, &o, &d, &tmin, &tmax,
 				    &cs, &rng);
-				L = pm_photon_li_px(j->ctx, o, d, tmin, tmax, &cs,
-				    &rng);
+				L = j->opts->method == PM_METHOD_PHOTON ?
+				    pm_photon_li_px(j->ctx, o, d, tmin, tmax, &cs,
+				    &rng) :
+				    pm_path_li(j->ctx, o, d, tmin, tmax, &rng);
 				if (!pm_rgb_is_finite(L)) {
 					dropped++;
 					continue;
