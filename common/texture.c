@@ -212,8 +212,10 @@ pm_bsdf_at(const struct pm_scene *s, const struct pm_hit *h,
 {
 	const struct pm_bsdf *b = &s->bsdfs[s->shapes[h->shape].bsdf];
 	float u, v;
+	int i;
 
-	if (b->tex_diffuse == 0 && b->tex_specular == 0 && b->tex_alpha == 0)
+	if (b->tex_diffuse == 0 && b->tex_specular == 0 && b->tex_alpha == 0 &&
+	    !b->pr.textured)
 		return b;
 	*tmp = *b;
 	pm_hit_uv(s, h, &u, &v);
@@ -231,5 +233,14 @@ pm_bsdf_at(const struct pm_scene *s, const struct pm_hit *h,
 
 		tmp->alpha = 0.212671f * c.r + 0.715160f * c.g + 0.072169f * c.b;
 	}
+	/* the principled BSDFs' scalar parameters, luminance likewise */
+	for (i = 0; b->pr.textured && i < PM_PR_N; i++)
+		if (b->pr.tex[i] > 0) {
+			struct pm_rgb c = pm_texture_eval(
+			    &s->textures[b->pr.tex[i] - 1], u, v);
+
+			tmp->pr.v[i] = 0.212671f * c.r + 0.715160f * c.g +
+			    0.072169f * c.b;
+		}
 	return tmp;
 }
