@@ -138,6 +138,18 @@ static inline bool pm_bsdf_is_delta(const struct pm_bsdf *b)
 	return (b->lobes & ~(unsigned)PM_LOBE_DELTA) == 0;
 }
 
+/* Whether photons cross b as they cross glass, holding none there (the
+ * rule of pm-shoot and of the gather pass): a rough dielectric, or a
+ * principled BSDF that transmits and has no diffuse base. */
+static inline bool pm_bsdf_passes_photons(const struct pm_bsdf *b)
+{
+	return b->type == PM_BSDF_ROUGHDIELECTRIC ||
+	    ((b->type == PM_BSDF_PRINCIPLED ||
+	    b->type == PM_BSDF_PRINCIPLEDTHIN) &&
+	    !(b->lobes & PM_LOBE_DIFFUSE) && (b->lobes &
+	    (PM_LOBE_GLOSSY_TRANSMISSION | PM_LOBE_DIFFUSE_TRANSMISSION)));
+}
+
 /* Fresnel reflectance of a dielectric interface; cos_i may be negative
  * (inside); returns R and, in *cos_t, the signed cosine of the refracted
  * direction (0 at total internal reflection). */
