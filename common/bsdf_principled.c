@@ -4,8 +4,9 @@
  * extension (2015) as Mitsuba 3 arranges them.
  *
  * principled: a diffuse base (Burley's diffuse with retro-reflection, or
- * Hanrahan-Krueger's flattened "fake subsurface" by `flatness`, plus a
- * sheen lobe) weighted (1 - metallic)(1 - spec_trans); one anisotropic GGX
+ * Hanrahan-Krueger's flattened "fake subsurface" by `flatness`) weighted
+ * (1 - metallic)(1 - spec_trans), a sheen lobe weighted (1 - metallic)
+ * where the base is; one anisotropic GGX
  * lobe that reflects with a Fresnel term blending the dielectric one
  * (eta, or eta from `specular`), Schlick's with the base colour (metallic)
  * and Schlick's with the tinted colour (spec_tint), and transmits with
@@ -518,7 +519,10 @@ pr_sample(const struct pm_bsdf *b, struct pm_vec3 wi, float u1, float u2,
 	struct pr_probs p;
 	struct ggx gg;
 
-	if (cos_i == 0.0f)
+	/* from inside, only a transmitting solid scatters (Mitsuba's rule;
+	 * the interface's reflection there is weighted by the transmission) */
+	if (cos_i == 0.0f || (!front && !(b->pr.has_spec_trans &&
+	    (1.0f - v[PM_PR_METALLIC]) * v[PM_PR_SPEC_TRANS] > 0.0f)))
 		return false;
 	gg = ggx_params(v[PM_PR_ROUGHNESS], v[PM_PR_ANISOTROPIC]);
 	m = ggx_sample(gg, pm_scale(wi, sign1(cos_i)), u2, u3);

@@ -45,6 +45,8 @@
 #include "../../common/bsdf.h"
 #include "../../common/rng.h"
 #include "../../common/sampling.h"
+#include "../../common/texture.h"
+#include "../../formats/scene_xml.h"
 #include "stats.h"
 
 #define NCHI2 14
@@ -614,11 +616,17 @@ test_lobes(void **state)
 		{ PM_PR_DIFF_TRANS, 2.0f }, END
 	};
 	struct pm_rgb c = pm_rgb1(0.5f);
+	struct pm_bsdf_sample s;
 	struct pm_bsdf b;
 
 	(void)state;
 	b = mk(false, c, k_default);
 	assert_int_equal(b.lobes, PM_LOBE_DIFFUSE | PM_LOBE_GLOSSY);
+	/* a solid that does not transmit is dark and unsampled inside */
+	assert_false(pm_bsdf_sample(&b, dir(M_PI - 0.5, 0.3), 0.5f, 0.5f,
+	    0.5f, PM_RADIANCE, &s));
+	assert_true(pm_rgb_is_black(pm_bsdf_eval(&b, dir(M_PI - 0.5, 0.3),
+	    dir(M_PI - 0.4, 2.0), PM_RADIANCE)));
 	b = mk(false, c, k_metal);
 	assert_int_equal(b.lobes, PM_LOBE_GLOSSY);
 	b = mk(false, c, k_glass);
@@ -643,11 +651,77 @@ test_lobes(void **state)
 	    PM_LOBE_GLOSSY_TRANSMISSION | PM_LOBE_DIFFUSE_TRANSMISSION);
 }
 
+/* Textured parameters are looked up at a hit: the scalars take the
+ * texture's luminance there; the untextured ones stay. */
+static void
+test_textures(void **state)
+{
+	static const char xml[] =
+	    "<scene version=\"3.0.0\">\n"
+	    "<shape type=\"rectangle\"><bsdf type=\"principled\">"
+	    "<texture name=\"metallic\" type=\"checkerboard\">"
+	    "<rgb name=\"color0\" value=\"0.9, 0.8, 0.7\"/>"
+	    "<rgb name=\"color1\" value=\"0.1\"/></texture>"
+	    "<texture name=\"base_color\" type=\"checkerboard\"/>"
+	    "<float name=\"roughness\" value=\"0.3\"/></bsdf></shape>\n"
+	    "<shape type=\"rectangle\"><bsdf type=\"principledthin\">"
+	    "<texture name=\"eta\" type=\"checkerboard\">"
+	    "<rgb name=\"color0\" value=\"1.2\"/>"
+	    "<rgb name=\"color1\" value=\"1.6\"/></texture>"
+	    "</bsdf></shape>\n"
+	    "</scene>\n";
+	struct pm_scene s;
+	struct pm_error err;
+	struct pm_hit h;
+	struct pm_bsdf tmp;
+	const struct pm_bsdf *b, *b0;
+	struct pm_rgb m;
+	float u, v;
+	int i;
+
+	(void)state;
+	memset(&err, 0, sizeof(err));
+	if (pm_scene_load_string(xml, strlen(xml), "t.xml", ".", NULL, 0, &s,
+	    &err) != PM_OK)
+		fail_msg("%s", err.msg);
+	b0 = &s.bsdfs[s.shapes[0].bsdf];
+	assert_true(b0->pr.textured && b0->tex_diffuse > 0);
+	/* until looked up: the mean luminance */
+	assert_true(close_to(b0->pr.v[PM_PR_METALLIC], 0.5 * (0.212671 * 0.9 +
+	    0.715160 * 0.8 + 0.072169 * 0.7 + 0.1), 1e-5, "mean"));
+	memset(&h, 0, sizeof(h));
+	for (i = 0; i < 16; i++) {
+		h.shape = i & 1;
+		h.prim = 0;
+		h.u = 0.05f + 0.06f * (float)i;
+		h.v = 0.9f - 0.05f * (float)i;
+		b = pm_bsdf_at(&s, &h, &tmp);
+		assert_ptr_equal(b, &tmp);
+		pm_hit_uv(&s, &h, &u, &v);
+		if (h.shape == 0) {
+			m = pm_texture_eval(&s.textures[b0->pr.tex[PM_PR_METALLIC] -
+			    1], u, v);
+			assert_true(close_to(b->pr.v[PM_PR_METALLIC], 0.212671 *
+			    m.r + 0.715160 * m.g + 0.072169 * m.b, 1e-6,
+			    "metallic"));
+			m = pm_texture_eval(&s.textures[b0->tex_diffuse - 1], u,
+			    v);
+			assert_true(b->diffuse.g == m.g);
+			assert_true(b->pr.v[PM_PR_ROUGHNESS] == 0.3f);
+		} else {
+			assert_true(b->pr.v[PM_PR_ETA] == 1.2f ||
+			    fabsf(b->pr.v[PM_PR_ETA] - 1.6f) < 1e-6f);
+		}
+	}
+	pm_scene_free(&s);
+}
+
 int
 main(void)
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_lobes),
+		cmocka_unit_test(test_textures),
 		cmocka_unit_test(test_limits),
 		cmocka_unit_test(test_reciprocity),
 		cmocka_unit_test(test_masks_split),
