@@ -49,7 +49,7 @@
 #include "../../formats/scene_xml.h"
 #include "stats.h"
 
-#define NCHI2 14
+#define NCHI2 13
 #define SIGNIFICANCE (1e-3 / NCHI2)
 #define NZ 50
 #define NPHI 50
