@@ -219,7 +219,12 @@ $(BUILD)/tests/texlookup: tests/mitsuba/texlookup.c $(LIB)
 	@mkdir -p $(dir $@)
 	$(CC) $(PM_CFLAGS) $(CFLAGS) -o $@ tests/mitsuba/texlookup.c $(LIB) $(PM_LIBS)
 
-check-mitsuba: $(BINS) $(BUILD)/tests/texlookup $(BUILD)/tests/volgen $(DATA_GEN)
+# pm's principled BSDF values, for tests/mitsuba/bsdf_eval.py.
+$(BUILD)/tests/bsdfeval: tests/mitsuba/bsdfeval.c $(LIB)
+	@mkdir -p $(dir $@)
+	$(CC) $(PM_CFLAGS) $(CFLAGS) -o $@ tests/mitsuba/bsdfeval.c $(LIB) $(PM_LIBS)
+
+check-mitsuba: $(BINS) $(BUILD)/tests/texlookup $(BUILD)/tests/bsdfeval $(BUILD)/tests/volgen $(DATA_GEN)
 	@sh tests/mitsuba/compare.sh
 	@sh tests/mitsuba/emitters.sh
 

@@ -59,6 +59,11 @@ struct pm_rgb pm_texture_eval(const struct pm_texture *t, float u, float v);
  * steers its samples by it). */
 struct pm_rgb pm_texture_mean(const struct pm_texture *t);
 
+/* The texture's value for a scalar parameter at (u, v), as Mitsuba's
+ * eval_1: the luminance, except that a checkerboard answers with its
+ * colours the other way round (Mitsuba 3.9.1's behaviour, followed). */
+float pm_texture_eval1(const struct pm_texture *t, float u, float v);
+
 /* sRGB's transfer curve undone: an encoded value in [0, 1] to linear. */
 float pm_srgb_to_linear(float c);
 

@@ -12,7 +12,9 @@
 # The scenes: data/cornell-box.xml and the others of data/ listed below
 # (ours, must exist; fog-box, glass-medium and smoke have media), Mitsuba's own
 # Cornell box from ../shared/scenes/mitsuba-cbox (skipped when ../shared is
-# absent), tests/mitsuba/textures.xml (path traced and photon-mapped) and
+# absent), data/principled.xml (path traced and photon-mapped, after the
+# principled BSDFs point by point), tests/mitsuba/textures.xml (path
+# traced and photon-mapped) and
 # the scenes tests/mitsuba/shapes_scene.py writes (shapes and sensors, path
 # traced and photon-mapped).
 # Results are TAP-like lines and a closing "mitsuba cli: N passed,
@@ -335,6 +337,29 @@ if [ "$selftest" = 0 ] && wanted texture-lookups; then
 		diag <"$OUT/log"
 		check "texture lookups: pm's bitmap lookups differ from Mitsuba's" false
 	fi
+fi
+
+# The principled BSDFs: eval and pdf point by point against Mitsuba's
+# (bsdf_eval.py), then data/principled.xml by path tracing and by photon
+# mapping.
+if [ "$selftest" = 0 ] && wanted principled-eval; then
+	if [ ! -x build/tests/bsdfeval ]; then
+		check "principled eval: build/tests/bsdfeval not built" false
+	elif "$PY" "$HERE/bsdf_eval.py" build/tests/bsdfeval \
+	    "$OUT/principled-eval" >"$OUT/log" 2>&1; then
+		diag <"$OUT/log"
+		check "principled eval: pm's principled BSDFs equal Mitsuba's" true
+	else
+		diag <"$OUT/log"
+		check "principled eval: pm's principled BSDFs differ from Mitsuba's" false
+	fi
+fi
+if [ -f data/principled.xml ]; then
+	run principled data/principled.xml
+	[ "$selftest" = 1 ] || ! wanted principled-photon ||
+	    against principled-photon data/principled.xml photon
+else
+	check "principled: data/principled.xml is missing" false
 fi
 
 # Textures: tests/mitsuba/textures.xml with its bitmap written here, in a
