@@ -37,6 +37,7 @@ struct job {
 	int tiles_x, ntiles;
 	_Atomic int next;
 	_Atomic uint64_t dropped;
+	bool moments;			/* opts' moment images are filled */
 };
 
 /* Offset from the pixel centre drawn from the reconstruction filter, so
@@ -70,6 +71,14 @@ filter_offset(enum pm_rfilter f, float radius, float u, struct pm_rng *rng)
  * of a pixel); beyond, independent samples are as good. */
 #define LIGHT_STRATA 32
 
+/* CIE XYZ of linear sRGB, the matrix Mitsuba's moment integrator applies
+ * to an RGB render's samples. */
+static const double srgb_to_xyz[3][3] = {
+	{ 0.412453, 0.357580, 0.180423 },
+	{ 0.212671, 0.715160, 0.072169 },
+	{ 0.019334, 0.119193, 0.950227 },
+};
+
 static void
 render_tile(struct job *j, int tile)
 {
@@ -98,7 +107,8 @@ render_tile(struct job *j, int tile)
 	for (y = y0; y < y1; y++) {
 		for (x = x0; x < x1; x++) {
 			uint64_t pix = (uint64_t)y * (uint64_t)cam->width + (uint64_t)x;
-			double acc[3] = {0, 0, 0};
+			double acc[3] = {0, 0, 0}, m1[3] = {0, 0, 0};
+			double m2[3] = {0, 0, 0};
 			float *dst = &j->out->rgb[3 * pix];
 			struct pm_rng prng = pm_rng_seed(j->opts->seed, pix,
 			    UINT64_MAX);
@@ -162,12 +172,34 @@ render_tile(struct job *j, int tile)
 				acc[0] += L.r;
 				acc[1] += L.g;
 				acc[2] += L.b;
+				if (j->moments) {
+					int c;
+
+					for (c = 0; c < 3; c++) {
+						double v = srgb_to_xyz[c][0] *
+						    L.r + srgb_to_xyz[c][1] *
+						    L.g + srgb_to_xyz[c][2] * L.b;
+
+						m1[c] += v;
+						m2[c] += v * v;
+					}
+				}
 			}
 			/* Dropped samples count as zero: dividing by the kept
 			 * count instead would bias the pixel upwards. */
 			dst[0] = (float)(acc[0] / spp);
 			dst[1] = (float)(acc[1] / spp);
 			dst[2] = (float)(acc[2] / spp);
+			if (j->moments) {
+				float *d1 = &j->opts->moment1->rgb[3 * pix];
+				float *d2 = &j->opts->moment2->rgb[3 * pix];
+				int c;
+
+				for (c = 0; c < 3; c++) {
+					d1[c] = (float)(m1[c] / spp);
+					d2[c] = (float)(m2[c] / spp);
+				}
+			}
 		}
 	}
 	if (dropped)
@@ -271,6 +303,17 @@ out:
 	return ok;
 }
 
+/* Frees what pm_render allocated for a render that failed. */
+static void
+free_outputs(struct pm_image *out, const struct pm_render_opts *opts)
+{
+	pm_image_free(out);
+	if (opts->moment1 != NULL && opts->moment2 != NULL) {
+		pm_image_free(opts->moment1);
+		pm_image_free(opts->moment2);
+	}
+}
+
 static void *
 worker(void *arg)
 {
@@ -306,7 +349,21 @@ pm_render(const struct pm_render_ctx *ctx, const struct pm_camera *cam,
 	rc = pm_image_alloc(out, cam->width, cam->height, err);
 	if (rc != PM_OK)
 		return rc;
+	if (opts->moment1 != NULL && opts->moment2 != NULL) {
+		if ((rc = pm_image_alloc(opts->moment1, cam->width, cam->height,
+		    err)) != PM_OK) {
+			pm_image_free(out);
+			return rc;
+		}
+		if ((rc = pm_image_alloc(opts->moment2, cam->width, cam->height,
+		    err)) != PM_OK) {
+			pm_image_free(opts->moment1);
+			pm_image_free(out);
+			return rc;
+		}
+	}
 	j.ctx = &cctx;
+	j.moments = opts->moment1 != NULL && opts->moment2 != NULL;
 	j.cam = cam;
 	j.opts = opts;
 	j.out = out;
@@ -328,7 +385,7 @@ pm_render(const struct pm_render_ctx *ctx, const struct pm_camera *cam,
 		rc = pm_icache_build(&cache, ctx, &j.rays, step,
 		    rays, ctx->maps->icache_a, opts->seed, nthreads, err);
 		if (rc != PM_OK) {
-			pm_image_free(out);
+			free_outputs(out, opts);
 			return rc;
 		}
 		cctx.icache = &cache;
@@ -339,13 +396,13 @@ pm_render(const struct pm_render_ctx *ctx, const struct pm_camera *cam,
 	tid = calloc((size_t)nthreads, sizeof(*tid));
 	if (tid == NULL) {
 		pm_icache_free(&cache);
-		pm_image_free(out);
+		free_outputs(out, opts);
 		return pm_fail(err, PM_ERR_NOMEM, "no memory for threads");
 	}
 	if (opts->watch != NULL && !watch_begin(opts->watch, out, j.tiles_x,
 	    j.ntiles)) {
 		free(tid);
-		pm_image_free(out);
+		free_outputs(out, opts);
 		return pm_fail(err, PM_ERR_NOMEM, "no memory for the watch");
 	}
 	/* The calling thread works too; if a thread cannot be started the

@@ -32,6 +32,12 @@ struct pm_render_opts {
 	/* Optional: lets another thread copy the finished tiles while the
 	 * render runs (pm_render_snapshot). */
 	struct pm_render_watch *watch;
+	/* Optional (Mitsuba's moment integrator): when both are set, each
+	 * gets (allocated here, owned by the caller) per pixel the mean of
+	 * the samples' CIE XYZ values and the mean of their squares, as
+	 * Mitsuba's moment integrator writes them; m2 - m1^2 is the
+	 * variance of one sample, dropped samples counting as zero. */
+	struct pm_image *moment1, *moment2;
 };
 
 /*

@@ -355,7 +355,8 @@ load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
 static enum pm_err
 write_exr(const char *path, const struct pm_image *img, bool half,
     const char *scene_path, const struct pm_scene *scene,
-    const char *map_path, struct pm_error *err)
+    const char *map_path, const struct pm_exr_layers *layers,
+    struct pm_error *err)
 {
 	struct pm_exr_attrs at = { 0 };
 	char hash[17];
@@ -376,9 +377,39 @@ write_exr(const char *path, const struct pm_image *img, bool half,
 	    e == PM_OK; i++)
 		e = pm_exr_attrs_set(&at, kv[i][0], kv[i][1], err);
 	if (e == PM_OK)
-		e = pm_exr_write_attrs(path, img, half, &at, err);
+		e = pm_exr_write_layers(path, img, half, &at, layers, err);
 	pm_exr_attrs_free(&at);
 	return e;
+}
+
+/*
+ * The moments as Mitsuba's moment integrator names its channels: the
+ * nested integrator's name with .X, .Y, .Z (first moment) and the same
+ * with m2_ in front (second), taken over from m1 and m2 into layers.
+ */
+static enum pm_err
+moment_layers(const char *name, struct pm_image *m1, struct pm_image *m2,
+    struct pm_exr_layers *layers, struct pm_error *err)
+{
+	char n[2][3][80];
+	struct pm_image *src[2] = { m1, m2 };
+	struct pm_exr_layer *ly;
+	enum pm_err e;
+	int i, k;
+
+	for (i = 0; i < 2; i++) {
+		for (k = 0; k < 3; k++)
+			snprintf(n[i][k], sizeof(n[i][k]), "%s%s.%c",
+			    i ? "m2_" : "", name, "XYZ"[k]);
+		/* Allocated 1x1, then given the render's pixels. */
+		if ((e = pm_exr_layers_add(layers, n[i][0], n[i][1], n[i][2],
+		    1, 1, &ly, err)) != PM_OK)
+			return e;
+		pm_image_free(&ly->im);
+		ly->im = *src[i];
+		memset(src[i], 0, sizeof(*src[i]));
+	}
+	return PM_OK;
 }
 
 int
@@ -730,10 +761,6 @@ main(int argc, char **argv)
 	if (scene.nlights == 0 && verbose)
 		fprintf(stderr, PROG ": %s: warning: the scene has no lights\n",
 		    scene_path);
-	if (scene.integrator.moment && verbose)
-		fprintf(stderr, PROG ": %s: note: integrator \"moment\": its "
-		    "nested integrator's image only, the moments are not "
-		    "written\n", scene_path);
 	if (scene.nmedia > 0 && verbose)
 		fprintf(stderr, PROG ": %s: note: %zu participating medi%s, path "
 		    "traced as Mitsuba's volpath; the camera is in %s%s%s\n",
@@ -750,6 +777,8 @@ main(int argc, char **argv)
 	for (ci = 0; ci < ncams && status == 0; ci++) {
 		struct pm_camera cam = scene.camera;
 		struct pm_image img = {0, 0, NULL};
+		struct pm_image m1 = {0, 0, NULL}, m2 = {0, 0, NULL};
+		struct pm_exr_layers layers = {NULL, 0};
 		_Atomic long done, total;
 		struct pm_cli_progress *prog;
 		char name[4096];
@@ -787,6 +816,8 @@ main(int argc, char **argv)
 		opts.tiles_done = &done;
 		opts.tiles_total = &total;
 		opts.watch = pv.watch;
+		opts.moment1 = scene.integrator.moment ? &m1 : NULL;
+		opts.moment2 = scene.integrator.moment ? &m2 : NULL;
 		pv.done = &done;
 		pv.written = 0;
 		prog = pm_cli_progress_start(PROG, ncams > 1 ? name : "",
@@ -802,8 +833,14 @@ main(int argc, char **argv)
 		/* The last preview is the finished image. */
 		if (status == 0 && pv.path != NULL)
 			preview_write(&pv, &img);
+		if (status == 0 && scene.integrator.moment &&
+		    moment_layers(scene.integrator.moment_name, &m1, &m2,
+		    &layers, &err) != PM_OK) {
+			fprintf(stderr, PROG ": %s\n", err.msg);
+			status = 1;
+		}
 		if (status == 0 && write_exr(name, &img, half, scene_path,
-		    &scene, map_path, &err) != PM_OK) {
+		    &scene, map_path, &layers, &err) != PM_OK) {
 			fprintf(stderr, PROG ": %s\n", err.msg);
 			status = 1;
 		}
@@ -817,6 +854,9 @@ main(int argc, char **argv)
 			fprintf(stderr, PROG ": %s: warning: %llu non-finite samples "
 			    "dropped\n", name, (unsigned long long)stats.dropped);
 		pm_image_free(&img);
+		pm_image_free(&m1);
+		pm_image_free(&m2);
+		pm_exr_layers_free(&layers);
 	}
 out:
 	pm_irr_grid_free(&irr_grid);
