@@ -343,6 +343,8 @@ pm_render(const struct pm_render_ctx *ctx, const struct pm_camera *cam,
 	int i, nthreads = opts->threads < 1 ? 1 : opts->threads, started = 0;
 	enum pm_err rc;
 
+	if (opts->method == PM_METHOD_PTRACER)
+		return pm_ptracer_render(ctx, cam, opts, out, stats, err);
 	if (cam->width < 1 || cam->height < 1 || opts->spp < 1)
 		return pm_fail(err, PM_ERR_INVALID,
 		    "image size and samples per pixel must be positive");

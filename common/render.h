@@ -17,6 +17,7 @@
 enum pm_method {
 	PM_METHOD_PATH,
 	PM_METHOD_PHOTON,
+	PM_METHOD_PTRACER,	/* Mitsuba's particle tracer */
 };
 
 struct pm_render_opts {
@@ -69,5 +70,16 @@ struct pm_render_stats {
 enum pm_err pm_render(const struct pm_render_ctx *ctx, const struct pm_camera *cam,
     const struct pm_render_opts *opts, struct pm_image *out,
     struct pm_render_stats *stats, struct pm_error *err);
+
+/*
+ * pm_render for PM_METHOD_PTRACER (integrator_ptracer.c): width x height x
+ * spp light paths, each connected to the camera at every vertex and
+ * splatted; bit-identical whatever the thread count.  The watch and the
+ * moments are not served; tiles count chunks of light paths.
+ */
+enum pm_err pm_ptracer_render(const struct pm_render_ctx *ctx,
+    const struct pm_camera *cam, const struct pm_render_opts *opts,
+    struct pm_image *out, struct pm_render_stats *stats,
+    struct pm_error *err);
 
 #endif

@@ -32,12 +32,13 @@
 #define MAX_CAMERAS 100000
 
 static const char usage_line[] =
-    "usage: pm-render [-fqv] [--method path | photon] [--spp N] [--size WxH]\n"
-    "                 [--eye X,Y,Z] [--target X,Y,Z] [--up X,Y,Z] [--fov DEG]\n"
-    "                 [--cameras FILE] [-D NAME=VALUE] [--seed N] [-t THREADS]\n"
-    "                 [--half] [--global-radius R] [--caustic-radius R]\n"
-    "                 [--lookup-size K] [--direct-samples N] [--final-gather]\n"
-    "                 [--no-final-gather] [--final-gather-samples N]\n"
+    "usage: pm-render [-fqv] [--method path | photon | ptracer] [--spp N]\n"
+    "                 [--size WxH] [--eye X,Y,Z] [--target X,Y,Z] [--up X,Y,Z]\n"
+    "                 [--fov DEG] [--cameras FILE] [-D NAME=VALUE] [--seed N]\n"
+    "                 [-t THREADS] [--half] [--global-radius R]\n"
+    "                 [--caustic-radius R] [--lookup-size K] [--direct-samples N]\n"
+    "                 [--final-gather]"
+    " [--no-final-gather] [--final-gather-samples N]\n"
     "                 [--cache-step PIXELS] [--cache-rays N]\n"
     "                 [--cache-accuracy A] [--pass I] [--radius R] [--alpha A]\n"
     "                 [--preview FILE] [--preview-every SECONDS]\n"
@@ -49,7 +50,10 @@ static const char help_text[] =
     "  -o, --output OUT.exr        the image; with several cameras a %d\n"
     "                              pattern or a number before the extension\n"
     "  -f, --force                 overwrite existing outputs\n"
-    "      --method path|photon    path tracing, or photon mapping (needs MAP)\n"
+    "      --method path|photon|ptracer\n"
+    "                              path tracing, photon mapping (needs MAP)\n"
+    "                              or particle tracing (default: the\n"
+    "                              scene's integrator)\n"
     "      --spp N                 samples per pixel (default: the scene's)\n"
     "      --size WxH              image size (default: the scene's film)\n"
     "      --eye X,Y,Z, --target X,Y,Z, --up X,Y,Z\n"
@@ -494,8 +498,11 @@ main(int argc, char **argv)
 			continue;
 		switch (c) {
 		case OPT_METHOD:
-			if (strcmp(optarg, "path") != 0 && strcmp(optarg, "photon") != 0)
-				usage_error("unknown method '%s' (path or photon)", optarg);
+			if (strcmp(optarg, "path") != 0 &&
+			    strcmp(optarg, "photon") != 0 &&
+			    strcmp(optarg, "ptracer") != 0)
+				usage_error("unknown method '%s' (path, photon or "
+				    "ptracer)", optarg);
 			method = optarg;
 			break;
 		case OPT_SPP:
@@ -629,6 +636,8 @@ main(int argc, char **argv)
 		usage_error("%s", "--method photon needs a photon map (SCENE.xml MAP.pmap)");
 	if (method != NULL && strcmp(method, "path") == 0 && map_path != NULL)
 		usage_error("%s", "--method path takes no photon map");
+	if (method != NULL && strcmp(method, "ptracer") == 0 && map_path != NULL)
+		usage_error("%s", "--method ptracer takes no photon map");
 	if (out_path == NULL)
 		usage_error("%s", "no output given (-o OUT.exr)");
 	if ((pg.pass > 0 || pg.radius > 0.0f) && map_path == NULL)
@@ -756,6 +765,15 @@ main(int argc, char **argv)
 	ctx.maps = map_path != NULL ? &maps : NULL;
 	memset(&opts, 0, sizeof(opts));
 	opts.method = map_path != NULL ? PM_METHOD_PHOTON : PM_METHOD_PATH;
+	/* The scene's ptracer, unless the command line chose otherwise. */
+	if (map_path == NULL && (method != NULL ? strcmp(method, "ptracer") == 0 :
+	    scene.integrator.type == PM_INTEGRATOR_PTRACER))
+		opts.method = PM_METHOD_PTRACER;
+	if (opts.method == PM_METHOD_PTRACER && scene.integrator.moment &&
+	    verbose)
+		fprintf(stderr, PROG ": %s: note: --method ptracer writes no "
+		    "moments (Mitsuba's moment wraps sampling integrators "
+		    "only)\n", scene_path);
 	opts.seed = seed;
 	opts.threads = (int)threads;
 	if (scene.nlights == 0 && verbose)
@@ -779,6 +797,7 @@ main(int argc, char **argv)
 		struct pm_image img = {0, 0, NULL};
 		struct pm_image m1 = {0, 0, NULL}, m2 = {0, 0, NULL};
 		struct pm_exr_layers layers = {NULL, 0};
+		bool moments;
 		_Atomic long done, total;
 		struct pm_cli_progress *prog;
 		char name[4096];
@@ -808,7 +827,9 @@ main(int argc, char **argv)
 			fprintf(stderr, PROG ": %s: %zu shapes, %zu lights, %dx%d, %d spp, "
 			    "%s, max_depth %d, %ld threads, loaded in %.3f s\n", name,
 			    scene.nshapes, scene.nlights, cam.width, cam.height, cam.spp,
-			    map_path ? "photon map" : "path tracing", ctx.max_depth,
+			    map_path ? "photon map" : opts.method ==
+			    PM_METHOD_PTRACER ? "particle tracing" : "path tracing",
+			    ctx.max_depth,
 			    threads, t_load);
 
 		atomic_init(&done, 0);
@@ -816,8 +837,10 @@ main(int argc, char **argv)
 		opts.tiles_done = &done;
 		opts.tiles_total = &total;
 		opts.watch = pv.watch;
-		opts.moment1 = scene.integrator.moment ? &m1 : NULL;
-		opts.moment2 = scene.integrator.moment ? &m2 : NULL;
+		moments = scene.integrator.moment &&
+		    opts.method != PM_METHOD_PTRACER;
+		opts.moment1 = moments ? &m1 : NULL;
+		opts.moment2 = moments ? &m2 : NULL;
 		pv.done = &done;
 		pv.written = 0;
 		prog = pm_cli_progress_start(PROG, ncams > 1 ? name : "",
@@ -833,7 +856,7 @@ main(int argc, char **argv)
 		/* The last preview is the finished image. */
 		if (status == 0 && pv.path != NULL)
 			preview_write(&pv, &img);
-		if (status == 0 && scene.integrator.moment &&
+		if (status == 0 && moments &&
 		    moment_layers(scene.integrator.moment_name, &m1, &m2,
 		    &layers, &err) != PM_OK) {
 			fprintf(stderr, PROG ": %s\n", err.msg);
