@@ -423,6 +423,30 @@ pm_exr_write_layers(const char *path, const struct pm_image *im, bool half,
 		    layers->v[i].im.rgb == NULL)
 			return pm_fail(err, PM_ERR_INVALID, "%s: a layer's size "
 			    "differs from the image's", path);
+	/* Checked here: OpenEXRCore 3.1 deadlocks reporting a duplicate
+	 * channel (its error callback takes the lock it holds). */
+	for (i = 0; layers != NULL && i < layers->n; i++)
+		for (k = 0; k < 3; k++) {
+			const char *nm = layers->v[i].name[k];
+			struct pm_image *img;
+			size_t i2;
+			int k2;
+
+			if (nm == NULL)
+				continue;
+			if (nm[0] == '\0' || exr_find(nm, (struct pm_image *)im,
+			    NULL, &img, &k2))
+				return pm_fail(err, PM_ERR_INVALID, "%s: bad "
+				    "channel name '%s'", path, nm);
+			for (i2 = 0; i2 <= i; i2++)
+				for (k2 = 0; k2 < (i2 == i ? k : 3); k2++)
+					if (layers->v[i2].name[k2] != NULL &&
+					    strcmp(layers->v[i2].name[k2], nm)
+					    == 0)
+						return pm_fail(err,
+						    PM_ERR_INVALID, "%s: channel "
+						    "'%s' given twice", path, nm);
+		}
 	memset(&io, 0, sizeof(io));
 	if ((e = pm_out_open(&out, path, err)) != PM_OK)
 		return e;
