@@ -791,10 +791,25 @@ pm_exr_read_layers(const char *path, struct pm_image *im,
 	}
 	if ((e = pm_image_alloc(im, (int)w, (int)h, err)) == PM_OK &&
 	    layers != NULL) {
-		/* The other channels, three to a layer in list order. */
+		/* The other channels, three to a layer in list order, all of
+		 * them within the pixels one image may have. */
 		const char *nm[3];
 		int m = 0;
+		size_t extra = 0;
 
+		for (c = 0; c < chl->num_channels; c++)
+			if (chl->entries[c].name.str != NULL &&
+			    !exr_is_rgb(chl->entries[c].name.str))
+				extra++;
+		if ((extra + 2) / 3 + 1 > PM_IMAGE_MAX_PIXELS / ((size_t)w *
+		    (size_t)h)) {
+			e = pm_fail(err, PM_ERR_LIMIT, "%s: %zu channels of "
+			    "%lldx%lld pixels: more than %zu pixels of film "
+			    "in all", path, extra + 3, (long long)w,
+			    (long long)h, (size_t)PM_IMAGE_MAX_PIXELS);
+			pm_image_free(im);
+			goto out;
+		}
 		for (c = 0; c <= chl->num_channels && e == PM_OK; c++) {
 			const exr_attr_chlist_entry_t *ent = c <
 			    chl->num_channels ? &chl->entries[c] : NULL;
