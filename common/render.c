@@ -39,6 +39,7 @@ struct job {
 	int tiles_x, ntiles;
 	_Atomic int next;
 	_Atomic uint64_t dropped;
+	bool moments;			/* opts' moment images are filled */
 };
 
 /* Offset from the pixel centre drawn from the reconstruction filter, so
@@ -71,6 +72,44 @@ filter_offset(enum pm_rfilter f, float radius, float u, struct pm_rng *rng)
 /* At most this many light cells a side (the first LIGHT_STRATA^2 samples
  * of a pixel); beyond, independent samples are as good. */
 #define LIGHT_STRATA 32
+
+/* CIE XYZ of linear sRGB, the matrix Mitsuba's moment integrator applies
+ * to an RGB render's samples. */
+static const double srgb_to_xyz[3][3] = {
+	{ 0.412453, 0.357580, 0.180423 },
+	{ 0.212671, 0.715160, 0.072169 },
+	{ 0.019334, 0.119193, 0.950227 },
+};
+
+/* Adds sample L to a pixel's sums of XYZ (m[0..2]) and of their squares
+ * (m[3..5]), for the moment integrator. */
+static void
+moment_add(double m[6], struct pm_rgb L)
+{
+	int c;
+
+	for (c = 0; c < 3; c++) {
+		double v = srgb_to_xyz[c][0] * L.r + srgb_to_xyz[c][1] * L.g +
+		    srgb_to_xyz[c][2] * L.b;
+
+		m[c] += v;
+		m[3 + c] += v * v;
+	}
+}
+
+/* Stores pixel pix's moments, the sums m over spp samples. */
+static void
+moment_store(const struct job *j, size_t pix, const double m[6], int spp)
+{
+	float *d1 = &j->opts->moment1->rgb[3 * pix];
+	float *d2 = &j->opts->moment2->rgb[3 * pix];
+	int c;
+
+	for (c = 0; c < 3; c++) {
+		d1[c] = (float)(m[c] / spp);
+		d2[c] = (float)(m[3 + c] / spp);
+	}
+}
 
 /* How a tile's pixels stratify their samples (see render_tile). */
 struct strata {
@@ -157,11 +196,13 @@ render_tile_paths(struct job *j, struct strata *st, int x0, int y0, int x1,
 	const struct pm_camera *cam = j->cam;
 	struct pm_path_sample smp[PATH_CHUNK];
 	uint16_t slot[PATH_CHUNK];
-	double acc[TILE * TILE][3];
+	double acc[TILE * TILE][3], mom[TILE * TILE][6];
 	int spp = j->opts->spp, x, y, i, n = 0, k;
 	uint64_t dropped = 0;
 
 	memset(acc, 0, sizeof(acc));
+	if (j->moments)
+		memset(mom, 0, sizeof(mom));
 	for (y = y0; y < y1; y++) {
 		for (x = x0; x < x1; x++) {
 			pixel_cells(j, (uint64_t)y * (uint64_t)cam->width +
@@ -186,6 +227,8 @@ render_tile_paths(struct job *j, struct strata *st, int x0, int y0, int x1,
 					acc[slot[k]][0] += L.r;
 					acc[slot[k]][1] += L.g;
 					acc[slot[k]][2] += L.b;
+					if (j->moments)
+						moment_add(mom[slot[k]], L);
 				}
 				n = 0;
 			}
@@ -201,6 +244,10 @@ render_tile_paths(struct job *j, struct strata *st, int x0, int y0, int x1,
 			dst[0] = (float)(a[0] / spp);
 			dst[1] = (float)(a[1] / spp);
 			dst[2] = (float)(a[2] / spp);
+			if (j->moments)
+				moment_store(j, (size_t)y * (size_t)cam->width +
+				    (size_t)x, mom[(y - y0) * TILE + (x - x0)],
+				    spp);
 		}
 	}
 	if (dropped)
@@ -241,7 +288,7 @@ render_tile(struct job *j, int tile)
 	for (y = y0; y < y1; y++) {
 		for (x = x0; x < x1; x++) {
 			uint64_t pix = (uint64_t)y * (uint64_t)cam->width + (uint64_t)x;
-			double acc[3] = {0, 0, 0};
+			double acc[3] = {0, 0, 0}, mom[6] = {0, 0, 0, 0, 0, 0};
 			float *dst = &j->out->rgb[3 * pix];
 
 			pixel_cells(j, pix, &st);
@@ -265,12 +312,16 @@ render_tile(struct job *j, int tile)
 				acc[0] += L.r;
 				acc[1] += L.g;
 				acc[2] += L.b;
+				if (j->moments)
+					moment_add(mom, L);
 			}
 			/* Dropped samples count as zero: dividing by the kept
 			 * count instead would bias the pixel upwards. */
 			dst[0] = (float)(acc[0] / spp);
 			dst[1] = (float)(acc[1] / spp);
 			dst[2] = (float)(acc[2] / spp);
+			if (j->moments)
+				moment_store(j, (size_t)pix, mom, spp);
 		}
 	}
 	if (dropped)
@@ -374,6 +425,17 @@ out:
 	return ok;
 }
 
+/* Frees what pm_render allocated for a render that failed. */
+static void
+free_outputs(struct pm_image *out, const struct pm_render_opts *opts)
+{
+	pm_image_free(out);
+	if (opts->moment1 != NULL && opts->moment2 != NULL) {
+		pm_image_free(opts->moment1);
+		pm_image_free(opts->moment2);
+	}
+}
+
 static void *
 worker(void *arg)
 {
@@ -403,13 +465,29 @@ pm_render(const struct pm_render_ctx *ctx, const struct pm_camera *cam,
 	int i, nthreads = opts->threads < 1 ? 1 : opts->threads, started = 0;
 	enum pm_err rc;
 
+	if (opts->method == PM_METHOD_PTRACER)
+		return pm_ptracer_render(ctx, cam, opts, out, stats, err);
 	if (cam->width < 1 || cam->height < 1 || opts->spp < 1)
 		return pm_fail(err, PM_ERR_INVALID,
 		    "image size and samples per pixel must be positive");
 	rc = pm_image_alloc(out, cam->width, cam->height, err);
 	if (rc != PM_OK)
 		return rc;
+	if (opts->moment1 != NULL && opts->moment2 != NULL) {
+		if ((rc = pm_image_alloc(opts->moment1, cam->width, cam->height,
+		    err)) != PM_OK) {
+			pm_image_free(out);
+			return rc;
+		}
+		if ((rc = pm_image_alloc(opts->moment2, cam->width, cam->height,
+		    err)) != PM_OK) {
+			pm_image_free(opts->moment1);
+			pm_image_free(out);
+			return rc;
+		}
+	}
 	j.ctx = &cctx;
+	j.moments = opts->moment1 != NULL && opts->moment2 != NULL;
 	j.cam = cam;
 	j.opts = opts;
 	j.out = out;
@@ -431,7 +509,7 @@ pm_render(const struct pm_render_ctx *ctx, const struct pm_camera *cam,
 		rc = pm_icache_build(&cache, ctx, &j.rays, step,
 		    rays, ctx->maps->icache_a, opts->seed, nthreads, err);
 		if (rc != PM_OK) {
-			pm_image_free(out);
+			free_outputs(out, opts);
 			return rc;
 		}
 		cctx.icache = &cache;
@@ -442,13 +520,13 @@ pm_render(const struct pm_render_ctx *ctx, const struct pm_camera *cam,
 	tid = calloc((size_t)nthreads, sizeof(*tid));
 	if (tid == NULL) {
 		pm_icache_free(&cache);
-		pm_image_free(out);
+		free_outputs(out, opts);
 		return pm_fail(err, PM_ERR_NOMEM, "no memory for threads");
 	}
 	if (opts->watch != NULL && !watch_begin(opts->watch, out, j.tiles_x,
 	    j.ntiles)) {
 		free(tid);
-		pm_image_free(out);
+		free_outputs(out, opts);
 		return pm_fail(err, PM_ERR_NOMEM, "no memory for the watch");
 	}
 	/* The calling thread works too; if a thread cannot be started the

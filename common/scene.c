@@ -41,6 +41,7 @@ pm_scene_init(struct pm_scene *s)
 	s->integrator.max_depth = -1;
 	s->integrator.rr_depth = 5;
 	s->integrator.hide_emitters = false;
+	s->integrator.samples_per_pass = -1;
 	s->integrator.photon.global_photons = -1;	/* pm-shoot decides */
 	s->integrator.photon.caustic_photons = -1;
 	s->integrator.photon.global_lookup_radius = 0.05f;

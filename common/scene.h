@@ -111,6 +111,7 @@ struct pm_camera {
 enum pm_integrator_type {
 	PM_INTEGRATOR_PATH,
 	PM_INTEGRATOR_PHOTONMAPPER,
+	PM_INTEGRATOR_PTRACER,		/* Mitsuba's particle tracer */
 };
 
 /*
@@ -139,9 +140,16 @@ struct pm_integrator {
 	int rr_depth;			/* Mitsuba default 5 */
 	bool hide_emitters;
 	struct pm_photon_params photon;	/* PM_INTEGRATOR_PHOTONMAPPER */
+	/* ptracer: samples_per_pass (-1: all in one pass); passes change
+	 * only how the work is split, never the image. */
+	long samples_per_pass;
 	/* Given as Mitsuba's moment wrapper: its nested integrator is the
-	 * one above; the moments are not rendered. */
+	 * one above, and pm-render writes the moments as the channels
+	 * moment_name.X, .Y, .Z and m2_moment_name.X, ...: the nested
+	 * integrator's name attribute, "_arg_0" without one (Mitsuba 3.9's
+	 * name for an unnamed nested object). */
 	bool moment;
+	char moment_name[64];
 };
 
 struct pm_scene {

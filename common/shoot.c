@@ -471,6 +471,20 @@ emit(const struct pm_shooter *sh, enum pm_map_pass pass, struct pm_rng *rng,
 	return pm_rgb_max(*flux) > 0.0f;
 }
 
+bool
+pm_shooter_emit(const struct pm_shooter *sh, struct pm_rng *rng,
+    struct pm_vec3 *o, struct pm_vec3 *d, struct pm_rgb *flux)
+{
+	return emit(sh, PM_PASS_GLOBAL, rng, o, d, flux);
+}
+
+void
+pm_shooter_shape_point(const struct pm_shooter *sh, int light, float u1,
+    float u2, struct pm_vec3 *p, struct pm_vec3 *ng, struct pm_vec3 *ns)
+{
+	sample_shape_point(sh, light, u1, u2, p, ng, ns);
+}
+
 struct chunk_out {
 	struct pm_photon_buf buf;
 	uint64_t dropped, paths_specular;

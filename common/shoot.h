@@ -16,6 +16,7 @@
 #include "error.h"
 #include "light.h"
 #include "photon.h"
+#include "rng.h"
 #include "scene.h"
 
 /* One effect's verdict, as -v prints it and the map's header keeps it
@@ -100,6 +101,18 @@ void pm_shooter_free(struct pm_shooter *sh);
  */
 enum pm_err pm_shoot(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
     struct pm_photon_buf *out, struct pm_shoot_stats *stats, struct pm_error *err);
+
+/*
+ * One light path's start as the global pass emits it (ptracer's light
+ * paths): origin, unit direction and flux; false if it carries nothing.
+ */
+bool pm_shooter_emit(const struct pm_shooter *sh, struct pm_rng *rng,
+    struct pm_vec3 *o, struct pm_vec3 *d, struct pm_rgb *flux);
+
+/* A point of area light `light`'s shape, uniform by area, with its
+ * geometric and shading normals. */
+void pm_shooter_shape_point(const struct pm_shooter *sh, int light, float u1,
+    float u2, struct pm_vec3 *p, struct pm_vec3 *ng, struct pm_vec3 *ns);
 
 /* A 64-bit identity of what photons depend on: geometry, materials and
  * lights (not the camera or the sampler). */

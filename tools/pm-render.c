@@ -32,12 +32,13 @@
 #define MAX_CAMERAS 100000
 
 static const char usage_line[] =
-    "usage: pm-render [-fqv] [--method path | photon] [--spp N] [--size WxH]\n"
-    "                 [--eye X,Y,Z] [--target X,Y,Z] [--up X,Y,Z] [--fov DEG]\n"
-    "                 [--cameras FILE] [-D NAME=VALUE] [--seed N] [-t THREADS]\n"
-    "                 [--half] [--global-radius R] [--caustic-radius R]\n"
-    "                 [--lookup-size K] [--direct-samples N] [--final-gather]\n"
-    "                 [--no-final-gather] [--final-gather-samples N]\n"
+    "usage: pm-render [-fqv] [--method path | photon | ptracer] [--spp N]\n"
+    "                 [--size WxH] [--eye X,Y,Z] [--target X,Y,Z] [--up X,Y,Z]\n"
+    "                 [--fov DEG] [--cameras FILE] [-D NAME=VALUE] [--seed N]\n"
+    "                 [-t THREADS] [--half] [--global-radius R]\n"
+    "                 [--caustic-radius R] [--lookup-size K] [--direct-samples N]\n"
+    "                 [--final-gather]"
+    " [--no-final-gather] [--final-gather-samples N]\n"
     "                 [--cache-step PIXELS] [--cache-rays N]\n"
     "                 [--cache-accuracy A] [--pass I] [--radius R] [--alpha A]\n"
     "                 [--preview FILE] [--preview-every SECONDS]\n"
@@ -49,7 +50,10 @@ static const char help_text[] =
     "  -o, --output OUT.exr        the image; with several cameras a %d\n"
     "                              pattern or a number before the extension\n"
     "  -f, --force                 overwrite existing outputs\n"
-    "      --method path|photon    path tracing, or photon mapping (needs MAP)\n"
+    "      --method path|photon|ptracer\n"
+    "                              path tracing, photon mapping (needs MAP)\n"
+    "                              or particle tracing (default: the\n"
+    "                              scene's integrator)\n"
     "      --spp N                 samples per pixel (default: the scene's)\n"
     "      --size WxH              image size (default: the scene's film)\n"
     "      --eye X,Y,Z, --target X,Y,Z, --up X,Y,Z\n"
@@ -355,7 +359,8 @@ load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
 static enum pm_err
 write_exr(const char *path, const struct pm_image *img, bool half,
     const char *scene_path, const struct pm_scene *scene,
-    const char *map_path, struct pm_error *err)
+    const char *map_path, const struct pm_exr_layers *layers,
+    struct pm_error *err)
 {
 	struct pm_exr_attrs at = { 0 };
 	char hash[17];
@@ -376,9 +381,39 @@ write_exr(const char *path, const struct pm_image *img, bool half,
 	    e == PM_OK; i++)
 		e = pm_exr_attrs_set(&at, kv[i][0], kv[i][1], err);
 	if (e == PM_OK)
-		e = pm_exr_write_attrs(path, img, half, &at, err);
+		e = pm_exr_write_layers(path, img, half, &at, layers, err);
 	pm_exr_attrs_free(&at);
 	return e;
+}
+
+/*
+ * The moments as Mitsuba's moment integrator names its channels: the
+ * nested integrator's name with .X, .Y, .Z (first moment) and the same
+ * with m2_ in front (second), taken over from m1 and m2 into layers.
+ */
+static enum pm_err
+moment_layers(const char *name, struct pm_image *m1, struct pm_image *m2,
+    struct pm_exr_layers *layers, struct pm_error *err)
+{
+	char n[2][3][80];
+	struct pm_image *src[2] = { m1, m2 };
+	struct pm_exr_layer *ly;
+	enum pm_err e;
+	int i, k;
+
+	for (i = 0; i < 2; i++) {
+		for (k = 0; k < 3; k++)
+			snprintf(n[i][k], sizeof(n[i][k]), "%s%s.%c",
+			    i ? "m2_" : "", name, "XYZ"[k]);
+		/* Allocated 1x1, then given the render's pixels. */
+		if ((e = pm_exr_layers_add(layers, n[i][0], n[i][1], n[i][2],
+		    1, 1, &ly, err)) != PM_OK)
+			return e;
+		pm_image_free(&ly->im);
+		ly->im = *src[i];
+		memset(src[i], 0, sizeof(*src[i]));
+	}
+	return PM_OK;
 }
 
 int
@@ -463,8 +498,11 @@ main(int argc, char **argv)
 			continue;
 		switch (c) {
 		case OPT_METHOD:
-			if (strcmp(optarg, "path") != 0 && strcmp(optarg, "photon") != 0)
-				usage_error("unknown method '%s' (path or photon)", optarg);
+			if (strcmp(optarg, "path") != 0 &&
+			    strcmp(optarg, "photon") != 0 &&
+			    strcmp(optarg, "ptracer") != 0)
+				usage_error("unknown method '%s' (path, photon or "
+				    "ptracer)", optarg);
 			method = optarg;
 			break;
 		case OPT_SPP:
@@ -598,6 +636,8 @@ main(int argc, char **argv)
 		usage_error("%s", "--method photon needs a photon map (SCENE.xml MAP.pmap)");
 	if (method != NULL && strcmp(method, "path") == 0 && map_path != NULL)
 		usage_error("%s", "--method path takes no photon map");
+	if (method != NULL && strcmp(method, "ptracer") == 0 && map_path != NULL)
+		usage_error("%s", "--method ptracer takes no photon map");
 	if (out_path == NULL)
 		usage_error("%s", "no output given (-o OUT.exr)");
 	if ((pg.pass > 0 || pg.radius > 0.0f) && map_path == NULL)
@@ -725,15 +765,20 @@ main(int argc, char **argv)
 	ctx.maps = map_path != NULL ? &maps : NULL;
 	memset(&opts, 0, sizeof(opts));
 	opts.method = map_path != NULL ? PM_METHOD_PHOTON : PM_METHOD_PATH;
+	/* The scene's ptracer, unless the command line chose otherwise. */
+	if (map_path == NULL && (method != NULL ? strcmp(method, "ptracer") == 0 :
+	    scene.integrator.type == PM_INTEGRATOR_PTRACER))
+		opts.method = PM_METHOD_PTRACER;
+	if (opts.method == PM_METHOD_PTRACER && scene.integrator.moment &&
+	    verbose)
+		fprintf(stderr, PROG ": %s: note: --method ptracer writes no "
+		    "moments (Mitsuba's moment wraps sampling integrators "
+		    "only)\n", scene_path);
 	opts.seed = seed;
 	opts.threads = (int)threads;
 	if (scene.nlights == 0 && verbose)
 		fprintf(stderr, PROG ": %s: warning: the scene has no lights\n",
 		    scene_path);
-	if (scene.integrator.moment && verbose)
-		fprintf(stderr, PROG ": %s: note: integrator \"moment\": its "
-		    "nested integrator's image only, the moments are not "
-		    "written\n", scene_path);
 	if (scene.nmedia > 0 && verbose)
 		fprintf(stderr, PROG ": %s: note: %zu participating medi%s, path "
 		    "traced as Mitsuba's volpath; the camera is in %s%s%s\n",
@@ -750,6 +795,9 @@ main(int argc, char **argv)
 	for (ci = 0; ci < ncams && status == 0; ci++) {
 		struct pm_camera cam = scene.camera;
 		struct pm_image img = {0, 0, NULL};
+		struct pm_image m1 = {0, 0, NULL}, m2 = {0, 0, NULL};
+		struct pm_exr_layers layers = {NULL, 0};
+		bool moments;
 		_Atomic long done, total;
 		struct pm_cli_progress *prog;
 		char name[4096];
@@ -779,7 +827,9 @@ main(int argc, char **argv)
 			fprintf(stderr, PROG ": %s: %zu shapes, %zu lights, %dx%d, %d spp, "
 			    "%s, max_depth %d, %ld threads, loaded in %.3f s\n", name,
 			    scene.nshapes, scene.nlights, cam.width, cam.height, cam.spp,
-			    map_path ? "photon map" : "path tracing", ctx.max_depth,
+			    map_path ? "photon map" : opts.method ==
+			    PM_METHOD_PTRACER ? "particle tracing" : "path tracing",
+			    ctx.max_depth,
 			    threads, t_load);
 
 		atomic_init(&done, 0);
@@ -787,6 +837,10 @@ main(int argc, char **argv)
 		opts.tiles_done = &done;
 		opts.tiles_total = &total;
 		opts.watch = pv.watch;
+		moments = scene.integrator.moment &&
+		    opts.method != PM_METHOD_PTRACER;
+		opts.moment1 = moments ? &m1 : NULL;
+		opts.moment2 = moments ? &m2 : NULL;
 		pv.done = &done;
 		pv.written = 0;
 		prog = pm_cli_progress_start(PROG, ncams > 1 ? name : "",
@@ -802,8 +856,14 @@ main(int argc, char **argv)
 		/* The last preview is the finished image. */
 		if (status == 0 && pv.path != NULL)
 			preview_write(&pv, &img);
+		if (status == 0 && moments &&
+		    moment_layers(scene.integrator.moment_name, &m1, &m2,
+		    &layers, &err) != PM_OK) {
+			fprintf(stderr, PROG ": %s\n", err.msg);
+			status = 1;
+		}
 		if (status == 0 && write_exr(name, &img, half, scene_path,
-		    &scene, map_path, &err) != PM_OK) {
+		    &scene, map_path, &layers, &err) != PM_OK) {
 			fprintf(stderr, PROG ": %s\n", err.msg);
 			status = 1;
 		}
@@ -817,6 +877,9 @@ main(int argc, char **argv)
 			fprintf(stderr, PROG ": %s: warning: %llu non-finite samples "
 			    "dropped\n", name, (unsigned long long)stats.dropped);
 		pm_image_free(&img);
+		pm_image_free(&m1);
+		pm_image_free(&m2);
+		pm_exr_layers_free(&layers);
 	}
 out:
 	pm_irr_grid_free(&irr_grid);

@@ -16,7 +16,9 @@
 # principled BSDFs point by point), tests/mitsuba/textures.xml (path
 # traced and photon-mapped) and
 # the scenes tests/mitsuba/shapes_scene.py writes (shapes and sensors, path
-# traced and photon-mapped).
+# traced and photon-mapped), cornell-box, sky and point-lights under
+# Mitsuba's particle tracer (ptracer), and cornell-box under the moment
+# integrator (the variance channel).
 # Results are TAP-like lines and a closing "mitsuba cli: N passed,
 # N failed"; the exit status is non-zero when anything failed, including
 # the set-up of Mitsuba itself (no network means failure, never a pass).
@@ -170,6 +172,35 @@ against() {
 		check "$name: pm-render agrees with Mitsuba ($RES x $RES, Mitsuba 2x$MI_SPP spp, pm-render 2x$PM_SPP spp)" true
 	else
 		check "$name: pm-render differs from Mitsuba (see build/mitsuba-out/$name-vs.txt, $name-vs-diff.exr)" false
+	fi
+}
+
+# moments NAME SCENE: a scene under Mitsuba's moment integrator; the
+# variance of one sample, m2 - m1^2 of the moment channels, from Mitsuba
+# (render_mitsuba.py --moments) against pm-render's channels (moments.py),
+# compared as images are.
+moments() {
+	name=$1
+	scene=$2
+	if ! mitsuba "$name" mi-1 "$scene" "$MI_SPP" 1 --moments ||
+	    ! mitsuba "$name" mi-2 "$scene" "$MI_SPP" 2 --moments; then
+		check "$name: Mitsuba cannot render $scene" false
+		return
+	fi
+	for _s in 1 2; do
+		if ! pmrender "$name" "$scene" $_s ||
+		    ! "$PY" "$HERE/moments.py" "$OUT/$name-pm-$_s.exr" \
+		    "$OUT/$name-pmvar-$_s.exr" >"$OUT/log" 2>&1; then
+			diag <"$OUT/log"
+			check "$name: pm-render's moments failed on $scene" false
+			return
+		fi
+	done
+	if compare "$name" vs "$OUT/$name-mi-1.exr" "$OUT/$name-mi-2.exr" \
+	    "$OUT/$name-pmvar-1.exr" "$OUT/$name-pmvar-2.exr"; then
+		check "$name: pm-render's variance (m2 - m1^2) agrees with Mitsuba's moment integrator" true
+	else
+		check "$name: pm-render's variance differs from Mitsuba's (see build/mitsuba-out/$name-vs.txt)" false
 	fi
 }
 
@@ -403,6 +434,29 @@ if "$PY" "$HERE/shapes_scene.py" "$OUT/shapes" >"$OUT/log" 2>&1; then
 else
 	diag <"$OUT/log"
 	check "shapes: tests/mitsuba/shapes_scene.py failed" false
+fi
+
+# Mitsuba's particle tracer on scenes of data/ (an area light, a sky seen
+# directly, point and spot lights), each against Mitsuba's own ptracer;
+# in a folder of their own, as the textures.
+mkdir -p "$OUT/ptracer"
+for scene in cornell-box sky point-lights; do
+	if [ -f data/$scene.xml ]; then
+		sed 's|<integrator type="path">|<integrator type="ptracer">|' \
+		    data/$scene.xml >"$OUT/ptracer/$scene.xml"
+		run $scene-ptracer "$OUT/ptracer/$scene.xml"
+	else
+		check "$scene-ptracer: data/$scene.xml is missing" false
+	fi
+done
+
+# The moment integrator around the path tracer: the per-pixel variance of
+# one sample, in the mean and block by block.
+if [ "$selftest" = 0 ] && wanted cornell-moment && [ -f data/cornell-box.xml ]; then
+	mkdir -p "$OUT/moment"
+	sed 's|<integrator type="path">|<integrator type="moment"><integrator type="path">|; s|</integrator>|</integrator></integrator>|' \
+	    data/cornell-box.xml >"$OUT/moment/cornell-box.xml"
+	moments cornell-moment "$OUT/moment/cornell-box.xml"
 fi
 
 if [ -f ../shared/scenes/mitsuba-cbox/cbox-rgb.xml ]; then

@@ -908,7 +908,38 @@ test_integrators(void **state)
 	assert_int_equal(s.integrator.type, PM_INTEGRATOR_PHOTONMAPPER);
 	assert_int_equal(s.integrator.max_depth, 5);
 	assert_true(s.integrator.moment);
+	/* Mitsuba 3.9's name for an unnamed nested object */
+	assert_string_equal(s.integrator.moment_name, "_arg_0");
 	pm_scene_free(&s);
+	load_ok("<scene version=\"3.0.0\"><integrator type=\"moment\">"
+	    "<integrator type=\"path\" name=\"nested\" id=\"x\"/>"
+	    "</integrator></scene>", &s);
+	assert_string_equal(s.integrator.moment_name, "nested");
+	pm_scene_free(&s);
+	/* The particle tracer: path's parameters and samples_per_pass. */
+	load_ok("<scene version=\"3.0.0\"><integrator type=\"ptracer\">"
+	    "<integer name=\"max_depth\" value=\"4\"/>"
+	    "<integer name=\"rr_depth\" value=\"3\"/>"
+	    "<boolean name=\"hide_emitters\" value=\"true\"/>"
+	    "<integer name=\"samples_per_pass\" value=\"8\"/>"
+	    "</integrator></scene>", &s);
+	assert_int_equal(s.integrator.type, PM_INTEGRATOR_PTRACER);
+	assert_int_equal(s.integrator.max_depth, 4);
+	assert_int_equal(s.integrator.rr_depth, 3);
+	assert_true(s.integrator.hide_emitters);
+	assert_int_equal(s.integrator.samples_per_pass, 8);
+	pm_scene_free(&s);
+	load_ok("<scene version=\"3.0.0\"><integrator type=\"ptracer\"/>"
+	    "</scene>", &s);
+	assert_int_equal(s.integrator.max_depth, -1);
+	assert_int_equal(s.integrator.samples_per_pass, -1);
+	pm_scene_free(&s);
+	load_fails("<scene version=\"3.0.0\">\n<integrator type=\"ptracer\">"
+	    "<integer name=\"samples_per_pass\" value=\"0\"/>"
+	    "</integrator></scene>", 2, "samples_per_pass");
+	load_fails("<scene version=\"3.0.0\"><integrator type=\"moment\">\n"
+	    "<integrator type=\"ptracer\"/></integrator></scene>", 2,
+	    "cannot wrap ptracer");
 	load_fails("<scene version=\"3.0.0\">\n<integrator type=\"moment\"/>"
 	    "</scene>", 2, "one nested <integrator>, found 0");
 	load_fails("<scene version=\"3.0.0\">\n<integrator type=\"moment\">"
