@@ -232,7 +232,9 @@ pm_scene_prepare(struct pm_scene *s, struct pm_error *err)
 
 		if (b->tex_diffuse < 0 || (size_t)b->tex_diffuse > nt ||
 		    b->tex_specular < 0 || (size_t)b->tex_specular > nt ||
-		    b->tex_alpha < 0 || (size_t)b->tex_alpha > nt)
+		    b->tex_alpha < 0 || (size_t)b->tex_alpha > nt ||
+		    b->tex_transmittance < 0 ||
+		    (size_t)b->tex_transmittance > nt)
 			return pm_fail(err, PM_ERR_INVALID, "BSDF %zu: texture "
 			    "index out of range (%zu textures)", i, nt);
 		pm_bsdf_prepare(&s->bsdfs[i]);
@@ -281,7 +283,16 @@ pm_scene_prepare(struct pm_scene *s, struct pm_error *err)
 		struct pm_light *l = &s->lights[i];
 		const struct pm_shape *sh;
 		double mean, theta;
+		struct pm_rgb tmean = pm_rgb1(1.0f);
 
+		if (l->tex < 0 || (size_t)l->tex > s->ntextures ||
+		    (l->type == PM_LIGHT_PROJECTOR && l->tex == 0))
+			return pm_fail(err, PM_ERR_INVALID, "light %zu: texture "
+			    "index %d out of range (%zu textures)", i, l->tex,
+			    s->ntextures);
+		/* a textured light's power counts the texture's mean */
+		if (l->tex > 0)
+			tmean = pm_texture_mean(&s->textures[l->tex - 1]);
 		switch (l->type) {
 		case PM_LIGHT_AREA:
 			if (l->shape < 0 || (size_t)l->shape >= s->nshapes ||
@@ -295,7 +306,7 @@ pm_scene_prepare(struct pm_scene *s, struct pm_error *err)
 				    (double)sh->radius;
 			else
 				l->area = pm_mesh_area(&sh->mesh);
-			mean = pm_rgb_mean(l->radiance);
+			mean = pm_rgb_mean(l->tex > 0 ? tmean : l->radiance);
 			/* One-sided Lambertian emitter: M = pi L. */
 			l->power = pi * l->area * mean;
 			break;
@@ -310,7 +321,16 @@ pm_scene_prepare(struct pm_scene *s, struct pm_error *err)
 			theta = 0.5 * ((double)l->cutoff_angle +
 			    (double)l->beam_width) * pi / 180.0;
 			l->power = 2.0 * pi * (1.0 - cos(theta)) *
-			    pm_rgb_mean(l->intensity);
+			    pm_rgb_mean(pm_rgb_mul(l->intensity, tmean));
+			break;
+		case PM_LIGHT_PROJECTOR:
+			/* Mitsuba's scale pi E on the image plane at z = 1,
+			 * whose area is (2 tan_fov)^2 / aspect: all of it
+			 * leaves the pinhole. */
+			l->area = 0.0;
+			l->power = pi * pm_rgb_mean(pm_rgb_mul(l->intensity,
+			    tmean)) * 4.0 * (double)l->tan_fov *
+			    (double)l->tan_fov / (double)l->aspect;
 			break;
 		case PM_LIGHT_CONSTANT:
 			if (s->env_light != (int)i)

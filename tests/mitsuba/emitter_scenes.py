@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
-"""emitter_scenes.py: write the scenes that check pm's envmap and
-directional emitters against Mitsuba 3.
+"""emitter_scenes.py: write the scenes that check pm's envmap,
+directional, textured and projector emitters against Mitsuba 3, and the
+textures they use (see textured() below).
 
     emitter_scenes.py DIR
 
@@ -52,6 +53,19 @@ def sky(w=64, h=32):
     # the sun: rows around 50 degrees from the zenith, columns 44..47
     y0 = int(round(50.0 / 180.0 * h))
     img[y0:y0 + 3, 44:48] = (120.0, 100.0, 70.0)
+    return img
+
+
+def pattern(w=8, h=6):
+    """An image whose orientation shows: red grows along u (columns),
+    green along v (rows, top first), and a blue block in the first row's
+    first two texels."""
+    img = np.zeros((h, w, 3), dtype=np.float32)
+    for y in range(h):
+        for x in range(w):
+            img[y, x] = (0.1 + 0.9 * x / (w - 1), 0.1 + 0.8 * y / (h - 1),
+                         0.1)
+    img[0, 0:2] = (0.05, 0.1, 1.0)
     return img
 
 
@@ -193,7 +207,169 @@ def main():
 		<rgb name="radiance" value="0.15, 0.2, 0.3"/>
 	</emitter>
 """ + OBJECTS)
+    textured(d, mi)
     return 0
+
+
+# Textured emitters and the textures pm reads besides checkerboard and
+# bitmap; pattern.* is pattern() in the formats these read.
+SPOT_TEX = """	<emitter type="spot">
+		<rgb name="intensity" value="60"/>
+		<float name="cutoff_angle" value="30"/>
+		<texture type="bitmap" name="texture">
+			<string name="filename" value="pattern.exr"/>
+			<string name="filter_type" value="nearest"/>
+		</texture>
+		<transform name="to_world">
+			<lookat origin="0.3, 5, 0.2" target="0, 0, 0" up="1, 0, 0"/>
+		</transform>
+	</emitter>
+"""
+
+PROJECTOR = """	<emitter type="projector">
+		<texture type="bitmap" name="irradiance">
+			<string name="filename" value="pattern.exr"/>
+		</texture>
+		<float name="scale" value="20"/>
+		<float name="fov" value="40"/>
+		<transform name="to_world">
+			<lookat origin="1, 6, 1.5" target="0, 0, 0" up="0, 0, -1"/>
+		</transform>
+	</emitter>
+"""
+
+AREA_TEX = """	<shape type="rectangle">
+		<transform name="to_world">
+			<scale x="1.2" y="0.8"/>
+			<rotate x="1" angle="20"/>
+			<translate y="2.2" z="-2.5"/>
+		</transform>
+		<emitter type="area">
+			<texture type="bitmap" name="radiance">
+				<string name="filename" value="bright.exr"/>
+			</texture>
+		</emitter>
+	</shape>
+	<shape type="sphere">
+		<point name="center" x="2.2" y="2.4" z="-1"/>
+		<float name="radius" value="0.35"/>
+		<emitter type="area">
+			<texture type="checkerboard" name="radiance">
+				<texture type="rawconstant" name="color0">
+					<vector name="value" x="6" y="5" z="2"/>
+				</texture>
+				<rgb name="color1" value="0.5, 0.8, 1"/>
+				<transform name="to_uv">
+					<scale x="4" y="2"/>
+				</transform>
+			</texture>
+		</emitter>
+	</shape>
+	<shape type="rectangle">
+		<transform name="to_world">
+			<scale value="6"/>
+			<rotate x="1" angle="-90"/>
+		</transform>
+		<bsdf type="diffuse">
+			<rgb name="reflectance" value="0.5, 0.5, 0.45"/>
+		</bsdf>
+	</shape>
+	<shape type="sphere">
+		<point name="center" x="-0.8" y="1.0" z="0"/>
+		<float name="radius" value="0.7"/>
+		<bsdf type="diffuse">
+			<rgb name="reflectance" value="0.7, 0.4, 0.3"/>
+		</bsdf>
+	</shape>
+	<shape type="sphere">
+		<point name="center" x="0.9" y="0.9" z="0.3"/>
+		<float name="radius" value="0.6"/>
+		<bsdf type="diffuse">
+			<rgb name="reflectance" value="0.3, 0.5, 0.7"/>
+		</bsdf>
+	</shape>
+</scene>
+"""
+
+TEX_MORE = """	<emitter type="constant">
+		<rgb name="radiance" value="1, 0.95, 0.9"/>
+	</emitter>
+	<shape type="disk">
+		<transform name="to_world">
+			<scale value="4"/>
+			<rotate x="1" angle="-90"/>
+		</transform>
+		<bsdf type="diffuse">
+			<texture type="checkerboard" name="reflectance">
+				<texture type="bitmap" name="color0">
+					<string name="filename" value="pattern.hdr"/>
+					<string name="filter_type" value="nearest"/>
+				</texture>
+				<texture type="rawconstant" name="color1">
+					<float name="value" value="0.15"/>
+				</texture>
+				<transform name="to_uv">
+					<scale x="3" y="5"/>
+				</transform>
+			</texture>
+		</bsdf>
+	</shape>
+	<shape type="sphere">
+		<point name="center" x="-0.8" y="1.0" z="0"/>
+		<float name="radius" value="0.7"/>
+		<bsdf type="diffuse">
+			<texture type="rawconstant" name="reflectance">
+				<vector name="value" x="0.7" y="0.4" z="0.3"/>
+			</texture>
+		</bsdf>
+	</shape>
+	<shape type="sphere">
+		<point name="center" x="0.9" y="0.9" z="0.3"/>
+		<float name="radius" value="0.6"/>
+		<bsdf type="dielectric">
+			<texture type="bitmap" name="specular_transmittance">
+				<string name="filename" value="pattern.png"/>
+			</texture>
+			<texture type="checkerboard" name="specular_reflectance">
+				<rgb name="color0" value="1"/>
+				<rgb name="color1" value="0.2"/>
+				<transform name="to_uv">
+					<scale x="6" y="3"/>
+				</transform>
+			</texture>
+		</bsdf>
+	</shape>
+</scene>
+"""
+
+
+def textured(d, mi):
+    """spot-tex.xml, projector.xml and projector-flat.xml over OBJECTS,
+    area-tex.xml (a bitmap on a rectangle light seen from the front, a
+    checkerboard on a small sphere light), and tex-more.xml: under a
+    constant sky, a checkerboard of an RGBE bitmap and a rawconstant, a
+    rawconstant <vector>, and glass whose transmittance and reflectance
+    are textures."""
+    pat = pattern()
+    mi.Bitmap(pat).write(os.path.join(d, "pattern.exr"))
+    mi.Bitmap(pat).write(os.path.join(d, "pattern.hdr"))
+    mi.Bitmap(pat).convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8,
+                           True).write(os.path.join(d, "pattern.png"))
+    mi.Bitmap(pat * 4.0).write(os.path.join(d, "bright.exr"))
+    with open(os.path.join(d, "spot-tex.xml"), "w") as f:
+        f.write(HEAD + SPOT_TEX + OBJECTS)
+    with open(os.path.join(d, "projector.xml"), "w") as f:
+        f.write(HEAD + PROJECTOR + OBJECTS)
+    with open(os.path.join(d, "projector-flat.xml"), "w") as f:
+        f.write(HEAD + PROJECTOR.replace("""		<texture type="bitmap" name="irradiance">
+			<string name="filename" value="pattern.exr"/>
+		</texture>
+""", """		<rgb name="irradiance" value="0.8, 0.6, 0.4"/>
+""") + OBJECTS)
+    with open(os.path.join(d, "area-tex.xml"), "w") as f:
+        f.write(head("0, 3, 7", "0, 1, -0.5", "0, 1, 0", 45) + AREA_TEX)
+    with open(os.path.join(d, "tex-more.xml"), "w") as f:
+        f.write(HEAD + TEX_MORE)
 
 
 if __name__ == "__main__":
