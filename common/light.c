@@ -197,7 +197,7 @@ pm_area_emitted_at(const struct pm_scene *s, const struct pm_light *l,
 	if (l->tex == 0)
 		return l->radiance;
 	pm_hit_uv(s, h, &u, &v);
-	return pm_texture_eval(&s->textures[l->tex - 1], u, v);
+	return pm_texture_eval_at(s, &s->textures[l->tex - 1], h, u, v);
 }
 
 bool

@@ -218,6 +218,53 @@ scene_bsphere(struct pm_scene *s)
 	    pm_v3(lo[0], lo[1], lo[2])));
 }
 
+/* The mesh attributes the textures of shape i look up (its BSDF's, its
+ * area light's): a set of enum pm_mesh_attr bits. */
+static unsigned
+shape_needs(const struct pm_scene *s, size_t i)
+{
+	const struct pm_shape *sh = &s->shapes[i];
+	const struct pm_bsdf *b = &s->bsdfs[sh->bsdf];
+	int tex[5] = {b->tex_diffuse, b->tex_specular, b->tex_alpha,
+	    b->tex_transmittance, sh->light >= 0 ? s->lights[sh->light].tex : 0};
+	unsigned n = 0;
+	int k;
+
+	for (k = 0; k < 5; k++)
+		if (tex[k] > 0)
+			n |= pm_texture_needs(&s->textures[tex[k] - 1]);
+	return n;
+}
+
+/* An error if a shape's textures look up a mesh attribute the shape
+ * lacks (Mitsuba fails there too); called once indices are checked. */
+static enum pm_err
+mesh_attributes_present(const struct pm_scene *s, struct pm_error *err)
+{
+	size_t i;
+
+	for (i = 0; i < s->nshapes; i++) {
+		const struct pm_shape *sh = &s->shapes[i];
+		unsigned n;
+
+		if (s->ntextures == 0 || (n = shape_needs(s, i)) == 0)
+			continue;
+		if (sh->type == PM_SHAPE_MESH) {
+			if (sh->mesh.vcolor != NULL)
+				n &= ~(unsigned)PM_ATTR_VERTEX_COLOR;
+			if (sh->mesh.fcolor != NULL)
+				n &= ~(unsigned)PM_ATTR_FACE_COLOR;
+		}
+		if (n != 0)
+			return pm_fail(err, PM_ERR_INVALID, "shape %s: a "
+			    "mesh_attribute texture looks up %s, which the "
+			    "shape lacks (a PLY file's r g b or red green blue "
+			    "properties)", sh->name, (n & PM_ATTR_VERTEX_COLOR) ?
+			    "vertex_color" : "face_color");
+	}
+	return PM_OK;
+}
+
 /* Prepares BSDFs, computes the bounding sphere, light areas and powers,
  * checks indices. */
 enum pm_err
@@ -369,5 +416,5 @@ pm_scene_prepare(struct pm_scene *s, struct pm_error *err)
 			    "light %zu: power %g is not a finite non-negative "
 			    "number", i, l->power);
 	}
-	return PM_OK;
+	return mesh_attributes_present(s, err);
 }

@@ -785,6 +785,8 @@ texture_hash(uint64_t h, const struct pm_texture *t)
 	for (i = 0; i < 6; i++)
 		h = fnv_f(h, t->to_uv[i]);
 	h = fnv_rgb(fnv_rgb(h, t->color0), t->color1);
+	if (t->type == PM_TEXTURE_MESH_ATTRIBUTE)
+		h = fnv_f(fnv_i(h, t->attr), t->scale);
 	for (i = 0; i < 2; i++)
 		if (t->sub[i] != NULL)
 			h = texture_hash(fnv_i(h, 10 + i), t->sub[i]);
@@ -868,6 +870,13 @@ pm_scene_hash(const struct pm_scene *s)
 			h = fnv(h, &sh->axes, sizeof(sh->axes));
 		else if (sh->mesh.uv != NULL)
 			h = fnv(h, sh->mesh.uv, sizeof(float) * 2 * sh->mesh.nverts);
+		/* and the mesh attributes of mesh_attribute textures */
+		if (sh->type == PM_SHAPE_MESH && sh->mesh.vcolor != NULL)
+			h = fnv(fnv_i(h, 6), sh->mesh.vcolor, sizeof(float) * 3 *
+			    sh->mesh.nverts);
+		if (sh->type == PM_SHAPE_MESH && sh->mesh.fcolor != NULL)
+			h = fnv(fnv_i(h, 7), sh->mesh.fcolor, sizeof(float) * 3 *
+			    sh->mesh.ntris);
 	}
 	h = fnv_i(h, (int64_t)s->nlights);
 	for (i = 0; i < s->nlights; i++) {

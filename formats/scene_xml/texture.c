@@ -1,8 +1,8 @@
 /*
- * texture.c: <texture> elements (checkerboard, bitmap, rawconstant),
- * nested in a plugin under a parameter's name or defined at the top level
- * and named by <ref name="..." id="..."/>, into the scene's texture table;
- * each is built once however often it is used.
+ * texture.c: <texture> elements (checkerboard, bitmap, rawconstant,
+ * mesh_attribute), nested in a plugin under a parameter's name or defined
+ * at the top level and named by <ref name="..." id="..."/>, into the
+ * scene's texture table; each is built once however often it is used.
  */
 #include "private.h"
 
@@ -86,6 +86,24 @@ build_texture(struct ld *ld, struct xnode *n, struct pm_texture *t)
 		    (e = checker_color(ld, &pl, "color1", 0.2f, &t->color1,
 		    &t->sub[1])) != PM_OK)
 			return e;
+	} else if (strcmp(type, "mesh_attribute") == 0) {
+		/* the colours a PLY file gives its vertices or faces */
+		static const char *const attrs[] = {"vertex_color",
+		    "face_color", NULL};
+		int which;
+		double scale;
+
+		pm_texture_init(t, PM_TEXTURE_MESH_ATTRIBUTE);
+		if (!sx_has(&pl, "name"))
+			return sx_missing(ld, &pl, "name", "a <string>, "
+			    "vertex_color or face_color");
+		if ((e = get_choice(ld, &pl, "name", attrs, &which)) != PM_OK ||
+		    (e = sx_get_float(ld, &pl, "scale", 1.0, 0.0, 3.4e38,
+		    &scale)) != PM_OK)
+			return e;
+		t->attr = which == 0 ? PM_ATTR_VERTEX_COLOR : PM_ATTR_FACE_COLOR;
+		t->scale = (float)scale;
+		t->color0 = pm_rgb1(0.5f * t->scale);
 	} else if (strcmp(type, "rawconstant") == 0) {
 		/* a float or a <vector> (Mitsuba's), or an <rgb>, taken as
 		 * it is */
@@ -125,8 +143,8 @@ build_texture(struct ld *ld, struct xnode *n, struct pm_texture *t)
 		t->wrap = wrap == 1 ? PM_WRAP_MIRROR : wrap == 2 ? PM_WRAP_CLAMP :
 		    PM_WRAP_REPEAT;
 	} else {
-		return sx_unknown_plugin(ld, n, type, "checkerboard, bitmap and "
-		    "rawconstant");
+		return sx_unknown_plugin(ld, n, type, "checkerboard, bitmap, "
+		    "rawconstant and mesh_attribute");
 	}
 	if ((e = sx_get_transform(ld, &pl, "to_uv", &M)) != PM_OK ||
 	    (e = sx_finish(ld, &pl)) != PM_OK ||

@@ -343,13 +343,100 @@ TEX_MORE = """	<emitter type="constant">
 """
 
 
+def ply_grid(path, n, half, vcol=None, fcol=None):
+    """An n x n grid of squares, two triangles each, over [-half,
+    half]^2 at z = 0 facing +z, as ASCII PLY; vcol(x, y) and fcol(i)
+    give float r g b for vertices and for triangles."""
+    verts = [(-half + 2 * half * i / n, -half + 2 * half * j / n)
+             for j in range(n + 1) for i in range(n + 1)]
+    tris = []
+    for j in range(n):
+        for i in range(n):
+            a = j * (n + 1) + i
+            tris.append((a, a + 1, a + n + 2))
+            tris.append((a, a + n + 2, a + n + 1))
+    with open(path, "w") as f:
+        f.write("ply\nformat ascii 1.0\nelement vertex %d\n" % len(verts))
+        f.write("property float x\nproperty float y\nproperty float z\n")
+        if vcol:
+            f.write("property float red\nproperty float green\n"
+                    "property float blue\n")
+        f.write("element face %d\n" % len(tris))
+        f.write("property list uchar int vertex_indices\n")
+        if fcol:
+            f.write("property float r\nproperty float g\n"
+                    "property float b\n")
+        f.write("end_header\n")
+        for x, y in verts:
+            f.write("%g %g 0" % (x, y))
+            if vcol:
+                f.write(" %g %g %g" % vcol(x, y))
+            f.write("\n")
+        for k, t in enumerate(tris):
+            f.write("3 %d %d %d" % t)
+            if fcol:
+                f.write(" %g %g %g" % fcol(k))
+            f.write("\n")
+
+
+# mesh_attribute: vertex colours on the ground, face colours on a
+# panel, and (LAMP_ATTR) vertex colours as a light's radiance.
+ATTRS = """	<shape type="ply">
+		<string name="filename" value="ground.ply"/>
+		<transform name="to_world">
+			<rotate x="1" angle="-90"/>
+		</transform>
+		<bsdf type="diffuse">
+			<texture type="mesh_attribute" name="reflectance">
+				<string name="name" value="vertex_color"/>
+			</texture>
+		</bsdf>
+	</shape>
+	<shape type="ply">
+		<string name="filename" value="panel.ply"/>
+		<transform name="to_world">
+			<rotate x="1" angle="-90"/>
+			<translate x="-0.8" y="0.8" z="0.2"/>
+		</transform>
+		<bsdf type="diffuse">
+			<texture type="mesh_attribute" name="reflectance">
+				<string name="name" value="face_color"/>
+				<float name="scale" value="0.9"/>
+			</texture>
+		</bsdf>
+	</shape>
+	<shape type="ply">
+		<string name="filename" value="lamp.ply"/>
+		<transform name="to_world">
+			<rotate x="1" angle="90"/>
+			<translate x="1" y="3" z="0.5"/>
+		</transform>
+		<emitter type="area">
+			LAMP
+		</emitter>
+	</shape>
+</scene>
+"""
+
+SKY = """	<emitter type="constant">
+		<rgb name="radiance" value="0.3, 0.3, 0.35"/>
+	</emitter>
+"""
+
+LAMP_ATTR = """<texture type="mesh_attribute" name="radiance">
+				<string name="name" value="vertex_color"/>
+				<float name="scale" value="4"/>
+			</texture>"""
+
+
 def textured(d, mi):
     """spot-tex.xml, projector.xml and projector-flat.xml over OBJECTS,
     area-tex.xml (a bitmap on a rectangle light seen from the front, a
-    checkerboard on a small sphere light), and tex-more.xml: under a
+    checkerboard on a small sphere light), tex-more.xml: under a
     constant sky, a checkerboard of an RGBE bitmap and a rawconstant, a
     rawconstant <vector>, and glass whose transmittance and reflectance
-    are textures."""
+    are textures; and mesh-attr.xml, PLY meshes written here with vertex
+    and face colours for mesh_attribute textures."""
     pat = pattern()
     mi.Bitmap(pat).write(os.path.join(d, "pattern.exr"))
     mi.Bitmap(pat).write(os.path.join(d, "pattern.hdr"))
@@ -370,6 +457,34 @@ def textured(d, mi):
         f.write(head("0, 3, 7", "0, 1, -0.5", "0, 1, 0", 45) + AREA_TEX)
     with open(os.path.join(d, "tex-more.xml"), "w") as f:
         f.write(HEAD + TEX_MORE)
+    ply_grid(os.path.join(d, "ground.ply"), 8, 3.0,
+             vcol=lambda x, y: (0.5 + 0.12 * x, 0.45 - 0.1 * y,
+                                0.3 + 0.05 * x * y))
+    ply_grid(os.path.join(d, "panel.ply"), 3, 0.9,
+             fcol=lambda k: ((k % 3) / 2.0, (k % 5) / 4.0, (k % 2) * 0.9))
+    ply_grid(os.path.join(d, "lamp.ply"), 2, 0.6,
+             vcol=lambda x, y: (1.0 + x, 1.0, 1.0 - y))
+    with open(os.path.join(d, "mesh-attr.xml"), "w") as f:
+        f.write(HEAD + SKY + ATTRS.replace(
+            "LAMP", '<rgb name="radiance" value="4"/>'))
+    # Mitsuba 3.9.1's light samples of a mesh_attribute emitter disagree
+    # with its own BSDF samples (its direct integrator, light samples
+    # only: 0.122 in the mean; BSDF samples only: 0.160, as pm's), so
+    # the light with its colours is checked against Mitsuba's BSDF
+    # samples alone, direct light only (pm: the path tracer to depth 2).
+    with open(os.path.join(d, "mesh-attr-lamp.xml"), "w") as f:
+        f.write(HEAD.replace('<integrator type="path"/>',
+                             '<integrator type="path">'
+                             '<integer name="max_depth" value="2"/>'
+                             '</integrator>') +
+                ATTRS.replace("LAMP", LAMP_ATTR))
+    with open(os.path.join(d, "mesh-attr-lamp-ref.xml"), "w") as f:
+        f.write(HEAD.replace('<integrator type="path"/>',
+                             '<integrator type="direct">'
+                             '<integer name="emitter_samples" value="0"/>'
+                             '<integer name="bsdf_samples" value="1"/>'
+                             '</integrator>') +
+                ATTRS.replace("LAMP", LAMP_ATTR))
 
 
 if __name__ == "__main__":

@@ -15,7 +15,8 @@
  * density equal what a ray along it finds (pm_lights_emitted,
  * pm_lights_pdf_area); a checkerboard on a sphere light inside a closed
  * sphere: the photons' flux sums to pi area mean(L).  The spot's texture
- * follows Mitsuba's uv, in to_world's frame.
+ * follows Mitsuba's uv, in to_world's frame.  mesh_attribute reads a
+ * PLY file's vertex and face colours back at hits.
  */
 #include <math.h>
 #include <setjmp.h>
@@ -541,6 +542,91 @@ test_spot_texture(void **state)
 	pm_scene_free(&s);
 }
 
+/*
+ * mesh_attribute: a PLY file's vertex colours (red green blue) and face
+ * colours (r g b, on a quad's two triangles and after a degenerate
+ * triangle that is dropped) read back, looked up at hits; a shape
+ * without the attribute is refused.
+ */
+static void
+test_mesh_attribute(void **state)
+{
+	static const char ply[] = "ply\nformat ascii 1.0\n"
+	    "element vertex 5\nproperty float x\nproperty float y\n"
+	    "property float z\nproperty float red\nproperty float green\n"
+	    "property float blue\nelement face 2\n"
+	    "property uchar r\nproperty list uchar int vertex_indices\n"
+	    "property uchar g\nproperty uchar b\nend_header\n"
+	    "0 0 0 1 0 0\n1 0 0 0 1 0\n1 1 0 0 0 1\n0 1 0 0.5 0.5 0.5\n"
+	    "2 0 0 9 9 9\n"
+	    "7 3 0 1 4 8 9\n"		/* degenerate: 0 1 4 in a line */
+	    "10 4 0 1 2 3 20 30\n";	/* a quad: two triangles */
+	struct pm_scene s;
+	struct pm_error err;
+	struct pm_bsdf tmp;
+	const struct pm_bsdf *b;
+	const struct pm_mesh *m;
+	struct pm_hit h;
+	char path[128], xml[1024];
+	FILE *f;
+
+	(void)state;
+	snprintf(path, sizeof(path), "%s/attr.ply", tmpdir);
+	assert_non_null(f = fopen(path, "w"));
+	fputs(ply, f);
+	assert_int_equal(fclose(f), 0);
+	load("<shape type=\"ply\"><string name=\"filename\" "
+	    "value=\"attr.ply\"/><bsdf type=\"diffuse\">"
+	    "<texture type=\"mesh_attribute\" name=\"reflectance\">"
+	    "<string name=\"name\" value=\"vertex_color\"/>"
+	    "<float name=\"scale\" value=\"0.5\"/></texture></bsdf>"
+	    "</shape>\n"
+	    "<shape type=\"ply\"><string name=\"filename\" "
+	    "value=\"attr.ply\"/><bsdf type=\"diffuse\">"
+	    "<texture type=\"checkerboard\" name=\"reflectance\">"
+	    "<texture type=\"mesh_attribute\" name=\"color0\">"
+	    "<string name=\"name\" value=\"face_color\"/></texture>"
+	    "<texture type=\"mesh_attribute\" name=\"color1\">"
+	    "<string name=\"name\" value=\"face_color\"/></texture>"
+	    "</texture></bsdf></shape>\n", &s);
+	m = &s.shapes[0].mesh;
+	assert_int_equal(m->ntris, 2);
+	assert_non_null(m->vcolor);
+	assert_non_null(m->fcolor);
+	/* 8-bit colours as the file gives them, as Mitsuba 3 keeps them */
+	assert_near(m->fcolor[0], 10, 0);
+	assert_near(m->fcolor[1], 20, 0);
+	assert_near(m->fcolor[5], 30, 0);
+	memset(&h, 0, sizeof(h));
+	h.shape = 0;
+	h.prim = 0;		/* vertices 0 1 2 */
+	h.u = 0.25f;
+	h.v = 0.5f;
+	b = pm_bsdf_at(&s, &h, &tmp);
+	assert_rgb_near(b->diffuse, 0.5 * 0.25, 0.5 * 0.25, 0.5 * 0.5, 1e-6);
+	h.prim = 1;		/* vertices 0 2 3 */
+	h.u = 0.0f;
+	h.v = 1.0f;
+	b = pm_bsdf_at(&s, &h, &tmp);
+	assert_rgb_near(b->diffuse, 0.25, 0.25, 0.25, 1e-6);
+	/* face colours, through a checkerboard */
+	h.shape = 1;
+	b = pm_bsdf_at(&s, &h, &tmp);
+	assert_rgb_near(b->diffuse, 10, 20, 30, 0);
+	pm_scene_free(&s);
+
+	/* a rectangle has no vertex colours */
+	snprintf(xml, sizeof(xml), "<scene version=\"3.0.0\"><shape "
+	    "type=\"rectangle\"><bsdf type=\"diffuse\"><texture "
+	    "type=\"mesh_attribute\" name=\"reflectance\"><string "
+	    "name=\"name\" value=\"vertex_color\"/></texture></bsdf>"
+	    "</shape></scene>");
+	memset(&err, 0, sizeof(err));
+	assert_int_not_equal(pm_scene_load_string(xml, strlen(xml), "t.xml",
+	    tmpdir, NULL, 0, &s, &err), PM_OK);
+	assert_non_null(strstr(err.msg, "vertex_color"));
+}
+
 int
 main(void)
 {
@@ -550,6 +636,7 @@ main(void)
 		cmocka_unit_test(test_area_bitmap),
 		cmocka_unit_test(test_area_photons),
 		cmocka_unit_test(test_spot_texture),
+		cmocka_unit_test(test_mesh_attribute),
 	};
 
 	return cmocka_run_group_tests(tests, setup, teardown);
