@@ -146,8 +146,14 @@ build_texture(struct ld *ld, struct xnode *n, struct pm_texture *t)
 		return sx_unknown_plugin(ld, n, type, "checkerboard, bitmap, "
 		    "rawconstant and mesh_attribute");
 	}
-	if ((e = sx_get_transform(ld, &pl, "to_uv", &M)) != PM_OK ||
-	    (e = sx_finish(ld, &pl)) != PM_OK ||
+	/* to_uv: the checkerboard's and the bitmap's only, as in Mitsuba
+	 * (elsewhere sx_finish reports it unused) */
+	M = pm_mat4_identity();
+	if ((t->type == PM_TEXTURE_CHECKERBOARD ||
+	    t->type == PM_TEXTURE_BITMAP) &&
+	    (e = sx_get_transform(ld, &pl, "to_uv", &M)) != PM_OK)
+		return e;
+	if ((e = sx_finish(ld, &pl)) != PM_OK ||
 	    (e = sx_no_objects(ld, &pl)) != PM_OK)
 		return e;
 	to_uv_of(&M, t->to_uv);
