@@ -4,6 +4,7 @@
  */
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "light.h"
 #include "texture.h"
@@ -34,6 +35,50 @@ env_nee_share(const struct pm_scene *s)
 	return fmin(1.0, 0.5 * area / disk);
 }
 
+/* A projector's bitmap when its photons can be drawn by texel (no
+ * to_uv, so that texels are the image plane's cells), else NULL. */
+static const struct pm_texture *
+projector_image(const struct pm_scene *s, const struct pm_light *l)
+{
+	const struct pm_texture *t;
+	static const float id[6] = {1, 0, 0, 0, 1, 0};
+
+	if (l->type != PM_LIGHT_PROJECTOR || l->tex <= 0)
+		return NULL;
+	t = &s->textures[l->tex - 1];
+	if (t->type != PM_TEXTURE_BITMAP || t->rgb == NULL ||
+	    (size_t)t->width * (size_t)t->height < 2 ||
+	    memcmp(t->to_uv, id, sizeof(id)) != 0)
+		return NULL;
+	return t;
+}
+
+/*
+ * Over a projector image's texels, half by their mean and half uniform:
+ * photons go where the image is bright, and the uniform half keeps the
+ * density positive wherever bilinear filtering spreads light into a
+ * black texel's cell.
+ */
+static enum pm_err
+texel_distrib(struct pm_distrib *d, const struct pm_texture *t, double *w,
+    struct pm_error *err)
+{
+	size_t j, n = (size_t)t->width * (size_t)t->height;
+	double total = 0.0;
+
+	for (j = 0; j < n; j++) {
+		w[j] = fmax(0.0, ((double)t->rgb[3 * j] + t->rgb[3 * j + 1] +
+		    t->rgb[3 * j + 2]) / 3.0);
+		if (!isfinite(w[j]))
+			w[j] = 0.0;
+		total += w[j];
+	}
+	for (j = 0; j < n; j++)
+		w[j] = (total > 0.0 ? 0.5 * w[j] / total : 0.0) +
+		    (total > 0.0 ? 0.5 : 1.0) / (double)n;
+	return pm_distrib_init(d, w, n, err);
+}
+
 enum pm_err
 pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
     struct pm_error *err)
@@ -53,6 +98,12 @@ pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
 	for (i = 0; i < s->nshapes; i++)
 		if (s->shapes[i].light >= 0 && s->shapes[i].mesh.ntris > maxw)
 			maxw = s->shapes[i].mesh.ntris;
+	for (i = 0; i < s->nlights; i++) {
+		const struct pm_texture *img = projector_image(s, &s->lights[i]);
+
+		if (img != NULL && (size_t)img->width * (size_t)img->height > maxw)
+			maxw = (size_t)img->width * (size_t)img->height;
+	}
 	w = calloc(maxw, sizeof(*w));
 	ls->tris = calloc(s->nlights, sizeof(*ls->tris));
 	if (w == NULL || ls->tris == NULL) {
@@ -86,8 +137,15 @@ pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
 		goto out;
 	for (i = 0; i < s->nlights; i++) {
 		const struct pm_light *l = &s->lights[i];
+		const struct pm_texture *img = projector_image(s, l);
 		const struct pm_mesh *m;
 
+		if (img != NULL) {
+			rc = texel_distrib(&ls->tris[i], img, w, err);
+			if (rc != PM_OK)
+				goto out;
+			continue;
+		}
 		if (l->type != PM_LIGHT_AREA ||
 		    s->shapes[l->shape].type != PM_SHAPE_MESH)
 			continue;

@@ -34,7 +34,10 @@ struct pm_lights {
 					 * as the geometry catches it), half
 					 * uniform: light samples from a
 					 * point */
-	struct pm_distrib *tris;	/* per light: over a mesh's triangles */
+	struct pm_distrib *tris;	/* per light: over a mesh's triangles,
+					 * or a projector image's texels
+					 * (photons; empty when not drawn
+					 * by texel) */
 	size_t n;
 };
 

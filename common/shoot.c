@@ -364,21 +364,35 @@ aim_disk_sample(const struct pm_shooter *sh, struct pm_vec3 n,
 }
 
 /*
- * A direction through a projector's image, uniform over the image plane
- * at z = 1 (the perspective camera's mapping, whose area is
- * (2 tan_fov)^2 / aspect), and its solid-angle density there:
- * 1 / (area cos^3).  Photons of a mostly dark image are then weighted
- * down rather than left out.
+ * A direction through a projector's image and its solid-angle density.
+ * A point (u, v) of the image plane at z = 1 (the perspective camera's
+ * mapping, of area (2 tan_fov)^2 / aspect) is drawn with density p(u, v)
+ * over [0, 1]^2: by texel where the light tables have the image's
+ * (light.c: half by brightness, half uniform), else uniformly; the
+ * direction's density is p / (area cos^3).
  */
 static struct pm_vec3
-projector_direction(const struct pm_light *l, float u, float v, float *pdf)
+projector_direction(const struct pm_shooter *sh, size_t li, float u,
+    float v, float *pdf)
 {
-	struct pm_vec3 d = pm_v3((1.0f - 2.0f * u) * l->tan_fov,
-	    (1.0f - 2.0f * v) * l->tan_fov / l->aspect, 1.0f);
-	float c = 1.0f / pm_length(d);
-	float area = 4.0f * l->tan_fov * l->tan_fov / l->aspect;
+	const struct pm_light *l = &sh->scene->lights[li];
+	const struct pm_distrib *tx = &sh->lights->tris[li];
+	float puv = 1.0f, c, area;
+	struct pm_vec3 d;
 
-	*pdf = 1.0f / (area * c * c * c);
+	if (tx->n > 0) {
+		const struct pm_texture *t = &sh->scene->textures[l->tex - 1];
+		size_t j = pm_distrib_sample(tx, u, &u);
+
+		puv = (float)(pm_distrib_prob(tx, j) * (double)tx->n);
+		u = ((float)(j % (size_t)t->width) + u) / (float)t->width;
+		v = ((float)(j / (size_t)t->width) + v) / (float)t->height;
+	}
+	d = pm_v3((1.0f - 2.0f * u) * l->tan_fov,
+	    (1.0f - 2.0f * v) * l->tan_fov / l->aspect, 1.0f);
+	c = 1.0f / pm_length(d);
+	area = 4.0f * l->tan_fov * l->tan_fov / l->aspect;
+	*pdf = puv / (area * c * c * c);
 	/* frame: to_world's axes, a rotation (scene_xml checks) */
 	return pm_to_world(l->frame, pm_scale(d, c));
 }
@@ -433,7 +447,7 @@ emit(const struct pm_shooter *sh, enum pm_map_pass pass, struct pm_rng *rng,
 			w = aim_sample(sh, p, u3, u4, u5);
 			pdf_dir = aim_pdf(sh, p, w);
 		} else if (l->type == PM_LIGHT_PROJECTOR) {
-			w = projector_direction(l, u3, u4, &pdf_dir);
+			w = projector_direction(sh, li, u3, u4, &pdf_dir);
 		} else if (l->type == PM_LIGHT_SPOT) {
 			float c = cosf(l->cutoff_angle * (PM_PI / 180.0f));
 

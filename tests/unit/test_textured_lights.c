@@ -9,7 +9,8 @@
  * centre (Mitsuba's definition), the irradiance over a plane at z = 2
  * integrates (Monte Carlo, stated standard error) to the power
  * pm_scene_prepare gives it, pi scale mean(E) (2 tan(fov / 2))^2 /
- * aspect, and the photons it emits onto that plane carry that power.  A
+ * aspect, and the photons it emits onto that plane carry that power, as
+ * they do from an image black but for one texel (photons drawn by texel).  A
  * bitmap on a rectangle light: the irradiance its light samples estimate
  * at a point equals a quadrature over the light, each sample's value and
  * density equal what a ray along it finds (pm_lights_emitted,
@@ -78,6 +79,18 @@ setup(void **state)
 	snprintf(path, sizeof(path), "%s/img.exr", tmpdir);
 	if (pm_exr_write(path, &im, false, &err) != PM_OK)
 		return -1;
+	{
+		/* 8 x 4, black but for one texel */
+		static float sparse[4][8][3];
+		struct pm_image sp = {8, 4, (float *)sparse};
+
+		sparse[1][5][0] = 4.0f;
+		sparse[1][5][1] = 2.0f;
+		sparse[1][5][2] = 1.0f;
+		snprintf(path, sizeof(path), "%s/sparse.exr", tmpdir);
+		if (pm_exr_write(path, &sp, false, &err) != PM_OK)
+			return -1;
+	}
 	snprintf(path, sizeof(path), "%s/img.hdr", tmpdir);
 	if ((f = fopen(path, "wb")) == NULL)
 		return -1;
@@ -348,6 +361,61 @@ test_projector(void **state)
 	    "error %.5f in G)\n", sum[0] / nph, sum[1] / nph, sum[2] / nph, se);
 	for (c = 0; c < 3; c++)
 		assert_near(sum[c] / nph, want[c], 4.0 * se * want[c] / want[1] +
+		    0.01 * want[c]);
+	pm_photon_buf_free(&buf);
+	pm_world_free(&w);
+	pm_scene_free(&s);
+}
+
+/*
+ * A projector image black but for one texel, filtered bilinearly (light
+ * spreads into the black texels' cells, where photons drawn by texel
+ * must still reach): the photons' flux still sums to the power, pi
+ * scale mean(E) area (bilinear lookups with repeat keep the mean).
+ */
+static void
+test_projector_sparse(void **state)
+{
+	struct pm_scene s;
+	struct pm_world w;
+	struct pm_photon_buf buf = {NULL, 0, 0};
+	double tan_x = tan(30.0 * M_PI / 180.0), area = 4 * tan_x * tan_x / 2;
+	double want[3], sum[3] = {0, 0, 0}, sq = 0, se;
+	const uint64_t n = 50000;
+	size_t k;
+	int c;
+
+	(void)state;
+	load("<emitter type=\"projector\">"
+	    "<texture type=\"bitmap\" name=\"irradiance\">"
+	    "<string name=\"filename\" value=\"sparse.exr\"/></texture>"
+	    "<float name=\"fov\" value=\"60\"/>"
+	    "<transform name=\"to_world\"><lookat origin=\"0, 0, 0\" "
+	    "target=\"0, 0, -1\" up=\"1, 0, 0\"/></transform></emitter>\n"
+	    "<shape type=\"rectangle\"><transform name=\"to_world\">"
+	    "<scale value=\"4\"/><translate z=\"-2\"/></transform>"
+	    "<bsdf type=\"diffuse\"/></shape>\n", &s);
+	want[0] = M_PI * 4.0 / 32.0 * area;
+	want[1] = M_PI * 2.0 / 32.0 * area;
+	want[2] = M_PI * 1.0 / 32.0 * area;
+	photons(&s, n, &buf, &w);
+	for (k = 0; k < buf.n; k++) {
+		struct pm_rgb f = pm_rgbe_unpack(buf.p[k].power);
+
+		if (buf.p[k].depth != 0)
+			continue;
+		sum[0] += f.r;
+		sum[1] += f.g;
+		sum[2] += f.b;
+		sq += (double)f.r * f.r;
+	}
+	se = sqrt((sq / n - (sum[0] / n) * (sum[0] / n)) / n);
+	print_message("sparse projector: photons carry %.5f %.5f %.5f (want "
+	    "%.5f %.5f %.5f; standard error %.5f in R, %.1f%%)\n", sum[0] / n,
+	    sum[1] / n, sum[2] / n, want[0], want[1], want[2], se,
+	    100.0 * se / want[0]);
+	for (c = 0; c < 3; c++)
+		assert_near(sum[c] / n, want[c], 4.0 * se * want[c] / want[0] +
 		    0.01 * want[c]);
 	pm_photon_buf_free(&buf);
 	pm_world_free(&w);
@@ -633,6 +701,7 @@ main(void)
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_textures),
 		cmocka_unit_test(test_projector),
+		cmocka_unit_test(test_projector_sparse),
 		cmocka_unit_test(test_area_bitmap),
 		cmocka_unit_test(test_area_photons),
 		cmocka_unit_test(test_spot_texture),
