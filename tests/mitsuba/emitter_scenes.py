@@ -484,7 +484,8 @@ def textured(d, mi):
     # with its own BSDF samples (its direct integrator, light samples
     # only: 0.122 in the mean; BSDF samples only: 0.160, as pm's), so
     # the light with its colours is checked against Mitsuba's BSDF
-    # samples alone, direct light only (pm: the path tracer to depth 2).
+    # samples alone (8 per pixel sample, their noise being high), direct
+    # light only (pm: the path tracer to depth 2).
     with open(os.path.join(d, "mesh-attr-lamp.xml"), "w") as f:
         f.write(HEAD.replace('<integrator type="path"/>',
                              '<integrator type="path">'
@@ -495,7 +496,7 @@ def textured(d, mi):
         f.write(HEAD.replace('<integrator type="path"/>',
                              '<integrator type="direct">'
                              '<integer name="emitter_samples" value="0"/>'
-                             '<integer name="bsdf_samples" value="1"/>'
+                             '<integer name="bsdf_samples" value="8"/>'
                              '</integrator>') +
                 ATTRS.replace("LAMP", LAMP_ATTR))
 
