@@ -107,6 +107,7 @@ struct pm_bsdf {
 	 * tex_specular specular, tex_alpha alpha; until then those hold the
 	 * textures' means. */
 	int tex_diffuse, tex_specular, tex_alpha;
+	int tex_transmittance;	/* dielectrics: replaces transmittance */
 };
 
 struct pm_bsdf_sample {

@@ -52,6 +52,8 @@ enum pm_light_type {
 	PM_LIGHT_CONSTANT,
 	PM_LIGHT_ENVMAP,	/* Mitsuba's envmap: an image around the scene */
 	PM_LIGHT_DIRECTIONAL,	/* parallel light from one direction */
+	PM_LIGHT_PROJECTOR,	/* Mitsuba's projector: a pinhole casting
+				 * an irradiance texture */
 };
 
 struct pm_light {
@@ -68,6 +70,16 @@ struct pm_light {
 					 * travels; intensity holds its
 					 * irradiance (W/m^2 on a surface
 					 * facing it) */
+	/* Textured emitters: 1 + an index into scene.textures, 0 for none.
+	 * area: the radiance (at the shape's uv); spot: Mitsuba's texture,
+	 * times intensity; projector: the irradiance on the image plane at
+	 * z = 1 (required), times intensity.r, Mitsuba's scale. */
+	int tex;
+	/* spot, projector: world to the light's own frame (+z the axis,
+	 * the texture's u along -x for the projector, +x for the spot) */
+	struct pm_mat4 to_local;
+	float tan_fov;			/* projector: tan(x_fov / 2) */
+	float aspect;			/* projector: texture width / height */
 	/* Filled by pm_scene_prepare: */
 	double power;			/* luminous-ish power (mean of RGB), watts */
 	double area;			/* area: surface area of the shape */

@@ -280,14 +280,19 @@ aim_sample(const struct pm_shooter *sh, struct pm_vec3 x, float u0, float u1,
 	    pm_square_to_uniform_cone(u1, u2, c));
 }
 
-/* Point on an area light's shape, its geometric and shading normals. */
+/* Point on an area light's shape, its geometric and shading normals;
+ * *lh says where it lies for a textured radiance's uv. */
 static void
 sample_shape_point(const struct pm_shooter *sh, int li, float u1, float u2,
-    struct pm_vec3 *p, struct pm_vec3 *ng, struct pm_vec3 *ns)
+    struct pm_vec3 *p, struct pm_vec3 *ng, struct pm_vec3 *ns,
+    struct pm_hit *lh)
 {
 	const struct pm_scene *s = sh->scene;
 	const struct pm_shape *shp = &s->shapes[s->lights[li].shape];
 
+	lh->shape = s->lights[li].shape;
+	lh->prim = 0;
+	lh->u = lh->v = 0.0f;
 	if (shp->type == PM_SHAPE_SPHERE) {
 		struct pm_vec3 u = pm_square_to_uniform_sphere(u1, u2);
 
@@ -303,6 +308,9 @@ sample_shape_point(const struct pm_shooter *sh, int li, float u1, float u2,
 		float b1, b2;
 
 		pm_square_to_triangle(u1, u2, &b1, &b2);
+		lh->prim = (uint32_t)t;
+		lh->u = b1;
+		lh->v = b2;
 		*p = pm_add(pm_add(pm_scale(p0, 1.0f - b1 - b2), pm_scale(p1, b1)),
 		    pm_scale(p2, b2));
 		*ng = pm_normalize(pm_cross(pm_sub(p1, p0), pm_sub(p2, p0)));
@@ -358,6 +366,40 @@ aim_disk_sample(const struct pm_shooter *sh, struct pm_vec3 n,
 }
 
 /*
+ * A direction through a projector's image and its solid-angle density.
+ * A point (u, v) of the image plane at z = 1 (the perspective camera's
+ * mapping, of area (2 tan_fov)^2 / aspect) is drawn with density p(u, v)
+ * over [0, 1]^2: by texel where the light tables have the image's
+ * (light.c: half by brightness, half uniform), else uniformly; the
+ * direction's density is p / (area cos^3).
+ */
+static struct pm_vec3
+projector_direction(const struct pm_shooter *sh, size_t li, float u,
+    float v, float *pdf)
+{
+	const struct pm_light *l = &sh->scene->lights[li];
+	const struct pm_distrib *tx = &sh->lights->tris[li];
+	float puv = 1.0f, c, area;
+	struct pm_vec3 d;
+
+	if (tx->n > 0) {
+		const struct pm_texture *t = &sh->scene->textures[l->tex - 1];
+		size_t j = pm_distrib_sample(tx, u, &u);
+
+		puv = (float)(pm_distrib_prob(tx, j) * (double)tx->n);
+		u = ((float)(j % (size_t)t->width) + u) / (float)t->width;
+		v = ((float)(j / (size_t)t->width) + v) / (float)t->height;
+	}
+	d = pm_v3((1.0f - 2.0f * u) * l->tan_fov,
+	    (1.0f - 2.0f * v) * l->tan_fov / l->aspect, 1.0f);
+	c = 1.0f / pm_length(d);
+	area = 4.0f * l->tan_fov * l->tan_fov / l->aspect;
+	*pdf = puv / (area * c * c * c);
+	/* frame: to_world's axes, a rotation (scene_xml checks) */
+	return pm_to_world(l->frame, pm_scale(d, c));
+}
+
+/*
  * Emits photon path `index`: origin, direction and flux.  False if the
  * sampled photon carries nothing (it still counts as emitted).
  */
@@ -374,11 +416,14 @@ emit(const struct pm_shooter *sh, enum pm_map_pass pass, struct pm_rng *rng,
 	float psel = (float)pm_distrib_prob(&ls->pick, li);
 	bool aim = pass == PM_PASS_CAUSTIC && sh->naim > 0;
 	struct pm_vec3 p, ng, ns, w;
+	struct pm_hit lh;
 	float pdf_dir;
 
 	switch (l->type) {
 	case PM_LIGHT_AREA:
-		sample_shape_point(sh, (int)li, u1, u2, &p, &ng, &ns);
+		sample_shape_point(sh, (int)li, u1, u2, &p, &ng, &ns, &lh);
+		lh.p = p;
+		lh.ns = ns;
 		if (aim) {
 			w = aim_sample(sh, p, u3, u4, u5);
 			pdf_dir = aim_pdf(sh, p, w);
@@ -389,17 +434,22 @@ emit(const struct pm_shooter *sh, enum pm_map_pass pass, struct pm_rng *rng,
 		}
 		if (pm_dot(w, ng) <= 0.0f || pm_dot(w, ns) <= 0.0f || pdf_dir <= 0.0f)
 			return false;
-		/* Le cos / (p(light) p(point) p(direction)), p(point) = 1/area */
-		*flux = pm_rgb_scale(l->radiance, pm_dot(w, ng) * (float)l->area /
-		    (psel * pdf_dir));
+		/* Le cos / (p(light) p(point) p(direction)), p(point) = 1/area;
+		 * a textured radiance by its value at the point: points
+		 * are chosen by area, as in Mitsuba, and weighted */
+		*flux = pm_rgb_scale(pm_area_emitted_at(s, l, &lh, w),
+		    pm_dot(w, ng) * (float)l->area / (psel * pdf_dir));
 		*o = pm_offset_origin(p, ng, w);
 		break;
 	case PM_LIGHT_POINT:
 	case PM_LIGHT_SPOT:
+	case PM_LIGHT_PROJECTOR:
 		p = l->position;
 		if (aim) {
 			w = aim_sample(sh, p, u3, u4, u5);
 			pdf_dir = aim_pdf(sh, p, w);
+		} else if (l->type == PM_LIGHT_PROJECTOR) {
+			w = projector_direction(sh, li, u3, u4, &pdf_dir);
 		} else if (l->type == PM_LIGHT_SPOT) {
 			float c = cosf(l->cutoff_angle * (PM_PI / 180.0f));
 
@@ -411,9 +461,8 @@ emit(const struct pm_shooter *sh, enum pm_map_pass pass, struct pm_rng *rng,
 		}
 		if (pdf_dir <= 0.0f)
 			return false;
-		*flux = pm_rgb_scale(l->intensity, 1.0f / (psel * pdf_dir));
-		if (l->type == PM_LIGHT_SPOT)
-			*flux = pm_rgb_scale(*flux, pm_spot_falloff(l, w));
+		*flux = pm_rgb_scale(pm_light_intensity(s, l, w),
+		    1.0f / (psel * pdf_dir));
 		*o = p;
 		break;
 	case PM_LIGHT_CONSTANT:
@@ -766,6 +815,11 @@ texture_hash(uint64_t h, const struct pm_texture *t)
 	for (i = 0; i < 6; i++)
 		h = fnv_f(h, t->to_uv[i]);
 	h = fnv_rgb(fnv_rgb(h, t->color0), t->color1);
+	if (t->type == PM_TEXTURE_MESH_ATTRIBUTE)
+		h = fnv_f(fnv_i(h, t->attr), t->scale);
+	for (i = 0; i < 2; i++)
+		if (t->sub[i] != NULL)
+			h = texture_hash(fnv_i(h, 10 + i), t->sub[i]);
 	h = fnv_i(fnv_i(h, t->width), t->height);
 	if (t->rgb != NULL)
 		h = fnv(h, t->rgb, sizeof(float) * 3 * (size_t)t->width *
@@ -834,6 +888,9 @@ pm_scene_hash(const struct pm_scene *s)
 			h = texture_hash(fnv_i(h, 2), &s->textures[b->tex_specular - 1]);
 		if (b->tex_alpha > 0)
 			h = texture_hash(fnv_i(h, 3), &s->textures[b->tex_alpha - 1]);
+		if (b->tex_transmittance > 0)
+			h = texture_hash(fnv_i(h, 5),
+			    &s->textures[b->tex_transmittance - 1]);
 		/* the principled BSDFs' parameters, only for them */
 		if (b->type == PM_BSDF_PRINCIPLED ||
 		    b->type == PM_BSDF_PRINCIPLEDTHIN) {
@@ -857,6 +914,13 @@ pm_scene_hash(const struct pm_scene *s)
 			h = fnv(h, &sh->axes, sizeof(sh->axes));
 		else if (sh->mesh.uv != NULL)
 			h = fnv(h, sh->mesh.uv, sizeof(float) * 2 * sh->mesh.nverts);
+		/* and the mesh attributes of mesh_attribute textures */
+		if (sh->type == PM_SHAPE_MESH && sh->mesh.vcolor != NULL)
+			h = fnv(fnv_i(h, 6), sh->mesh.vcolor, sizeof(float) * 3 *
+			    sh->mesh.nverts);
+		if (sh->type == PM_SHAPE_MESH && sh->mesh.fcolor != NULL)
+			h = fnv(fnv_i(h, 7), sh->mesh.fcolor, sizeof(float) * 3 *
+			    sh->mesh.ntris);
 	}
 	h = fnv_i(h, (int64_t)s->nlights);
 	for (i = 0; i < s->nlights; i++) {
@@ -870,6 +934,17 @@ pm_scene_hash(const struct pm_scene *s)
 		h = fnv_f(fnv_f(fnv_f(h, l->frame.n.x), l->frame.n.y), l->frame.n.z);
 		h = fnv_f(h, l->cutoff_angle);
 		h = fnv_f(h, l->beam_width);
+		/* textured lights and projectors only, as below */
+		if (l->tex > 0)
+			h = texture_hash(fnv_i(h, 4), &s->textures[l->tex - 1]);
+		if (l->tex > 0 || l->type == PM_LIGHT_PROJECTOR) {
+			int r, c;
+
+			for (r = 0; r < 3; r++)
+				for (c = 0; c < 4; c++)
+					h = fnv_f(h, l->to_local.m[r][c]);
+			h = fnv_f(fnv_f(h, l->tan_fov), l->aspect);
+		}
 		/* only for the light types that have them, so that the
 		 * scenes hashed before they existed keep their hashes */
 		if (l->type == PM_LIGHT_DIRECTIONAL)

@@ -349,10 +349,10 @@ sx_build_bsdf(struct ld *ld, struct xnode *n, struct pm_bsdf *b)
 		b->type = PM_BSDF_ROUGHDIELECTRIC;
 		if ((e = get_ior(ld, &pl, "int_ior", IOR_BK7, &iint)) != PM_OK ||
 		    (e = get_ior(ld, &pl, "ext_ior", IOR_AIR, &iext)) != PM_OK ||
-		    (e = sx_get_color(ld, &pl, "specular_reflectance", 1.0f,
-		    &b->specular)) != PM_OK ||
-		    (e = sx_get_color(ld, &pl, "specular_transmittance", 1.0f,
-		    &b->transmittance)) != PM_OK ||
+		    (e = sx_get_color_tex(ld, &pl, "specular_reflectance", 1.0f,
+		    &b->specular, &b->tex_specular)) != PM_OK ||
+		    (e = sx_get_color_tex(ld, &pl, "specular_transmittance",
+		    1.0f, &b->transmittance, &b->tex_transmittance)) != PM_OK ||
 		    (e = microfacet_params(ld, n, &pl, b, false)) != PM_OK)
 			goto out;
 		b->ior = iint / iext;
@@ -362,10 +362,10 @@ sx_build_bsdf(struct ld *ld, struct xnode *n, struct pm_bsdf *b)
 		    PM_BSDF_THINDIELECTRIC;
 		if ((e = get_ior(ld, &pl, "int_ior", IOR_BK7, &iint)) != PM_OK ||
 		    (e = get_ior(ld, &pl, "ext_ior", IOR_AIR, &iext)) != PM_OK ||
-		    (e = sx_get_color(ld, &pl, "specular_reflectance", 1.0f,
-		    &b->specular)) != PM_OK ||
-		    (e = sx_get_color(ld, &pl, "specular_transmittance", 1.0f,
-		    &b->transmittance)) != PM_OK)
+		    (e = sx_get_color_tex(ld, &pl, "specular_reflectance", 1.0f,
+		    &b->specular, &b->tex_specular)) != PM_OK ||
+		    (e = sx_get_color_tex(ld, &pl, "specular_transmittance",
+		    1.0f, &b->transmittance, &b->tex_transmittance)) != PM_OK)
 			goto out;
 		b->ior = iint / iext;
 	} else if (strcmp(type, "plastic") == 0 ||

@@ -1170,8 +1170,8 @@ test_errors(void **state)
 		    "unknown shape type \"teapot\""},
 		{HEAD "<shape type=\"sphere\"><bsdf type=\"hair\"/>"
 		    "</shape></scene>", 2, "unknown bsdf type \"hair\""},
-		{HEAD "<emitter type=\"projector\"/></scene>", 2,
-		    "unknown emitter type \"projector\""},
+		{HEAD "<emitter type=\"sunsky\"/></scene>", 2,
+		    "unknown emitter type \"sunsky\""},
 		{HEAD "<integrator type=\"aov\"/></scene>", 2,
 		    "unknown integrator type \"aov\""},
 		{HEAD "<sensor type=\"radiancemeter\"/></scene>", 2,
@@ -1310,12 +1310,12 @@ test_errors(void **state)
 		    "</shape></scene>", 3, "texture \"bitmap\": missing required "
 		    "parameter \"filename\""},
 		/* where pm takes no texture, one is named as not supported */
-		{HEAD "<shape type=\"rectangle\"><bsdf type=\"dielectric\">\n"
-		    "<texture name=\"specular_reflectance\" type=\"checkerboard\"/>"
-		    "</bsdf></shape></scene>", 3, "bsdf \"dielectric\": textures "
-		    "are not supported here (<texture name=\"specular_reflectance\">)"},
+		{HEAD "<shape type=\"rectangle\"><bsdf type=\"conductor\">\n"
+		    "<texture name=\"eta\" type=\"checkerboard\"/>"
+		    "</bsdf></shape></scene>", 3, "bsdf \"conductor\": textures "
+		    "are not supported here (<texture name=\"eta\">)"},
 		{HEAD "<texture type=\"checkerboard\" id=\"t\">\n"
-		    "<texture name=\"color0\" type=\"checkerboard\"/></texture>"
+		    "<texture name=\"color2\" type=\"checkerboard\"/></texture>"
 		    "</scene>", 3, "textures are not supported here"},
 		{HEAD "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n"
 		    "<texture type=\"checkerboard\"/></bsdf></shape></scene>", 3,
@@ -1332,7 +1332,8 @@ test_errors(void **state)
 		    "</texture></scene>", 2, "cannot find \"absent.png\""},
 		{HEAD "<texture type=\"bitmap\" id=\"t\">\n"
 		    "<string name=\"filename\" value=\"flat.obj\"/>"
-		    "</texture></scene>", 2, "not a PNG, JPEG or OpenEXR file"},
+		    "</texture></scene>", 2, "not a PNG, JPEG, OpenEXR or Radiance "
+		    "HDR file"},
 		{HEAD "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n"
 		    "<rgb name=\"reflectance\" value=\"0.5\"/>"
 		    "<texture name=\"reflectance\" type=\"checkerboard\"/>"
@@ -1348,15 +1349,16 @@ test_errors(void **state)
 		    "</bsdf></shape></scene>", 3,
 		    "unknown bsdf type \"hair\""},
 		/* a texture by reference is a texture */
-		{HEAD "<shape type=\"rectangle\"><bsdf type=\"dielectric\">\n"
-		    "<ref name=\"specular_transmittance\" id=\"t\"/></bsdf>"
+		{HEAD "<shape type=\"rectangle\"><bsdf type=\"conductor\">\n"
+		    "<ref name=\"eta\" id=\"t\"/></bsdf>"
 		    "</shape>\n<texture type=\"checkerboard\" id=\"t\"/>"
 		    "</scene>", 3, "textures are not supported here (<ref "
 		    "id=\"t\"> names the <texture> at line 4)"},
-		/* a required parameter given as a texture */
+		/* a required parameter given as a texture: the texture's
+		 * own errors */
 		{HEAD "<shape type=\"rectangle\"><emitter type=\"area\">\n"
 		    "<texture name=\"radiance\" type=\"bitmap\"/></emitter>"
-		    "</shape></scene>", 3, "textures are not supported"},
+		    "</shape></scene>", 3, "filename"},
 		{HEAD "<shape type=\"rectangle\"><bsdf type=\"roughconductor\">\n"
 		    "<string name=\"distribution\" value=\"phong\"/></bsdf>"
 		    "</shape></scene>", 3,
