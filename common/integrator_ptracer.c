@@ -281,9 +281,10 @@ visible_emitter(const struct job *j, struct film *f, struct pm_rng *rng)
 	l = &s->lights[li];
 	if (l->type == PM_LIGHT_AREA) {
 		struct pm_vec3 p, ng, ns;
+		struct pm_hit lh;
 		float cos_l;
 
-		pm_shooter_shape_point(&j->sh, li, u1, u2, &p, &ng, &ns);
+		pm_shooter_shape_point(&j->sh, li, u1, u2, &p, &ng, &ns, &lh);
 		if (!connect_camera(j, p, false, lu, lv, &c))
 			return;
 		cos_l = pm_dot(ng, c.to_cam);
@@ -292,7 +293,10 @@ visible_emitter(const struct job *j, struct film *f, struct pm_rng *rng)
 		if (camera_blocked(j, pm_offset_origin(p, ng, c.to_cam), &c))
 			return;
 		/* Le cos / (p(light) p(point)), p(point) = 1 / area */
-		v = pm_rgb_scale(pm_area_emitted(l, ng, c.to_cam), cos_l *
+		lh.p = p;
+		lh.ng = ng;
+		lh.ns = ns;
+		v = pm_rgb_scale(pm_area_emitted_at(s, l, &lh, c.to_cam), cos_l *
 		    (float)l->area * (float)j->nvisible * c.importance);
 	} else {
 		struct pm_vec3 w;

@@ -529,9 +529,10 @@ pm_shooter_emit(const struct pm_shooter *sh, struct pm_rng *rng,
 
 void
 pm_shooter_shape_point(const struct pm_shooter *sh, int light, float u1,
-    float u2, struct pm_vec3 *p, struct pm_vec3 *ng, struct pm_vec3 *ns)
+    float u2, struct pm_vec3 *p, struct pm_vec3 *ng, struct pm_vec3 *ns,
+    struct pm_hit *lh)
 {
-	sample_shape_point(sh, light, u1, u2, p, ng, ns);
+	sample_shape_point(sh, light, u1, u2, p, ng, ns, lh);
 }
 
 struct chunk_out {

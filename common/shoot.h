@@ -110,9 +110,11 @@ bool pm_shooter_emit(const struct pm_shooter *sh, struct pm_rng *rng,
     struct pm_vec3 *o, struct pm_vec3 *d, struct pm_rgb *flux);
 
 /* A point of area light `light`'s shape, uniform by area, with its
- * geometric and shading normals. */
+ * geometric and shading normals; *lh says where it lies (shape, prim,
+ * u, v) for pm_area_emitted_at's textured radiance. */
 void pm_shooter_shape_point(const struct pm_shooter *sh, int light, float u1,
-    float u2, struct pm_vec3 *p, struct pm_vec3 *ng, struct pm_vec3 *ns);
+    float u2, struct pm_vec3 *p, struct pm_vec3 *ng, struct pm_vec3 *ns,
+    struct pm_hit *lh);
 
 /* A 64-bit identity of what photons depend on: geometry, materials and
  * lights (not the camera or the sampler). */
