@@ -47,6 +47,12 @@ struct pm_photon_maps {
 	int icache_step;
 	int icache_rays;
 	float icache_a;
+	/* The volume map (participating media; integrator_pmvol.c), in
+	 * kd-tree order, its flux normaliser and squared lookup radius. */
+	const struct pm_photon *volume;
+	size_t nvolume;
+	float volume_scale;
+	float volume_r2;
 	/* Progressive photon mapping: every photon within the radii counts
 	 * (no k-nearest), so that passes with shrinking radii average to the
 	 * right answer; lookup_size is then unused. */
