@@ -53,6 +53,8 @@ struct pm_photon_maps {
 	size_t nvolume;
 	float volume_scale;
 	float volume_r2;
+	int volume_samples;		/* points per camera segment in a
+					 * medium (0: 1) */
 	/* Progressive photon mapping: every photon within the radii counts
 	 * (no k-nearest), so that passes with shrinking radii average to the
 	 * right answer; lookup_size is then unused. */
@@ -162,6 +164,22 @@ int pm_medium_after(const struct pm_scene *s, const struct pm_hit *h,
  * and null-BSDF boundaries; zero where another surface blocks it. */
 struct pm_rgb pm_volume_shadow(const struct pm_render_ctx *ctx,
     struct pm_vec3 o, int medium, const struct pm_light_sample *ls);
+
+/* Photon mode in media (integrator_pmvol.c). */
+
+/* In-scattered radiance sigma_s * integral(phase L) at p toward -d (d:
+ * the camera ray's direction) from the volume map's photons of 1 to
+ * max_depth bounces (-1: any), phase ph. */
+struct pm_rgb pm_volume_map_estimate(const struct pm_photon_maps *m,
+    const struct pm_phase *ph, struct pm_vec3 p, struct pm_vec3 d,
+    int max_depth);
+
+/* Light scattered towards o along the segment o + t d, t in (tmin,
+ * t_end), in `medium`, for a camera path vertex number depth; *tr gets
+ * the segment's transmittance, for what lies beyond. */
+struct pm_rgb pm_volume_inscatter(const struct pm_render_ctx *ctx, int medium,
+    struct pm_vec3 o, struct pm_vec3 d, float tmin, float t_end, int depth,
+    struct pm_rgb *tr, struct pm_rng *rng);
 
 enum pm_vol_event {
 	PM_VOL_PASS,		/* reached the surface; beta weighted */

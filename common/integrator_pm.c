@@ -223,7 +223,7 @@ pm_pppm_radius_scale(long pass, double alpha)
 static struct pm_rgb
 direct_light(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
     const struct pm_hit *h, struct pm_frame fr, struct pm_vec3 wi_local, int n,
-    bool mis, const float *lu, struct pm_rng *rng)
+    bool mis, const float *lu, int medium, struct pm_rng *rng)
 {
 	struct pm_rgb L = pm_rgb1(0.0f);
 	int i;
@@ -246,7 +246,15 @@ direct_light(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 		f = pm_bsdf_eval(b, wi_local, wo, PM_RADIANCE);
 		if (pm_rgb_is_black(f))
 			continue;
-		if (pm_light_occluded(ctx->accel, h, &ls))
+		if (ctx->scene->nmedia > 0) {
+			/* media: the shadow ray's transmittance, through
+			 * index-matched boundaries (integrator_pmvol.c) */
+			f = pm_rgb_mul(f, pm_volume_shadow(ctx,
+			    pm_hit_origin(h, ls.wi), pm_medium_after(ctx->scene,
+			    h, ls.wi, medium), &ls));
+			if (pm_rgb_is_black(f))
+				continue;
+		} else if (pm_light_occluded(ctx->accel, h, &ls))
 			continue;
 		w = ls.delta || !mis ? 1.0f :
 		    pm_power_heuristic(ls.pdf, pm_bsdf_pdf(b, wi_local, wo));
@@ -353,7 +361,7 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 					    h.p, nrm), 1.0f / PM_PI));
 			}
 			L = pm_rgb_madd(L, beta, direct_light(ctx, bg, &h, fr, wi,
-			    1, true, NULL, rng));
+			    1, true, NULL, -1, rng));
 			b = bg;
 		}
 		u1 = pm_rng_float(rng);
@@ -451,6 +459,10 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 	const float *lu = cs->lu[0] >= 0.0f ? cs->lu : NULL;
 	float fx = cs->fx, fy = cs->fy;
 	int depth;
+	/* media: the ray's medium (-1: none); final gathering is not
+	 * media-aware, so scenes with media use the global map directly */
+	int medium = s->camera_medium - 1, crossings = 0;
+	bool final_gather = m->final_gather && s->nmedia == 0;
 
 	pm_path_start(&pa, o, d, tmin, tmax);
 	for (depth = 1;; depth++) {
@@ -464,11 +476,35 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 		float u1, u2, u3;
 
 		hit = pm_accel_intersect(ctx->accel, pa.o, pa.d, pa.tmin, pa.tmax, &h);
+		if (medium >= 0) {
+			/* media: in-scattering along the segment, then what
+			 * lies beyond through its transmittance */
+			struct pm_rgb tr;
+
+			L = pm_rgb_madd(L, pa.beta, pm_volume_inscatter(ctx,
+			    medium, pa.o, pa.d, pa.tmin, hit ? h.t : pa.tmax,
+			    depth, &tr, rng));
+			pa.beta = pm_rgb_mul(pa.beta, tr);
+			if (pm_rgb_is_black(pa.beta))
+				break;
+		}
 		if (!(depth == 1 && ctx->hide_emitters))
 			L = pm_rgb_madd(L, pa.beta, pm_lights_emitted(ctx->lights, s,
 			    hit ? &h : NULL, pa.d, pa.prev_p, pa.prev_pdf, pa.prev_delta));
 		if (!hit)
 			break;
+		if (s->nmedia > 0 &&
+		    s->bsdfs[s->shapes[h.shape].bsdf].type == PM_BSDF_NULL) {
+			/* media: an index-matched boundary, no vertex */
+			if (++crossings > 1024)
+				break;
+			medium = pm_medium_after(s, &h, pa.d, medium);
+			pa.o = pm_hit_origin(&h, pa.d);
+			pa.tmin = 0.0f;
+			pa.tmax = INFINITY;
+			depth--;
+			continue;
+		}
 		if (ctx->max_depth >= 0 && depth >= ctx->max_depth)
 			break;
 		b = pm_bsdf_at(s, &h, &bt);
@@ -478,7 +514,7 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 		if (is_glossy(b)) {
 			/* Path traced: light sampling here, BSDF sampling on. */
 			L = pm_rgb_madd(L, pa.beta, direct_light(ctx, b, &h, fr, wi,
-			    1, true, lu, rng));
+			    1, true, lu, medium, rng));
 			lu = NULL;
 		} else if (has_nonspecular(b)) {
 			/* roughplastic: its diffuse base here, its coating
@@ -487,7 +523,7 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			const struct pm_bsdf *bb = split_lobe(b,
 			    PM_LOBE_DIFFUSE, &base_tmp);
 			struct pm_rgb E = direct_light(ctx, bb, &h, fr, wi,
-			    m->direct_samples, false, lu, rng);
+			    m->direct_samples, false, lu, medium, rng);
 
 			lu = NULL;
 
@@ -506,7 +542,7 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			bool gather_fits = ctx->max_depth < 0 ||
 			    depth + 2 <= ctx->max_depth;
 
-			if (m->final_gather) {
+			if (final_gather) {
 				if (gather_fits)
 					E = pm_rgb_add(E, indirect(ctx, bb, &h, fr,
 					    wi, nrm, depth, fx, fy, rng));
@@ -530,7 +566,7 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			    PM_LOBE_GLOSSY, &coat_tmp);
 
 			L = pm_rgb_madd(L, pa.beta, direct_light(ctx, bc, &h, fr,
-			    wi, 1, true, NULL, rng));
+			    wi, 1, true, NULL, medium, rng));
 			u1 = pm_rng_float(rng);
 			u2 = pm_rng_float(rng);
 			u3 = pm_rng_float(rng);
@@ -551,6 +587,8 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 		}
 		if (!pm_path_continue(&pa, &h, fr, &bs, depth, ctx->rr_depth, rng))
 			break;
+		if (s->nmedia > 0)
+			medium = pm_medium_after(s, &h, pa.d, medium);
 	}
 	return L;
 }

@@ -1039,6 +1039,21 @@ pm_scene_hash(const struct pm_scene *s)
 		else if (sh->mesh.uv != NULL)
 			h = fnv(h, sh->mesh.uv, sizeof(float) * 2 * sh->mesh.nverts);
 	}
+	/* media, only when there are any (scenes without keep their
+	 * hashes): the media and which shapes bound them */
+	if (s->nmedia > 0) {
+		h = fnv_i(h, (int64_t)s->nmedia);
+		for (i = 0; i < s->nmedia; i++) {
+			const struct pm_medium *m = &s->media[i];
+
+			h = fnv_i(h, m->type);
+			h = fnv_rgb(fnv_rgb(h, m->sigma_t), m->albedo);
+			h = fnv_i(fnv_f(h, m->phase.g), m->phase.type);
+		}
+		for (i = 0; i < s->nshapes; i++)
+			h = fnv_i(fnv_i(h, s->shapes[i].interior),
+			    s->shapes[i].exterior);
+	}
 	h = fnv_i(h, (int64_t)s->nlights);
 	for (i = 0; i < s->nlights; i++) {
 		const struct pm_light *l = &s->lights[i];

@@ -321,6 +321,10 @@ load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
 	    scene_radius, pg->pass, pg->alpha, pg->radius);
 	maps->global_r2 = r.global_r2;
 	maps->caustic_r2 = r.caustic_r2;
+	/* The volume map is looked up with the global map's radius, and
+	 * shrinks with it over progressive passes. */
+	maps->volume_r2 = r.global_r2;
+	maps->volume_samples = 1;
 	maps->fixed_radius = r.fixed;
 	if (pg->pass > 0 && verbose >= 2)
 		fprintf(stderr, PROG ": %s: progressive pass %ld, alpha %g: "
@@ -330,16 +334,19 @@ load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
 		    sqrt(maps->global_r2), sqrt(maps->caustic_r2));
 	maps->lookup_size = pp->lookup_size;
 	maps->direct_samples = pp->direct_samples;
-	maps->final_gather = pp->final_gather;
+	/* Final gathering does not follow rays through media: scenes with
+	 * media estimate indirect light from the global map directly. */
+	maps->final_gather = pp->final_gather && scene->nmedia == 0;
 	maps->final_gather_samples = pp->final_gather_samples;
 	maps->icache_step = -1;		/* by the samples per pixel */
 	maps->icache_rays = 0;		/* by the samples per pixel */
 	maps->icache_a = PM_ICACHE_ACCURACY;
 	if (verbose >= 2)
 		fprintf(stderr, PROG ": %s: %zu global photons, %zu caustic photons, "
-		    "%zu irradiance records, radii %g and %g, %s%d, %d direct "
+		    "%zu volume photons, %zu irradiance records, radii %g and %g, %s%d, %d direct "
 		    "samples, final gathering %s\n", path, maps->nglobal,
-		    maps->ncaustic, maps->nirradiance, sqrt(maps->global_r2),
+		    maps->ncaustic, maps->nvolume, maps->nirradiance,
+		    sqrt(maps->global_r2),
 		    sqrt(maps->caustic_r2), maps->fixed_radius ?
 		    "every photon within them (k unused: " : "k = ",
 		    maps->lookup_size, maps->direct_samples,
@@ -735,9 +742,11 @@ main(int argc, char **argv)
 		    "nested integrator's image only, the moments are not "
 		    "written\n", scene_path);
 	if (scene.nmedia > 0 && verbose)
-		fprintf(stderr, PROG ": %s: note: %zu participating medi%s, path "
-		    "traced as Mitsuba's volpath; the camera is in %s%s%s\n",
+		fprintf(stderr, PROG ": %s: note: %zu participating medi%s, %s; "
+		    "the camera is in %s%s%s\n",
 		    scene_path, scene.nmedia, scene.nmedia == 1 ? "um" : "a",
+		    map_path != NULL ? "in-scattering from light samples and "
+		    "the volume map" : "path traced as Mitsuba's volpath",
 		    scene.camera_medium > 0 ? "\"" : "vacuum",
 		    scene.camera_medium > 0 ?
 		    scene.media[scene.camera_medium - 1].name : "",
