@@ -55,6 +55,9 @@ struct pm_photon_maps {
 	float volume_r2;
 	int volume_samples;		/* points per camera segment in a
 					 * medium (0: 1) */
+	bool volume_beam;		/* the volume map by the beam radiance
+					 * estimate (fixed radius), not at
+					 * those points */
 	/* Progressive photon mapping: every photon within the radii counts
 	 * (no k-nearest), so that passes with shrinking radii average to the
 	 * right answer; lookup_size is then unused. */
@@ -173,6 +176,13 @@ struct pm_rgb pm_volume_shadow(const struct pm_render_ctx *ctx,
 struct pm_rgb pm_volume_map_estimate(const struct pm_photon_maps *m,
     const struct pm_phase *ph, struct pm_vec3 p, struct pm_vec3 d,
     int max_depth);
+
+/* The same integrated along the camera segment o + t d, t in (tmin,
+ * t_end), in medium med, times the transmittance from tmin: the beam
+ * radiance estimate with the fixed radius sqrt(m->volume_r2). */
+struct pm_rgb pm_volume_beam_estimate(const struct pm_photon_maps *m,
+    const struct pm_medium *med, struct pm_vec3 o, struct pm_vec3 d,
+    float tmin, float t_end, int max_depth);
 
 /* Light scattered towards o along the segment o + t d, t in (tmin,
  * t_end), in `medium`, for a camera path vertex number depth; *tr gets

@@ -41,6 +41,7 @@ static const char usage_line[] =
     "                 [--cache-step PIXELS] [--cache-rays N]\n"
     "                 [--cache-accuracy A] [--pass I] [--radius R] [--alpha A]\n"
     "                 [--preview FILE] [--preview-every SECONDS]\n"
+    "                 [--volume-estimate point|beam]\n"
     "                 -o OUT.exr SCENE.xml [MAP.pmap]\n";
 
 static const char help_text[] =
@@ -67,6 +68,10 @@ static const char help_text[] =
     "      --final-gather, --no-final-gather\n"
     "                              gather indirect light (default), or show\n"
     "                              the global map's photons directly\n"
+    "      --volume-estimate point|beam\n"
+    "                              media: the volume map at a point of each\n"
+    "                              camera segment (default), or the beam\n"
+    "                              radiance estimate along it\n"
     "      --final-gather-samples N  gather rays of a camera sample that the\n"
     "                              irradiance cache does not serve (default 1)\n"
     "      --cache-step PIXELS     pixels between irradiance cache points\n"
@@ -272,6 +277,10 @@ struct pppm {
 
 /* Loads a balanced map for this scene into maps, with the lookup radii;
  * prints and returns 0 on failure. */
+/* --volume-estimate beam (integrator_pmvol.c; docs/media.md measures
+ * both). */
+static bool volume_beam;
+
 static int
 load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
     const struct pppm *pg, struct pm_pmap *pm, struct pm_photon_maps *maps,
@@ -325,6 +334,7 @@ load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
 	 * shrinks with it over progressive passes. */
 	maps->volume_r2 = r.global_r2;
 	maps->volume_samples = 1;
+	maps->volume_beam = volume_beam;	/* 4 cost 2.6x for no visible gain (docs/media.md) */
 	maps->fixed_radius = r.fixed;
 	if (pg->pass > 0 && verbose >= 2)
 		fprintf(stderr, PROG ": %s: progressive pass %ld, alpha %g: "
@@ -396,7 +406,7 @@ main(int argc, char **argv)
 		OPT_FOV, OPT_SEED, OPT_HALF, OPT_CAMERAS,
 		OPT_GRADIUS, OPT_CRADIUS, OPT_LOOKUP, OPT_DIRECT, OPT_FG, OPT_NOFG,
 		OPT_FGSAMPLES, OPT_PASS, OPT_RADIUS, OPT_ALPHA, OPT_CSTEP,
-		OPT_CRAYS, OPT_CACC, OPT_PREVIEW, OPT_PREVIEW_EVERY,
+		OPT_CRAYS, OPT_CACC, OPT_PREVIEW, OPT_PREVIEW_EVERY, OPT_VOLEST,
 	};
 	static const struct option longopts[] = {
 		{"method", required_argument, NULL, OPT_METHOD},
@@ -427,6 +437,7 @@ main(int argc, char **argv)
 		{"alpha", required_argument, NULL, OPT_ALPHA},
 		{"preview", required_argument, NULL, OPT_PREVIEW},
 		{"preview-every", required_argument, NULL, OPT_PREVIEW_EVERY},
+		{"volume-estimate", required_argument, NULL, OPT_VOLEST},
 		{"force", no_argument, NULL, 'f'},
 		{"quiet", no_argument, NULL, 'q'},
 		{"verbose", no_argument, NULL, 'v'},
@@ -539,6 +550,15 @@ main(int argc, char **argv)
 			break;
 		case OPT_NOFG:
 			fg = 0;
+			break;
+		case OPT_VOLEST:
+			if (strcmp(optarg, "point") == 0)
+				volume_beam = false;
+			else if (strcmp(optarg, "beam") == 0)
+				volume_beam = true;
+			else
+				usage_error("--volume-estimate wants point or "
+				    "beam, not '%s'", optarg);
 			break;
 		case OPT_CSTEP:
 			if (!pm_parse_long(optarg, 0, 1 << 16, &cache_step))
