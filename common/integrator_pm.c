@@ -299,9 +299,15 @@ records_irradiance(const struct pm_photon_maps *m, struct pm_vec3 p,
  * (roughplastic's base still takes E / pi).  Without records, the whole
  * global map is looked up at the first surface that holds photons.
  */
-struct pm_rgb
-pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
-    struct pm_vec3 d, struct pm_rng *rng, float *t)
+/*
+ * pm_photon_gather for a ray leaving in `medium` (-1: none) from a camera
+ * path vertex number depth.  Media: each segment adds its in-scattered
+ * light (integrator_pmvol.c) and weights what lies beyond by its
+ * transmittance; null boundaries switch the medium and are no bounce.
+ */
+static struct pm_rgb
+gather_in(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
+    int medium, int depth, struct pm_rng *rng, float *t)
 {
 	const struct pm_photon_maps *m = ctx->maps;
 	const struct pm_scene *s = ctx->scene;
@@ -310,7 +316,7 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 	struct pm_vec3 prev_p = o;
 	float prev_pdf = 0.0f;
 	bool traced = false, prev_delta = false;
-	int bounce;
+	int bounce, crossings = 0;
 
 	if (t != NULL)
 		*t = INFINITY;
@@ -325,6 +331,17 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 		float u1, u2, u3;
 
 		hit = pm_accel_intersect(ctx->accel, o, d, 0.0f, INFINITY, &h);
+		if (medium >= 0) {
+			/* media: in-scattering along the segment */
+			struct pm_rgb tr;
+
+			L = pm_rgb_madd(L, beta, pm_volume_inscatter(ctx, medium,
+			    o, d, 0.0f, hit ? h.t : INFINITY, depth + bounce,
+			    &tr, rng));
+			beta = pm_rgb_mul(beta, tr);
+			if (pm_rgb_is_black(beta))
+				break;
+		}
 		/* light met after a glossy bounce: the light sample there
 		 * took the rest of it (MIS) */
 		if (traced)
@@ -332,8 +349,18 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			    hit ? &h : NULL, d, prev_p, prev_pdf, prev_delta));
 		if (!hit)
 			break;
-		if (t != NULL && bounce == 0)
+		if (t != NULL && bounce == 0 && crossings == 0)
 			*t = h.t;
+		if (s->nmedia > 0 &&
+		    s->bsdfs[s->shapes[h.shape].bsdf].type == PM_BSDF_NULL) {
+			/* media: an index-matched boundary, no bounce */
+			if (++crossings > 1024)
+				break;
+			medium = pm_medium_after(s, &h, d, medium);
+			o = pm_hit_origin(&h, d);
+			bounce--;
+			continue;
+		}
 		b = pm_bsdf_at(s, &h, &bt);
 		fr = pm_frame_from_normal(h.ns);
 		wi = pm_to_local(fr, pm_neg(d));
@@ -361,7 +388,7 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 					    h.p, nrm), 1.0f / PM_PI));
 			}
 			L = pm_rgb_madd(L, beta, direct_light(ctx, bg, &h, fr, wi,
-			    1, true, NULL, -1, rng));
+			    1, true, NULL, medium, rng));
 			b = bg;
 		}
 		u1 = pm_rng_float(rng);
@@ -383,8 +410,19 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 		prev_delta = (bs.lobe & PM_LOBE_DELTA) || !has_nonspecular(b);
 		d = pm_normalize(pm_to_world(fr, bs.wo));
 		o = pm_hit_origin(&h, d);
+		if (s->nmedia > 0)
+			medium = pm_medium_after(s, &h, d, medium);
 	}
 	return L;
+}
+
+/* Without media information: the irradiance cache's rays (render.c),
+ * which scenes with media do not use (pm-render turns the cache off). */
+struct pm_rgb
+pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
+    struct pm_vec3 d, struct pm_rng *rng, float *t)
+{
+	return gather_in(ctx, o, d, -1, 1, rng, t);
 }
 
 /* Indirect light at a diffuse hit by final gathering: BSDF-sampled rays;
@@ -392,7 +430,7 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 static struct pm_rgb
 final_gather(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
     const struct pm_hit *h, struct pm_frame fr, struct pm_vec3 wi_local,
-    struct pm_rng *rng)
+    int medium, int depth, struct pm_rng *rng)
 {
 	int i, n = ctx->maps->final_gather_samples;
 	struct pm_rgb L = pm_rgb1(0.0f);
@@ -407,8 +445,10 @@ final_gather(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 		    (bs.lobe & PM_LOBE_DELTA))
 			continue;
 		d = pm_normalize(pm_to_world(fr, bs.wo));
-		L = pm_rgb_madd(L, bs.weight, pm_photon_gather(ctx,
-		    pm_hit_origin(h, d), d, rng, NULL));
+		L = pm_rgb_madd(L, bs.weight, gather_in(ctx,
+		    pm_hit_origin(h, d), d, ctx->scene->nmedia > 0 ?
+		    pm_medium_after(ctx->scene, h, d, medium) : -1, depth + 1,
+		    rng, NULL));
 	}
 	return pm_rgb_scale(L, 1.0f / (float)n);
 }
@@ -421,7 +461,8 @@ final_gather(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 static struct pm_rgb
 indirect(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
     const struct pm_hit *h, struct pm_frame fr, struct pm_vec3 wi,
-    struct pm_vec3 nrm, int depth, float fx, float fy, struct pm_rng *rng)
+    struct pm_vec3 nrm, int depth, float fx, float fy, int medium,
+    struct pm_rng *rng)
 {
 	struct pm_rgb E;
 
@@ -435,7 +476,7 @@ indirect(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 			return pm_rgb1(0.0f);
 		return pm_rgb_mul(bs.weight, pm_rgb_scale(E, 1.0f / PM_PI));
 	}
-	return final_gather(ctx, b, h, fr, wi, rng);
+	return final_gather(ctx, b, h, fr, wi, medium, depth, rng);
 }
 
 struct pm_rgb
@@ -459,10 +500,8 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 	const float *lu = cs->lu[0] >= 0.0f ? cs->lu : NULL;
 	float fx = cs->fx, fy = cs->fy;
 	int depth;
-	/* media: the ray's medium (-1: none); final gathering is not
-	 * media-aware, so scenes with media use the global map directly */
+	/* media: the ray's medium (-1: none) */
 	int medium = s->camera_medium - 1, crossings = 0;
-	bool final_gather = m->final_gather && s->nmedia == 0;
 
 	pm_path_start(&pa, o, d, tmin, tmax);
 	for (depth = 1;; depth++) {
@@ -542,10 +581,11 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			bool gather_fits = ctx->max_depth < 0 ||
 			    depth + 2 <= ctx->max_depth;
 
-			if (final_gather) {
+			if (m->final_gather) {
 				if (gather_fits)
 					E = pm_rgb_add(E, indirect(ctx, bb, &h, fr,
-					    wi, nrm, depth, fx, fy, rng));
+					    wi, nrm, depth, fx, fy, medium,
+					    rng));
 			} else
 				E = pm_rgb_add(E, estimate(m->global, m->nglobal,
 				    m->global_scale, m->global_r2, m->lookup_size,

@@ -344,11 +344,12 @@ load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
 		    sqrt(maps->global_r2), sqrt(maps->caustic_r2));
 	maps->lookup_size = pp->lookup_size;
 	maps->direct_samples = pp->direct_samples;
-	/* Final gathering does not follow rays through media: scenes with
-	 * media estimate indirect light from the global map directly. */
-	maps->final_gather = pp->final_gather && scene->nmedia == 0;
+	maps->final_gather = pp->final_gather;
 	maps->final_gather_samples = pp->final_gather_samples;
-	maps->icache_step = -1;		/* by the samples per pixel */
+	/* by the samples per pixel; none in scenes with media, whose
+	 * cache rays (render.c) would not follow the media: there every
+	 * camera sample gathers, through media, itself */
+	maps->icache_step = scene->nmedia > 0 ? 0 : -1;
 	maps->icache_rays = 0;		/* by the samples per pixel */
 	maps->icache_a = PM_ICACHE_ACCURACY;
 	if (verbose >= 2)
@@ -742,7 +743,7 @@ main(int argc, char **argv)
 	ctx.icache = NULL;
 	maps.gather_max_depth = ctx.max_depth < 0 ? -1 : ctx.max_depth - 3;
 	if (map_path != NULL) {
-		if (cache_step >= 0)
+		if (cache_step >= 0 && scene.nmedia == 0)	/* media: none */
 			maps.icache_step = (int)cache_step;
 		if (cache_rays > 0)
 			maps.icache_rays = (int)cache_rays;
