@@ -10,8 +10,8 @@
 # is); Mitsuba's renders are cached under build/mitsuba-cache/, so after the
 # first run only pm-render's cost remains. Outputs land in build/mitsuba-out/.
 # The scenes: data/cornell-box.xml and the others of data/ listed below
-# (ours, must exist; fog-box, glass-medium and spot-haze have media, in
-# path and photon mode), Mitsuba's own
+# (ours, must exist; fog-box and glass-medium have media, checked in path
+# and photon mode), Mitsuba's own
 # Cornell box from ../shared/scenes/mitsuba-cbox (skipped when ../shared is
 # absent), tests/mitsuba/textures.xml (path traced and photon-mapped) and
 # the scenes tests/mitsuba/shapes_scene.py writes (shapes and sensors, path
@@ -265,16 +265,18 @@ fi
 # (direct light and single scattering: how scatters count as bounces),
 # and the ball's medium behind a null surface (light sampled through an
 # index-matched boundary; crossing it is no bounce).
-for scene in fog-box glass-medium spot-haze; do
+for scene in fog-box glass-medium; do
 	if [ -f data/$scene.xml ]; then
 		run $scene data/$scene.xml
 	else
 		check "$scene: data/$scene.xml is missing" false
 	fi
 done
-# The same in photon mode (the volume photon map): spot-haze's caustics
-# through the glass ball in the haze are what photons are for.
-for scene in fog-box glass-medium spot-haze; do
+# The same in photon mode (the volume photon map).  Not data/spot-haze.xml:
+# Mitsuba's volpath at 256 spp sees its caustics through the ball as
+# fireflies (relMSE 5.5 between two of its renders' halves and pm's path
+# mode), too noisy a reference to decide 1% (docs/media.md).
+for scene in fog-box glass-medium; do
 	[ -f data/$scene.xml ] && [ "$selftest" = 0 ] &&
 	    wanted $scene-photon && against $scene-photon data/$scene.xml photon
 done
