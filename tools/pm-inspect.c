@@ -644,10 +644,16 @@ dump(const struct report *r, enum dump_kind kind)
 				else
 					printf("%.6g,%.6g,%.6g,", (double)d.x,
 					    (double)d.y, (double)d.z);
+				/* A volume photon has no normal. */
 				d = pm_dir_unpack(p->normal);
-				printf("%u,%u,%.6g,%.6g,%.6g\n",
-				    (unsigned)p->depth, (unsigned)p->flags,
-				    (double)d.x, (double)d.y, (double)d.z);
+				if (m->kind == PM_MAP_VOLUME)
+					printf("%u,%u,,,\n", (unsigned)p->depth,
+					    (unsigned)p->flags);
+				else
+					printf("%u,%u,%.6g,%.6g,%.6g\n",
+					    (unsigned)p->depth,
+					    (unsigned)p->flags, (double)d.x,
+					    (double)d.y, (double)d.z);
 				break;
 			case DUMP_NONE:
 				break;
