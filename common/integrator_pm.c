@@ -250,7 +250,7 @@ pm_pppm_radius_scale(long pass, double alpha)
 static struct pm_rgb
 direct_light(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
     const struct pm_hit *h, struct pm_frame fr, struct pm_vec3 wi_local, int n,
-    bool mis, const float *lu, struct pm_rng *rng)
+    bool mis, const float *lu, int medium, struct pm_rng *rng)
 {
 	struct pm_rgb L = pm_rgb1(0.0f);
 	int i;
@@ -273,7 +273,15 @@ direct_light(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 		f = pm_bsdf_eval(b, wi_local, wo, PM_RADIANCE);
 		if (pm_rgb_is_black(f))
 			continue;
-		if (pm_light_occluded(ctx->accel, h, &ls))
+		if (ctx->scene->nmedia > 0) {
+			/* media: the shadow ray's transmittance, through
+			 * index-matched boundaries (integrator_pmvol.c) */
+			f = pm_rgb_mul(f, pm_volume_shadow(ctx,
+			    pm_hit_origin(h, ls.wi), pm_medium_after(ctx->scene,
+			    h, ls.wi, medium), &ls));
+			if (pm_rgb_is_black(f))
+				continue;
+		} else if (pm_light_occluded(ctx->accel, h, &ls))
 			continue;
 		w = ls.delta || !mis ? 1.0f :
 		    pm_power_heuristic(ls.pdf, pm_bsdf_pdf(b, wi_local, wo));
@@ -318,9 +326,15 @@ records_irradiance(const struct pm_photon_maps *m, struct pm_vec3 p,
  * (roughplastic's base still takes E / pi).  Without records, the whole
  * global map is looked up at the first surface that holds photons.
  */
-struct pm_rgb
-pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
-    struct pm_vec3 d, struct pm_rng *rng, float *t)
+/*
+ * pm_photon_gather for a ray leaving in `medium` (-1: none) from a camera
+ * path vertex number depth.  Media: each segment adds its in-scattered
+ * light (integrator_pmvol.c) and weights what lies beyond by its
+ * transmittance; null boundaries switch the medium and are no bounce.
+ */
+static struct pm_rgb
+gather_in(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
+    int medium, int depth, struct pm_rng *rng, float *t)
 {
 	const struct pm_photon_maps *m = ctx->maps;
 	const struct pm_scene *s = ctx->scene;
@@ -329,7 +343,7 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 	struct pm_vec3 prev_p = o;
 	float prev_pdf = 0.0f;
 	bool traced = false, prev_delta = false;
-	int bounce;
+	int bounce, crossings = 0;
 
 	if (t != NULL)
 		*t = INFINITY;
@@ -344,6 +358,17 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 		float u1, u2, u3;
 
 		hit = pm_accel_intersect(ctx->accel, o, d, 0.0f, INFINITY, &h);
+		if (medium >= 0) {
+			/* media: in-scattering along the segment */
+			struct pm_rgb tr;
+
+			L = pm_rgb_madd(L, beta, pm_volume_inscatter(ctx, medium,
+			    o, d, 0.0f, hit ? h.t : INFINITY, depth + bounce,
+			    &tr, rng));
+			beta = pm_rgb_mul(beta, tr);
+			if (pm_rgb_is_black(beta))
+				break;
+		}
 		/* light met after a glossy bounce: the light sample there
 		 * took the rest of it (MIS) */
 		if (traced)
@@ -351,8 +376,18 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			    hit ? &h : NULL, d, prev_p, prev_pdf, prev_delta));
 		if (!hit)
 			break;
-		if (t != NULL && bounce == 0)
+		if (t != NULL && bounce == 0 && crossings == 0)
 			*t = h.t;
+		if (s->nmedia > 0 &&
+		    s->bsdfs[s->shapes[h.shape].bsdf].type == PM_BSDF_NULL) {
+			/* media: an index-matched boundary, no bounce */
+			if (++crossings > 1024)
+				break;
+			medium = pm_medium_after(s, &h, d, medium);
+			o = pm_hit_origin(&h, d);
+			bounce--;
+			continue;
+		}
 		b = pm_bsdf_at(s, &h, &bt);
 		fr = pm_frame_from_normal(h.ns);
 		wi = pm_to_local(fr, pm_neg(d));
@@ -379,7 +414,7 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 					    h.p, nrm), 1.0f / PM_PI));
 			}
 			L = pm_rgb_madd(L, beta, direct_light(ctx, bg, &h, fr, wi,
-			    1, true, NULL, rng));
+			    1, true, NULL, medium, rng));
 			b = bg;
 		}
 		u1 = pm_rng_float(rng);
@@ -401,8 +436,19 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 		prev_delta = (bs.lobe & PM_LOBE_DELTA) || !has_nonspecular(b);
 		d = pm_normalize(pm_to_world(fr, bs.wo));
 		o = pm_hit_origin(&h, d);
+		if (s->nmedia > 0)
+			medium = pm_medium_after(s, &h, d, medium);
 	}
 	return L;
+}
+
+/* Without media information: the irradiance cache's rays (render.c),
+ * which scenes with media do not use (pm-render turns the cache off). */
+struct pm_rgb
+pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
+    struct pm_vec3 d, struct pm_rng *rng, float *t)
+{
+	return gather_in(ctx, o, d, -1, 1, rng, t);
 }
 
 /* Indirect light at a diffuse hit by final gathering: BSDF-sampled rays;
@@ -410,7 +456,7 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 static struct pm_rgb
 final_gather(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
     const struct pm_hit *h, struct pm_frame fr, struct pm_vec3 wi_local,
-    struct pm_rng *rng)
+    int medium, int depth, struct pm_rng *rng)
 {
 	int i, n = ctx->maps->final_gather_samples;
 	struct pm_rgb L = pm_rgb1(0.0f);
@@ -425,8 +471,10 @@ final_gather(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 		    (bs.lobe & PM_LOBE_DELTA))
 			continue;
 		d = pm_normalize(pm_to_world(fr, bs.wo));
-		L = pm_rgb_madd(L, bs.weight, pm_photon_gather(ctx,
-		    pm_hit_origin(h, d), d, rng, NULL));
+		L = pm_rgb_madd(L, bs.weight, gather_in(ctx,
+		    pm_hit_origin(h, d), d, ctx->scene->nmedia > 0 ?
+		    pm_medium_after(ctx->scene, h, d, medium) : -1, depth + 1,
+		    rng, NULL));
 	}
 	return pm_rgb_scale(L, 1.0f / (float)n);
 }
@@ -439,7 +487,8 @@ final_gather(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 static struct pm_rgb
 indirect(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
     const struct pm_hit *h, struct pm_frame fr, struct pm_vec3 wi,
-    struct pm_vec3 nrm, int depth, float fx, float fy, struct pm_rng *rng)
+    struct pm_vec3 nrm, int depth, float fx, float fy, int medium,
+    struct pm_rng *rng)
 {
 	struct pm_rgb E;
 
@@ -453,7 +502,7 @@ indirect(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 			return pm_rgb1(0.0f);
 		return pm_rgb_mul(bs.weight, pm_rgb_scale(E, 1.0f / PM_PI));
 	}
-	return final_gather(ctx, b, h, fr, wi, rng);
+	return final_gather(ctx, b, h, fr, wi, medium, depth, rng);
 }
 
 struct pm_rgb
@@ -477,6 +526,8 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 	const float *lu = cs->lu[0] >= 0.0f ? cs->lu : NULL;
 	float fx = cs->fx, fy = cs->fy;
 	int depth;
+	/* media: the ray's medium (-1: none) */
+	int medium = s->camera_medium - 1, crossings = 0;
 
 	pm_path_start(&pa, o, d, tmin, tmax);
 	for (depth = 1;; depth++) {
@@ -490,11 +541,35 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 		float u1, u2, u3;
 
 		hit = pm_accel_intersect(ctx->accel, pa.o, pa.d, pa.tmin, pa.tmax, &h);
+		if (medium >= 0) {
+			/* media: in-scattering along the segment, then what
+			 * lies beyond through its transmittance */
+			struct pm_rgb tr;
+
+			L = pm_rgb_madd(L, pa.beta, pm_volume_inscatter(ctx,
+			    medium, pa.o, pa.d, pa.tmin, hit ? h.t : pa.tmax,
+			    depth, &tr, rng));
+			pa.beta = pm_rgb_mul(pa.beta, tr);
+			if (pm_rgb_is_black(pa.beta))
+				break;
+		}
 		if (!(depth == 1 && ctx->hide_emitters))
 			L = pm_rgb_madd(L, pa.beta, pm_lights_emitted(ctx->lights, s,
 			    hit ? &h : NULL, pa.d, pa.prev_p, pa.prev_pdf, pa.prev_delta));
 		if (!hit)
 			break;
+		if (s->nmedia > 0 &&
+		    s->bsdfs[s->shapes[h.shape].bsdf].type == PM_BSDF_NULL) {
+			/* media: an index-matched boundary, no vertex */
+			if (++crossings > 1024)
+				break;
+			medium = pm_medium_after(s, &h, pa.d, medium);
+			pa.o = pm_hit_origin(&h, pa.d);
+			pa.tmin = 0.0f;
+			pa.tmax = INFINITY;
+			depth--;
+			continue;
+		}
 		if (ctx->max_depth >= 0 && depth >= ctx->max_depth)
 			break;
 		b = pm_bsdf_at(s, &h, &bt);
@@ -504,7 +579,7 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 		if (is_glossy(b)) {
 			/* Path traced: light sampling here, BSDF sampling on. */
 			L = pm_rgb_madd(L, pa.beta, direct_light(ctx, b, &h, fr, wi,
-			    1, true, lu, rng));
+			    1, true, lu, medium, rng));
 			lu = NULL;
 		} else if (has_nonspecular(b)) {
 			/* roughplastic: its diffuse base here, its coating
@@ -513,7 +588,7 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			const struct pm_bsdf *bb = split_lobe(b,
 			    PM_LOBE_DIFFUSE, &base_tmp);
 			struct pm_rgb E = direct_light(ctx, bb, &h, fr, wi,
-			    m->direct_samples, false, lu, rng);
+			    m->direct_samples, false, lu, medium, rng);
 
 			lu = NULL;
 
@@ -535,7 +610,8 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			if (m->final_gather) {
 				if (gather_fits)
 					E = pm_rgb_add(E, indirect(ctx, bb, &h, fr,
-					    wi, nrm, depth, fx, fy, rng));
+					    wi, nrm, depth, fx, fy, medium,
+					    rng));
 			} else
 				E = pm_rgb_add(E, estimate(m->global, m->nglobal,
 				    m->global_scale, m->global_r2, m->lookup_size,
@@ -559,7 +635,7 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			    PM_LOBE_GLOSSY, &coat_tmp);
 
 			L = pm_rgb_madd(L, pa.beta, direct_light(ctx, bc, &h, fr,
-			    wi, 1, true, NULL, rng));
+			    wi, 1, true, NULL, medium, rng));
 			u1 = pm_rng_float(rng);
 			u2 = pm_rng_float(rng);
 			u3 = pm_rng_float(rng);
@@ -580,6 +656,8 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 		}
 		if (!pm_path_continue(&pa, &h, fr, &bs, depth, ctx->rr_depth, rng))
 			break;
+		if (s->nmedia > 0)
+			medium = pm_medium_after(s, &h, pa.d, medium);
 	}
 	return L;
 }

@@ -20,6 +20,23 @@
  * drawn from the mixture of the spheres' shadow disks), and the flux
  * divided by that mixture's true density, so that nothing is gained or
  * lost; only paths light, specular+, non-specular are stored.
+ *
+ * Participating media (homogeneous; Jensen and Christensen 1998): a photon
+ * travelling in a medium samples a free flight from the exponential of
+ * one channel chosen uniformly per flight and is weighted by the flight's
+ * RGB value over the density averaged over the channels (one-sample MIS;
+ * in a grey medium exactly 1 past the flight, the albedo at a scatter).
+ * The global pass stores a volume photon at every scatter, with the flux
+ * that leaves it before Russian roulette (so already times the albedo
+ * for that flight), then plays roulette on that weight and samples the
+ * phase function; a scatter is a non-specular bounce.  Volumetric
+ * caustics (light, specular+, scatter) go into the same volume map,
+ * flagged PM_PHOTON_CAUSTIC: the camera pass estimates in-scattering
+ * from all of them alike, and only needs the flag to tell them apart
+ * for statistics.  The caustic pass ends a photon at a scatter (its
+ * path is no longer specular; the global pass holds that light).
+ * Null-BSDF boundaries only switch the medium, as in the path tracer:
+ * no bounce, no specular event.
  */
 #include <math.h>
 #include <pthread.h>
@@ -28,6 +45,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "integrator.h"
 #include "merl.h"
 #include "rng.h"
 #include "sampling.h"
@@ -38,6 +56,8 @@
  * reflection, stops here even when the depth is unlimited. */
 #define HARD_MAX_BOUNCES 1000
 #define CHUNK 2048
+/* Bound on null-BSDF boundaries a photon (or a medium probe) crosses. */
+#define MAX_CROSSINGS 1024
 
 /* Surfaces that hold photons.  Not a rough dielectric: light crosses it as
  * it crosses glass, and it passes photons on as glass does (below). */
@@ -81,6 +101,7 @@ event_specular(const struct pm_bsdf *b, const struct pm_bsdf_sample *bs)
 void
 pm_shoot_effects(const struct pm_scene *s, struct pm_effects *e)
 {
+	e->media = s->nmedia > 0 && s->nlights > 0;
 	size_t i;
 	int nrefl = 0, nspec = 0, nrefr = 0;
 	struct pm_effect_note *no = e->notes;
@@ -168,6 +189,8 @@ buf_push(struct pm_photon_buf *b, const struct pm_photon *p)
 	return true;
 }
 
+static int light_medium(const struct pm_shooter *sh, size_t li);
+
 enum pm_err
 pm_shooter_init(struct pm_shooter *sh, const struct pm_scene *s,
     const struct pm_accel *a, const struct pm_lights *ls, struct pm_error *err)
@@ -176,11 +199,20 @@ pm_shooter_init(struct pm_shooter *sh, const struct pm_scene *s,
 	enum pm_err e;
 
 	memset(sh, 0, sizeof(*sh));
-	if ((e = pm_scene_refuse_media(s, err)) != PM_OK)	/* not yet */
+	if ((e = pm_scene_refuse_media(s, err)) != PM_OK)
 		return e;
 	sh->scene = s;
 	sh->accel = a;
 	sh->lights = ls;
+	if (s->nmedia > 0) {
+		sh->light_medium = calloc(s->nlights + 1,
+		    sizeof(*sh->light_medium));
+		if (sh->light_medium == NULL)
+			return pm_fail(err, PM_ERR_NOMEM, "no memory for the "
+			    "lights' media");
+		for (i = 0; i < s->nlights; i++)
+			sh->light_medium[i] = light_medium(sh, i);
+	}
 	sh->aim_center = calloc(s->nshapes + 1, sizeof(*sh->aim_center));
 	sh->aim_radius = calloc(s->nshapes + 1, sizeof(*sh->aim_radius));
 	if (sh->aim_center == NULL || sh->aim_radius == NULL) {
@@ -223,11 +255,73 @@ pm_shooter_init(struct pm_shooter *sh, const struct pm_scene *s,
 void
 pm_shooter_free(struct pm_shooter *sh)
 {
+	free(sh->light_medium);
+	sh->light_medium = NULL;
 	free(sh->aim_center);
 	free(sh->aim_radius);
 	sh->aim_center = NULL;
 	sh->aim_radius = NULL;
 	sh->naim = 0;
+}
+
+/*
+ * The medium at point x: found along a probe ray from x, whose first
+ * crossing of a shape that names media says which lies on x's side
+ * (shapes that name none keep the medium a ray has, so the probe looks
+ * past them).  Nothing met: vacuum (-1).
+ */
+static int
+medium_at(const struct pm_scene *s, const struct pm_accel *a, struct pm_vec3 x)
+{
+	struct pm_vec3 d = pm_normalize(pm_v3(0.2718f, 0.5772f, 0.7071f));
+	struct pm_hit h;
+	float tmin = 0.0f;
+	int i;
+
+	for (i = 0; i < MAX_CROSSINGS; i++) {
+		const struct pm_shape *shp;
+
+		if (!pm_accel_intersect(a, x, d, tmin, INFINITY, &h))
+			return -1;
+		shp = &s->shapes[h.shape];
+		if (shp->interior != 0 || shp->exterior != 0)
+			return (pm_dot(d, h.ng) < 0.0f ? shp->exterior :
+			    shp->interior) - 1;
+		x = pm_hit_origin(&h, d);
+		tmin = 0.0f;
+	}
+	return -1;
+}
+
+static void sample_shape_point(const struct pm_shooter *sh, int li, float u1,
+    float u2, struct pm_vec3 *p, struct pm_vec3 *ng, struct pm_vec3 *ns);
+
+/*
+ * The medium light li's photons start in.  Point and spot lights: the
+ * one at their position.  Area lights: the exterior of their shape if it
+ * names one (they emit from its front), else the one at a point of it,
+ * just in front.  Lights from outside the scene: vacuum.
+ */
+static int
+light_medium(const struct pm_shooter *sh, size_t li)
+{
+	const struct pm_scene *s = sh->scene;
+	const struct pm_light *l = &s->lights[li];
+	struct pm_vec3 p, ng, ns;
+
+	switch (l->type) {
+	case PM_LIGHT_POINT:
+	case PM_LIGHT_SPOT:
+		return medium_at(s, sh->accel, l->position);
+	case PM_LIGHT_AREA:
+		if (s->shapes[l->shape].exterior != 0)
+			return s->shapes[l->shape].exterior - 1;
+		sample_shape_point(sh, (int)li, 0.5f, 0.5f, &p, &ng, &ns);
+		return medium_at(s, sh->accel, pm_madd(p, ng,
+		    1e-4f * fmaxf(s->radius, 1e-3f)));
+	default:
+		return -1;
+	}
 }
 
 /* Cosine of the cone that target j subtends from x; -1 if x is inside. */
@@ -405,7 +499,7 @@ projector_direction(const struct pm_shooter *sh, size_t li, float u,
  */
 static bool
 emit(const struct pm_shooter *sh, enum pm_map_pass pass, struct pm_rng *rng,
-    struct pm_vec3 *o, struct pm_vec3 *d, struct pm_rgb *flux)
+    struct pm_vec3 *o, struct pm_vec3 *d, struct pm_rgb *flux, int *medium)
 {
 	const struct pm_scene *s = sh->scene;
 	const struct pm_lights *ls = sh->lights;
@@ -419,6 +513,7 @@ emit(const struct pm_shooter *sh, enum pm_map_pass pass, struct pm_rng *rng,
 	struct pm_hit lh;
 	float pdf_dir;
 
+	*medium = sh->light_medium != NULL ? sh->light_medium[li] : -1;
 	switch (l->type) {
 	case PM_LIGHT_AREA:
 		sample_shape_point(sh, (int)li, u1, u2, &p, &ng, &ns, &lh);
@@ -537,9 +632,82 @@ pm_shooter_shape_point(const struct pm_shooter *sh, int light, float u1,
 
 struct chunk_out {
 	struct pm_photon_buf buf;
+	struct pm_photon_buf vbuf;	/* volume photons */
 	uint64_t dropped, paths_specular;
 	bool done;
 };
+
+/*
+ * One free flight of a photon in medium `medium` along o + t d up to the
+ * surface at t_end (INFINITY: none).  Returns 1 when it reached the
+ * surface (flux weighted by the transmittance over the flight's
+ * density), 2 when it scattered and goes on (the volume photon stored,
+ * o, d and flux moved on past Russian roulette), 0 when the path ends,
+ * -1 out of memory.
+ */
+static int
+medium_flight(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
+    struct pm_rng *rng, int medium, float t_end, int depth, int max_depth,
+    bool specular_only, struct chunk_out *co, struct pm_vec3 *o,
+    struct pm_vec3 *d, struct pm_rgb *flux)
+{
+	const struct pm_medium *m = &sh->scene->media[medium];
+	struct pm_medium_sample ms;
+	struct pm_rgb w;
+	float u = pm_rng_float(rng), q, pdf;
+	int c = (int)(pm_rng_float(rng) * 3.0f);
+
+	pm_medium_sample(m, t_end, c > 2 ? 2 : c, u, &ms);
+	q = pm_rgb_mean(ms.pdf);
+	if (!(q > 0.0f))
+		return 0;
+	w = pm_rgb_scale(ms.f, 1.0f / q);
+	*flux = pm_rgb_mul(*flux, w);
+	if (!ms.scattered)
+		return pm_rgb_is_black(*flux) ? 0 : 1;
+	*o = pm_madd(*o, *d, ms.t);
+	if (opts->pass == PM_PASS_CAUSTIC)
+		return 0;
+	if (opts->volume != NULL) {
+		struct pm_photon ph;
+
+		if (!pm_rgb_is_finite(*flux)) {
+			co->dropped++;
+			return 0;
+		}
+		ph.pos[0] = o->x;
+		ph.pos[1] = o->y;
+		ph.pos[2] = o->z;
+		pm_rgbe_pack(*flux, pm_rng_float(rng), ph.power);
+		pm_dir_pack(pm_neg(*d), ph.dir);
+		ph.normal[0] = ph.normal[1] = 0;	/* none in a medium */
+		ph.reserved[0] = ph.reserved[1] = 0;
+		ph.flags = PM_KD_LEAF;
+		if (!specular_only)
+			ph.flags |= PM_PHOTON_VIA_DIFFUSE;
+		if (specular_only && depth > 0)
+			ph.flags |= PM_PHOTON_CAUSTIC;
+		ph.depth = (uint8_t)(depth < 255 ? depth : 255);
+		if (!buf_push(&co->vbuf, &ph))
+			return -1;
+	}
+	if (depth >= max_depth)
+		return 0;
+	/* Russian roulette on the scatter's weight (the albedo, in a grey
+	 * medium), as at a surface. */
+	q = fminf(pm_rgb_max(w), 1.0f);
+	if (!(q > 0.0f) || pm_rng_float(rng) >= q)
+		return 0;
+	*flux = pm_rgb_scale(*flux, 1.0f / q);
+	{
+		float u1 = pm_rng_float(rng), u2 = pm_rng_float(rng);
+
+		*d = pm_phase_sample(&m->phase, *d, u1, u2, &pdf);
+	}
+	if (!(pdf > 0.0f))
+		return 0;
+	return 2;
+}
 
 static bool
 trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
@@ -552,8 +720,9 @@ trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 	bool specular_only = true, via_diffuse = false;
 	int depth, max_depth = opts->max_depth < 0 ? HARD_MAX_BOUNCES :
 	    (opts->max_depth < HARD_MAX_BOUNCES ? opts->max_depth : HARD_MAX_BOUNCES);
+	int medium, crossings = 0;	/* media: the photon's, -1: none */
 
-	if (!emit(sh, opts->pass, &rng, &o, &d, &flux))
+	if (!emit(sh, opts->pass, &rng, &o, &d, &flux, &medium))
 		return true;
 	for (depth = 0;; depth++) {
 		struct pm_hit h;
@@ -564,8 +733,36 @@ trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 		struct pm_bsdf_sample bs;
 		float q, u1, u2, u3;
 
-		if (!pm_accel_intersect(sh->accel, o, d, 0.0f, INFINITY, &h))
+		bool hit = pm_accel_intersect(sh->accel, o, d, 0.0f, INFINITY, &h);
+
+		if (medium >= 0) {
+			/* media: a scatter before the surface */
+			int ev = medium_flight(sh, opts, &rng, medium,
+			    hit ? h.t : INFINITY, depth, max_depth,
+			    specular_only, co, &o, &d, &flux);
+
+			if (ev < 0)
+				return false;
+			if (ev == 0)
+				break;
+			if (ev == 2) {
+				specular_only = false;
+				via_diffuse = true;
+				continue;
+			}
+		}
+		if (!hit)
 			break;
+		if (s->nmedia > 0 &&
+		    s->bsdfs[s->shapes[h.shape].bsdf].type == PM_BSDF_NULL) {
+			/* media: an index-matched boundary, no bounce */
+			if (++crossings > MAX_CROSSINGS)
+				break;
+			medium = pm_medium_after(s, &h, d, medium);
+			o = pm_hit_origin(&h, d);
+			depth--;
+			continue;
+		}
 		b = pm_bsdf_at(s, &h, &bt);
 		if (depth == 0 && bsdf_has_specular(b))
 			co->paths_specular++;
@@ -621,6 +818,8 @@ trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 		}
 		d = pm_normalize(pm_to_world(fr, bs.wo));
 		o = pm_hit_origin(&h, d);
+		if (s->nmedia > 0)
+			medium = pm_medium_after(s, &h, d, medium);
 	}
 	return true;
 }
@@ -644,8 +843,33 @@ struct job {
 	size_t committed;	/* chunks appended to out */
 	struct pm_photon_buf *out;
 	bool out_of_memory;
-	uint64_t stored;
+	uint64_t stored, vstored;
 };
+
+/* Appends src to dst, growing it by half at least; false without memory. */
+static bool
+append_buf(struct pm_photon_buf *dst, const struct pm_photon_buf *src)
+{
+	if (src->n > dst->cap - dst->n) {
+		/* Grow by half: realloc moves large blocks by remapping, and
+		 * untouched pages cost nothing. */
+		size_t cap = dst->n + src->n;
+		struct pm_photon *np;
+
+		cap = cap < dst->cap + dst->cap / 2 ? dst->cap + dst->cap / 2 :
+		    cap;
+		np = realloc(dst->p, cap * sizeof(*np));
+		if (np == NULL)
+			return false;
+		dst->p = np;
+		dst->cap = cap;
+	}
+	if (src->n > 0) {
+		memcpy(dst->p + dst->n, src->p, src->n * sizeof(*src->p));
+		dst->n += src->n;
+	}
+	return true;
+}
 
 /* Appends every done chunk that follows the committed ones; under
  * j->lock. */
@@ -654,31 +878,16 @@ commit_chunks(struct job *j)
 {
 	while (j->committed < j->nchunks && j->chunks[j->committed].done) {
 		struct chunk_out *co = &j->chunks[j->committed++];
-		struct pm_photon_buf *out = j->out;
 
-		if (!j->out_of_memory && co->buf.n > out->cap - out->n) {
-			/* Grow by half: realloc moves large blocks by
-			 * remapping, and untouched pages cost nothing. */
-			size_t cap = out->n + co->buf.n;
-			struct pm_photon *np;
-
-			cap = cap < out->cap + out->cap / 2 ?
-			    out->cap + out->cap / 2 : cap;
-			np = realloc(out->p, cap * sizeof(*np));
-			if (np == NULL)
-				j->out_of_memory = true;
-			else {
-				out->p = np;
-				out->cap = cap;
-			}
-		}
-		if (!j->out_of_memory && co->buf.n > 0) {
-			memcpy(out->p + out->n, co->buf.p,
-			    co->buf.n * sizeof(*co->buf.p));
-			out->n += co->buf.n;
-		}
+		if (!j->out_of_memory && !append_buf(j->out, &co->buf))
+			j->out_of_memory = true;
+		if (!j->out_of_memory && j->opts->volume != NULL &&
+		    !append_buf(j->opts->volume, &co->vbuf))
+			j->out_of_memory = true;
 		j->stored += co->buf.n;
+		j->vstored += co->vbuf.n;
 		pm_photon_buf_free(&co->buf);
+		pm_photon_buf_free(&co->vbuf);
 	}
 }
 
@@ -745,7 +954,7 @@ pm_shoot(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 	j.committed = 0;
 	j.out = out;
 	j.out_of_memory = false;
-	j.stored = 0;
+	j.stored = j.vstored = 0;
 	for (i = 1; i < nthreads; i++)
 		if (pthread_create(&tid[started], NULL, worker, &j) == 0)
 			started++;
@@ -762,6 +971,7 @@ pm_shoot(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 		    "(%llu bytes)", (unsigned long long)j.stored,
 		    (unsigned long long)(j.stored * sizeof(*out->p)));
 	stats->stored = j.stored;
+	stats->volume_stored = j.vstored;
 	for (c = 0; c < j.nchunks; c++) {
 		struct chunk_out *co = &j.chunks[c];
 
@@ -769,6 +979,7 @@ pm_shoot(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 		stats->paths_specular += co->paths_specular;
 		/* Chunks left behind by a failure. */
 		pm_photon_buf_free(&co->buf);
+		pm_photon_buf_free(&co->vbuf);
 	}
 	free(j.chunks);
 	return rc;
@@ -922,6 +1133,21 @@ pm_scene_hash(const struct pm_scene *s)
 		if (sh->type == PM_SHAPE_MESH && sh->mesh.fcolor != NULL)
 			h = fnv(fnv_i(h, 7), sh->mesh.fcolor, sizeof(float) * 3 *
 			    sh->mesh.ntris);
+	}
+	/* media, only when there are any (scenes without keep their
+	 * hashes): the media and which shapes bound them */
+	if (s->nmedia > 0) {
+		h = fnv_i(h, (int64_t)s->nmedia);
+		for (i = 0; i < s->nmedia; i++) {
+			const struct pm_medium *m = &s->media[i];
+
+			h = fnv_i(h, m->type);
+			h = fnv_rgb(fnv_rgb(h, m->sigma_t), m->albedo);
+			h = fnv_i(fnv_f(h, m->phase.g), m->phase.type);
+		}
+		for (i = 0; i < s->nshapes; i++)
+			h = fnv_i(fnv_i(h, s->shapes[i].interior),
+			    s->shapes[i].exterior);
 	}
 	h = fnv_i(h, (int64_t)s->nlights);
 	for (i = 0; i < s->nlights; i++) {

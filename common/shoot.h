@@ -34,6 +34,8 @@ struct pm_effects {
 	bool caustic;		/* specular surfaces and a diffuse receiver */
 	bool refraction;	/* dielectrics present */
 	int nspecular;		/* shapes with a specular (delta) component */
+	bool media;		/* participating media: a volume map, shot
+				 * with the global map's paths */
 	struct pm_effect_note notes[PM_EFFECT_NOTES];	/* in that order */
 };
 
@@ -71,12 +73,17 @@ struct pm_shoot_opts {
 	uint64_t count;		/* photon paths to shoot */
 	int max_depth;		/* bounces a photon may make; -1: unlimited */
 	int threads;
+	/* Global pass in a scene with media: where the photons that
+	 * scatter in a medium go (the volume map), in path order; NULL:
+	 * not stored.  Scatters count as bounces (depth, max_depth). */
+	struct pm_photon_buf *volume;
 };
 
 struct pm_shoot_stats {
 	uint64_t stored;	/* photons stored */
 	uint64_t dropped;	/* non-finite photons dropped */
 	uint64_t paths_specular;	/* paths that hit a specular surface first */
+	uint64_t volume_stored;	/* photons stored in opts->volume */
 };
 
 /* Everything tracing needs; built once per scene. */
@@ -88,6 +95,9 @@ struct pm_shooter {
 	struct pm_vec3 *aim_center;
 	float *aim_radius;
 	int naim;
+	/* Per light, the medium its photons start in (an index into
+	 * scene.media, -1: vacuum); NULL in a scene without media. */
+	int *light_medium;
 };
 
 enum pm_err pm_shooter_init(struct pm_shooter *sh, const struct pm_scene *s,

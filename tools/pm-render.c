@@ -42,6 +42,7 @@ static const char usage_line[] =
     "                 [--cache-step PIXELS] [--cache-rays N]\n"
     "                 [--cache-accuracy A] [--pass I] [--radius R] [--alpha A]\n"
     "                 [--preview FILE] [--preview-every SECONDS]\n"
+    "                 [--volume-estimate point|beam]\n"
     "                 -o OUT.exr SCENE.xml [MAP.pmap]\n";
 
 static const char help_text[] =
@@ -71,6 +72,10 @@ static const char help_text[] =
     "      --final-gather, --no-final-gather\n"
     "                              gather indirect light (default), or show\n"
     "                              the global map's photons directly\n"
+    "      --volume-estimate point|beam\n"
+    "                              media: the volume map at a point of each\n"
+    "                              camera segment (default), or the beam\n"
+    "                              radiance estimate along it\n"
     "      --final-gather-samples N  gather rays of a camera sample that the\n"
     "                              irradiance cache does not serve (default 1)\n"
     "      --cache-step PIXELS     pixels between irradiance cache points\n"
@@ -276,6 +281,10 @@ struct pppm {
 
 /* Loads a balanced map for this scene into maps, with the lookup radii;
  * prints and returns 0 on failure. */
+/* --volume-estimate beam (integrator_pmvol.c; docs/media.md measures
+ * both). */
+static bool volume_beam;
+
 static int
 load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
     const struct pppm *pg, struct pm_pmap *pm, struct pm_photon_maps *maps,
@@ -325,6 +334,11 @@ load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
 	    scene_radius, pg->pass, pg->alpha, pg->radius);
 	maps->global_r2 = r.global_r2;
 	maps->caustic_r2 = r.caustic_r2;
+	/* The volume map is looked up with the global map's radius, and
+	 * shrinks with it over progressive passes. */
+	maps->volume_r2 = r.global_r2;
+	maps->volume_samples = 1;
+	maps->volume_beam = volume_beam;	/* 4 cost 2.6x for no visible gain (docs/media.md) */
 	maps->fixed_radius = r.fixed;
 	if (pg->pass > 0 && verbose >= 2)
 		fprintf(stderr, PROG ": %s: progressive pass %ld, alpha %g: "
@@ -336,14 +350,18 @@ load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
 	maps->direct_samples = pp->direct_samples;
 	maps->final_gather = pp->final_gather;
 	maps->final_gather_samples = pp->final_gather_samples;
-	maps->icache_step = -1;		/* by the samples per pixel */
+	/* by the samples per pixel; none in scenes with media, whose
+	 * cache rays (render.c) would not follow the media: there every
+	 * camera sample gathers, through media, itself */
+	maps->icache_step = scene->nmedia > 0 ? 0 : -1;
 	maps->icache_rays = 0;		/* by the samples per pixel */
 	maps->icache_a = PM_ICACHE_ACCURACY;
 	if (verbose >= 2)
 		fprintf(stderr, PROG ": %s: %zu global photons, %zu caustic photons, "
-		    "%zu irradiance records, radii %g and %g, %s%d, %d direct "
+		    "%zu volume photons, %zu irradiance records, radii %g and %g, %s%d, %d direct "
 		    "samples, final gathering %s\n", path, maps->nglobal,
-		    maps->ncaustic, maps->nirradiance, sqrt(maps->global_r2),
+		    maps->ncaustic, maps->nvolume, maps->nirradiance,
+		    sqrt(maps->global_r2),
 		    sqrt(maps->caustic_r2), maps->fixed_radius ?
 		    "every photon within them (k unused: " : "k = ",
 		    maps->lookup_size, maps->direct_samples,
@@ -424,7 +442,7 @@ main(int argc, char **argv)
 		OPT_FOV, OPT_SEED, OPT_HALF, OPT_CAMERAS,
 		OPT_GRADIUS, OPT_CRADIUS, OPT_LOOKUP, OPT_DIRECT, OPT_FG, OPT_NOFG,
 		OPT_FGSAMPLES, OPT_PASS, OPT_RADIUS, OPT_ALPHA, OPT_CSTEP,
-		OPT_CRAYS, OPT_CACC, OPT_PREVIEW, OPT_PREVIEW_EVERY,
+		OPT_CRAYS, OPT_CACC, OPT_PREVIEW, OPT_PREVIEW_EVERY, OPT_VOLEST,
 	};
 	static const struct option longopts[] = {
 		{"method", required_argument, NULL, OPT_METHOD},
@@ -455,6 +473,7 @@ main(int argc, char **argv)
 		{"alpha", required_argument, NULL, OPT_ALPHA},
 		{"preview", required_argument, NULL, OPT_PREVIEW},
 		{"preview-every", required_argument, NULL, OPT_PREVIEW_EVERY},
+		{"volume-estimate", required_argument, NULL, OPT_VOLEST},
 		{"force", no_argument, NULL, 'f'},
 		{"quiet", no_argument, NULL, 'q'},
 		{"verbose", no_argument, NULL, 'v'},
@@ -570,6 +589,15 @@ main(int argc, char **argv)
 			break;
 		case OPT_NOFG:
 			fg = 0;
+			break;
+		case OPT_VOLEST:
+			if (strcmp(optarg, "point") == 0)
+				volume_beam = false;
+			else if (strcmp(optarg, "beam") == 0)
+				volume_beam = true;
+			else
+				usage_error("--volume-estimate wants point or "
+				    "beam, not '%s'", optarg);
 			break;
 		case OPT_CSTEP:
 			if (!pm_parse_long(optarg, 0, 1 << 16, &cache_step))
@@ -755,7 +783,7 @@ main(int argc, char **argv)
 	ctx.icache = NULL;
 	maps.gather_max_depth = ctx.max_depth < 0 ? -1 : ctx.max_depth - 3;
 	if (map_path != NULL) {
-		if (cache_step >= 0)
+		if (cache_step >= 0 && scene.nmedia == 0)	/* media: none */
 			maps.icache_step = (int)cache_step;
 		if (cache_rays > 0)
 			maps.icache_rays = (int)cache_rays;
@@ -780,9 +808,11 @@ main(int argc, char **argv)
 		fprintf(stderr, PROG ": %s: warning: the scene has no lights\n",
 		    scene_path);
 	if (scene.nmedia > 0 && verbose)
-		fprintf(stderr, PROG ": %s: note: %zu participating medi%s, path "
-		    "traced as Mitsuba's volpath; the camera is in %s%s%s\n",
+		fprintf(stderr, PROG ": %s: note: %zu participating medi%s, %s; "
+		    "the camera is in %s%s%s\n",
 		    scene_path, scene.nmedia, scene.nmedia == 1 ? "um" : "a",
+		    map_path != NULL ? "in-scattering from light samples and "
+		    "the volume map" : "path traced as Mitsuba's volpath",
 		    scene.camera_medium > 0 ? "\"" : "vacuum",
 		    scene.camera_medium > 0 ?
 		    scene.media[scene.camera_medium - 1].name : "",
