@@ -294,7 +294,8 @@ medium_at(const struct pm_scene *s, const struct pm_accel *a, struct pm_vec3 x)
 }
 
 static void sample_shape_point(const struct pm_shooter *sh, int li, float u1,
-    float u2, struct pm_vec3 *p, struct pm_vec3 *ng, struct pm_vec3 *ns);
+    float u2, struct pm_vec3 *p, struct pm_vec3 *ng, struct pm_vec3 *ns,
+    struct pm_hit *lh);
 
 /*
  * The medium light li's photons start in.  Point and spot lights: the
@@ -308,15 +309,17 @@ light_medium(const struct pm_shooter *sh, size_t li)
 	const struct pm_scene *s = sh->scene;
 	const struct pm_light *l = &s->lights[li];
 	struct pm_vec3 p, ng, ns;
+	struct pm_hit lh;
 
 	switch (l->type) {
 	case PM_LIGHT_POINT:
 	case PM_LIGHT_SPOT:
+	case PM_LIGHT_PROJECTOR:
 		return medium_at(s, sh->accel, l->position);
 	case PM_LIGHT_AREA:
 		if (s->shapes[l->shape].exterior != 0)
 			return s->shapes[l->shape].exterior - 1;
-		sample_shape_point(sh, (int)li, 0.5f, 0.5f, &p, &ng, &ns);
+		sample_shape_point(sh, (int)li, 0.5f, 0.5f, &p, &ng, &ns, &lh);
 		return medium_at(s, sh->accel, pm_madd(p, ng,
 		    1e-4f * fmaxf(s->radius, 1e-3f)));
 	default:
@@ -619,7 +622,9 @@ bool
 pm_shooter_emit(const struct pm_shooter *sh, struct pm_rng *rng,
     struct pm_vec3 *o, struct pm_vec3 *d, struct pm_rgb *flux)
 {
-	return emit(sh, PM_PASS_GLOBAL, rng, o, d, flux);
+	int medium;	/* the particle tracer refuses media */
+
+	return emit(sh, PM_PASS_GLOBAL, rng, o, d, flux, &medium);
 }
 
 void
