@@ -218,6 +218,34 @@ scene_bsphere(struct pm_scene *s)
 	    pm_v3(lo[0], lo[1], lo[2])));
 }
 
+/* Points a BSDF made of others at its nested ones, which must come
+ * before it (so they are prepared first, and nesting cannot loop). */
+static bool
+link_nested(struct pm_scene *s, size_t i, struct pm_error *err)
+{
+	struct pm_bsdf *b = &s->bsdfs[i];
+	int k, n = b->type == PM_BSDF_MASK ? 1 : 2;
+
+	b->sub[0] = b->sub[1] = NULL;
+	b->textures = s->textures;
+	b->nested_textures = false;
+	for (k = 0; k < n; k++) {
+		const struct pm_bsdf *c;
+
+		if (b->nested[k] < 0 || (size_t)b->nested[k] >= i) {
+			pm_fail(err, PM_ERR_INVALID, "BSDF %zu: nested BSDF "
+			    "index %d not below its own", i, b->nested[k]);
+			return false;
+		}
+		c = &s->bsdfs[b->nested[k]];
+		b->sub[k] = c;
+		if (c->tex_diffuse > 0 || c->tex_specular > 0 ||
+		    c->tex_alpha > 0 || c->tex_weight > 0 || c->nested_textures)
+			b->nested_textures = true;
+	}
+	return true;
+}
+
 /* Prepares BSDFs, computes the bounding sphere, light areas and powers,
  * checks indices. */
 enum pm_err
@@ -227,15 +255,18 @@ pm_scene_prepare(struct pm_scene *s, struct pm_error *err)
 	size_t i;
 
 	for (i = 0; i < s->nbsdfs; i++) {
-		const struct pm_bsdf *b = &s->bsdfs[i];
+		struct pm_bsdf *b = &s->bsdfs[i];
 		size_t nt = s->ntextures;
 
 		if (b->tex_diffuse < 0 || (size_t)b->tex_diffuse > nt ||
 		    b->tex_specular < 0 || (size_t)b->tex_specular > nt ||
-		    b->tex_alpha < 0 || (size_t)b->tex_alpha > nt)
+		    b->tex_alpha < 0 || (size_t)b->tex_alpha > nt ||
+		    b->tex_weight < 0 || (size_t)b->tex_weight > nt)
 			return pm_fail(err, PM_ERR_INVALID, "BSDF %zu: texture "
 			    "index out of range (%zu textures)", i, nt);
-		pm_bsdf_prepare(&s->bsdfs[i]);
+		if (pm_bsdf_is_composite(b) && !link_nested(s, i, err))
+			return PM_ERR_INVALID;
+		pm_bsdf_prepare(b);
 	}
 	scene_bsphere(s);
 

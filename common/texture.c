@@ -140,6 +140,30 @@ pm_texture_eval(const struct pm_texture *t, float u, float v)
 	return pm_rgb1(0.0f);
 }
 
+/*
+ * Mitsuba's eval_1, for scalar parameters: a bitmap's luminance there; a
+ * checkerboard's colour reduced by its mean, as Mitsuba reduces a colour
+ * constant, and with the two colours swapped, as Mitsuba 3 has them
+ * (its checkerboard's eval_1 gives color1 where eval gives color0).
+ */
+float
+pm_texture_eval1(const struct pm_texture *t, float u, float v)
+{
+	const float *m = t->to_uv;
+	float tu = m[0] * u + m[1] * v + m[2];
+	float tv = m[3] * u + m[4] * v + m[5];
+	struct pm_rgb c;
+
+	if (t->type == PM_TEXTURE_CHECKERBOARD) {
+		bool hu = tu - floorf(tu) > 0.5f, hv = tv - floorf(tv) > 0.5f;
+
+		c = hu == hv ? t->color1 : t->color0;
+		return (c.r + c.g + c.b) / 3.0f;
+	}
+	c = pm_texture_eval(t, u, v);
+	return 0.212671f * c.r + 0.715160f * c.g + 0.072169f * c.b;
+}
+
 struct pm_rgb
 pm_texture_mean(const struct pm_texture *t)
 {
@@ -206,6 +230,26 @@ pm_hit_uv(const struct pm_scene *s, const struct pm_hit *h, float *u, float *v)
 	*v = h->v;
 }
 
+void
+pm_bsdf_lookup(const struct pm_texture *textures, struct pm_bsdf *b, float u,
+    float v)
+{
+	if (b->tex_diffuse > 0)
+		b->diffuse = pm_texture_eval(&textures[b->tex_diffuse - 1], u, v);
+	if (b->tex_specular > 0)
+		b->specular = pm_texture_eval(&textures[b->tex_specular - 1],
+		    u, v);
+	/* scalar parameters, as Mitsuba's eval_1 reduces them */
+	if (b->tex_alpha > 0)
+		b->alpha = pm_texture_eval1(&textures[b->tex_alpha - 1], u, v);
+	if (b->tex_weight > 0)
+		b->weight = pm_texture_eval1(&textures[b->tex_weight - 1], u,
+		    v);
+	/* where BSDFs nested in this one look theirs up */
+	b->u = u;
+	b->v = v;
+}
+
 const struct pm_bsdf *
 pm_bsdf_at(const struct pm_scene *s, const struct pm_hit *h,
     struct pm_bsdf *tmp)
@@ -213,23 +257,11 @@ pm_bsdf_at(const struct pm_scene *s, const struct pm_hit *h,
 	const struct pm_bsdf *b = &s->bsdfs[s->shapes[h->shape].bsdf];
 	float u, v;
 
-	if (b->tex_diffuse == 0 && b->tex_specular == 0 && b->tex_alpha == 0)
+	if (b->tex_diffuse == 0 && b->tex_specular == 0 && b->tex_alpha == 0 &&
+	    b->tex_weight == 0 && !b->nested_textures)
 		return b;
 	*tmp = *b;
 	pm_hit_uv(s, h, &u, &v);
-	if (b->tex_diffuse > 0)
-		tmp->diffuse = pm_texture_eval(&s->textures[b->tex_diffuse - 1],
-		    u, v);
-	if (b->tex_specular > 0)
-		tmp->specular = pm_texture_eval(&s->textures[b->tex_specular - 1],
-		    u, v);
-	if (b->tex_alpha > 0) {
-		/* a scalar parameter takes the texture's luminance, as
-		 * Mitsuba's eval_1 does */
-		struct pm_rgb c = pm_texture_eval(&s->textures[b->tex_alpha - 1],
-		    u, v);
-
-		tmp->alpha = 0.212671f * c.r + 0.715160f * c.g + 0.072169f * c.b;
-	}
+	pm_bsdf_lookup(s->textures, tmp, u, v);
 	return tmp;
 }

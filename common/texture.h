@@ -54,6 +54,9 @@ void pm_texture_free(struct pm_texture *t);
 
 /* The texture's value at surface coordinates (u, v), before to_uv. */
 struct pm_rgb pm_texture_eval(const struct pm_texture *t, float u, float v);
+/* The texture as a scalar parameter (alpha, weight, opacity) reads it:
+ * Mitsuba's eval_1 (texture.c says how). */
+float pm_texture_eval1(const struct pm_texture *t, float u, float v);
 
 /* The texture's mean value over one period (Mitsuba's mean(): plastic
  * steers its samples by it). */
@@ -78,5 +81,13 @@ void pm_hit_uv(const struct pm_scene *s, const struct pm_hit *h, float *u,
  */
 const struct pm_bsdf *pm_bsdf_at(const struct pm_scene *s,
     const struct pm_hit *h, struct pm_bsdf *tmp);
+
+/*
+ * The textured parameters of b (a copy) looked up at (u, v) in the
+ * scene's textures, and (u, v) recorded for the BSDFs nested in b, which
+ * bsdf.c looks up the same way when it reaches them.
+ */
+void pm_bsdf_lookup(const struct pm_texture *textures, struct pm_bsdf *b,
+    float u, float v);
 
 #endif

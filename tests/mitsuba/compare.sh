@@ -14,7 +14,9 @@
 # Cornell box from ../shared/scenes/mitsuba-cbox (skipped when ../shared is
 # absent), tests/mitsuba/textures.xml (path traced and photon-mapped) and
 # the scenes tests/mitsuba/shapes_scene.py writes (shapes and sensors, path
-# traced and photon-mapped).
+# traced and photon-mapped), tests/mitsuba/composite.xml and
+# conductors.xml (blendbsdf, mask, two-faced twosided; named conductors;
+# path traced and photon-mapped).
 # Results are TAP-like lines and a closing "mitsuba cli: N passed,
 # N failed"; the exit status is non-zero when anything failed, including
 # the set-up of Mitsuba itself (no network means failure, never a pass).
@@ -350,6 +352,25 @@ if "$PY" "$HERE/shapes_scene.py" "$OUT/shapes" >"$OUT/log" 2>&1; then
 else
 	diag <"$OUT/log"
 	check "shapes: tests/mitsuba/shapes_scene.py failed" false
+fi
+
+# BSDFs made of others (blendbsdf with a textured weight, mask with a
+# checkerboard opacity, twosided with a different BSDF on each side) and
+# Mitsuba's named conductors, by path tracing and by photon mapping; and
+# pm's table of named conductors, every entry, against what Mitsuba
+# reports (conductors.py).
+for scene in composite conductors; do
+	run $scene $HERE/$scene.xml
+	[ "$selftest" = 1 ] || ! wanted $scene-photon ||
+	    against $scene-photon $HERE/$scene.xml photon
+done
+if [ "$selftest" = 0 ] && wanted conductor-table; then
+	"$PY" "$HERE/conductors.py" --check common/conductors.h \
+	    >"$OUT/log" 2>&1
+	_rc=$?
+	diag <"$OUT/log"
+	check "conductor table: pm's named conductors are Mitsuba's" \
+	    test "$_rc" = 0
 fi
 
 if [ -f ../shared/scenes/mitsuba-cbox/cbox-rgb.xml ]; then
