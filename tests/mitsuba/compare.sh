@@ -359,10 +359,11 @@ fi
 # Mitsuba's named conductors, by path tracing and by photon mapping; and
 # pm's table of named conductors, every entry, against what Mitsuba
 # reports (conductors.py).
-for scene in composite conductors; do
-	run $scene $HERE/$scene.xml
-	[ "$selftest" = 1 ] || ! wanted $scene-photon ||
-	    against $scene-photon $HERE/$scene.xml photon
+# (not $scene: against sets that)
+for nested in composite conductors; do
+	run $nested $HERE/$nested.xml
+	[ "$selftest" = 1 ] || ! wanted $nested-photon ||
+	    against $nested-photon $HERE/$nested.xml photon
 done
 if [ "$selftest" = 0 ] && wanted conductor-table; then
 	"$PY" "$HERE/conductors.py" --check common/conductors.h \
