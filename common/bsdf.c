@@ -578,6 +578,12 @@ roughplastic_tables(struct pm_bsdf *b)
 	double sum = 0.0;
 	int i;
 
+	/* no storage given: no base (rough_t reads 0), never a crash */
+	if (b->rough_t == NULL) {
+		b->fdr_int = 0.0f;
+		return;
+	}
+
 	for (i = 0; i < PM_ROUGH_T_RES; i++) {
 		float mu = fmaxf(1e-6f, (float)i / (float)(PM_ROUGH_T_RES - 1));
 
@@ -595,6 +601,9 @@ rough_t(const struct pm_bsdf *b, float c)
 {
 	float x = fminf(fmaxf(c, 0.0f), 1.0f) * (float)(PM_ROUGH_T_RES - 1);
 	int i = (int)x;
+
+	if (b->rough_t == NULL)
+		return 0.0f;
 
 	if (i > PM_ROUGH_T_RES - 2)
 		i = PM_ROUGH_T_RES - 2;

@@ -88,8 +88,11 @@ struct pm_bsdf {
 	float fdr_int;
 	float specular_sampling_weight;
 	/* roughplastic: the coating's transmittance from outside at
-	 * cos theta = i / (PM_ROUGH_T_RES - 1); set by pm_bsdf_prepare */
-	float rough_t[PM_ROUGH_T_RES];
+	 * cos theta = i / (PM_ROUGH_T_RES - 1), PM_ROUGH_T_RES floats that
+	 * pm_bsdf_prepare fills; the owner provides them (a scene's BSDFs
+	 * share one array, scene.rough_t, which pm_scene_prepare hands
+	 * out), so that the table is not in every BSDF and its copies */
+	float *rough_t;
 	unsigned lobes;		/* PM_LOBE_* this BSDF can produce */
 	/* If not 0, the only PM_LOBE_* that eval, pdf and sample consider,
 	 * as if the others were not there (Mitsuba's BSDFContext component
@@ -141,7 +144,8 @@ struct pm_bsdf_sample {
 };
 
 /* Fills derived fields (lobes, plastic's tables); call once after loading,
- * for a BSDF made of others after its sub[] are prepared and set. */
+ * for a BSDF made of others after its sub[] are prepared and set, for
+ * roughplastic after pointing rough_t at its table's storage. */
 void pm_bsdf_prepare(struct pm_bsdf *b);
 
 /* Whether b is made of other BSDFs (blendbsdf, mask, twosided with two). */

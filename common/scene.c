@@ -61,6 +61,7 @@ pm_scene_free(struct pm_scene *s)
 		pm_mesh_free(&s->shapes[i].mesh);
 	free(s->shapes);
 	free(s->bsdfs);
+	free(s->rough_t);
 	for (i = 0; i < s->nlights; i++)
 		if (s->lights[i].env != NULL) {
 			pm_envmap_free(s->lights[i].env);
@@ -218,6 +219,27 @@ scene_bsphere(struct pm_scene *s)
 	    pm_v3(lo[0], lo[1], lo[2])));
 }
 
+/* One table of PM_ROUGH_T_RES floats for each roughplastic BSDF, in one
+ * array the scene owns; false when out of memory. */
+static bool
+give_rough_tables(struct pm_scene *s)
+{
+	size_t i, n = 0;
+
+	for (i = 0; i < s->nbsdfs; i++)
+		n += s->bsdfs[i].type == PM_BSDF_ROUGHPLASTIC;
+	free(s->rough_t);
+	s->rough_t = NULL;
+	if (n == 0)
+		return true;
+	if ((s->rough_t = calloc(n, PM_ROUGH_T_RES * sizeof(float))) == NULL)
+		return false;
+	for (i = 0, n = 0; i < s->nbsdfs; i++)
+		if (s->bsdfs[i].type == PM_BSDF_ROUGHPLASTIC)
+			s->bsdfs[i].rough_t = &s->rough_t[PM_ROUGH_T_RES * n++];
+	return true;
+}
+
 /* Points a BSDF made of others at its nested ones, which must come
  * before it (so they are prepared first, and nesting cannot loop). */
 static bool
@@ -254,6 +276,9 @@ pm_scene_prepare(struct pm_scene *s, struct pm_error *err)
 	const double pi = 3.14159265358979323846;
 	size_t i;
 
+	if (!give_rough_tables(s))
+		return pm_fail(err, PM_ERR_NOMEM, "no memory for roughplastic's "
+		    "tables");
 	for (i = 0; i < s->nbsdfs; i++) {
 		struct pm_bsdf *b = &s->bsdfs[i];
 		size_t nt = s->ntextures;
