@@ -4,7 +4,9 @@
  * (diffuse, conductor, roughconductor, dielectric, thindielectric,
  * roughdielectric, plastic, roughplastic, null, and the twosided adapter
  * for the non-transmissive ones), in RGB,
- * and measured MERL BRDFs, whose lookup and sampling live in merl.c.
+ * measured MERL BRDFs, whose lookup and sampling live in merl.c, and the
+ * BSDFs made of others (blendbsdf, mask, twosided with two sides), which
+ * reach theirs through pointers pm_scene_prepare sets.
  *
  * One switch per operation; no allocation; nothing here prints.  The
  * formulas are the textbook ones (Walter et al. 2007 for GGX and for rough
@@ -24,8 +26,12 @@
  * Beckmann's normals are drawn from D(m) cos even with sample_visible,
  * and roughdielectric without it does not widen alpha for sampling
  * (other densities, the same integrals); roughplastic's tables are the
- * same integrals by another quadrature; and alpha is clamped to 1e-4,
- * below which float breaks down.
+ * same integrals by another quadrature; alpha is clamped to 1e-4,
+ * below which float breaks down; and a blendbsdf's or mask's sample of
+ * a non-delta component carries the density of the whole mix (and its
+ * f / pdf), where Mitsuba's carries its component's own density and
+ * weight, which its path tracer then weighs against light samples that
+ * use the mix's (pm's light samples and BSDF samples see one density).
  */
 #include <math.h>
 #include <string.h>
@@ -61,10 +67,20 @@ is_transmissive(enum pm_bsdf_type t)
 static unsigned
 only_class(const struct pm_bsdf *b)
 {
+	unsigned c = 0;
+	int i;
+
 	if (b->type == PM_BSDF_MERL)
 		return b->merl != NULL && b->merl->glossy ? PM_LOBE_GLOSSY :
 		    PM_LOBE_DIFFUSE;
-	return b->lobes;
+	if (b->type != PM_BSDF_BLEND && b->type != PM_BSDF_MASK &&
+	    b->type != PM_BSDF_TWOSIDED)
+		return b->lobes;
+	/* made of others: what theirs are (a mask adds its pass) */
+	for (i = 0; i < 2; i++)
+		if (b->sub[i] != NULL && (i == 0 || b->type != PM_BSDF_MASK))
+			c |= only_class(b->sub[i]);
+	return b->type == PM_BSDF_MASK ? c | PM_LOBE_DELTA_TRANSMISSION : c;
 }
 
 /* Whether `only` leaves nothing of b. */
@@ -751,7 +767,7 @@ nested_at(const struct pm_bsdf *b, int i, struct pm_bsdf *tmp)
 static bool
 selected(const struct pm_bsdf *c)
 {
-	return c->only == 0 || (c->lobes & c->only) != 0;
+	return c->only == 0 || (only_class(c) & c->only) != 0;
 }
 
 /*
