@@ -16,7 +16,10 @@
  *   - twosided: each side is its own BSDF, the back seen as if from the
  *     front;
  *   - textures on the weight and inside nested BSDFs are looked up at
- *     the hit (the weight as Mitsuba's eval_1 reads it).
+ *     the hit (the weight as Mitsuba's eval_1 reads it);
+ *   - nested BSDFs come before the BSDF that holds them;
+ *   - Mitsuba's named conductors are found by their names, and are
+ *     metals.
  *
  * Random numbers use fixed seeds; chi-square tests reject at 1e-3 over
  * their number (Bonferroni).
@@ -609,6 +612,39 @@ test_order(void **state)
 	pm_scene_free(&s);
 }
 
+/* Mitsuba's table of named conductors: every name it ships data for,
+ * case-sensitive as its file names; each a physical metal (reflectance
+ * in (0, 1] at every angle); "none" the perfect mirror.  (That the
+ * numbers are Mitsuba's own is checked against Mitsuba by
+ * tests/mitsuba/conductors.py in compare.sh.) */
+static void
+test_conductor_names(void **state)
+{
+	static const char *names[] = { "none", "Au", "Ag", "Al", "Cu", "a-C",
+	    "d-C_palik", "Cu2O_palik", "TiO2-e", "V_palik", "W", "Se-e" };
+	struct pm_rgb eta, k, f;
+	size_t i;
+	int j;
+
+	(void)state;
+	for (i = 0; i < sizeof(names) / sizeof(names[0]); i++) {
+		if (!pm_conductor_lookup(names[i], &eta, &k))
+			fail_msg("%s: not found", names[i]);
+		for (j = 0; j <= 10; j++) {
+			f = pm_fresnel_conductor(0.05f + 0.095f * (float)j, eta, k);
+			assert_true(f.r > 0.0f && f.r <= 1.0f + 1e-6f);
+			assert_true(f.g > 0.0f && f.g <= 1.0f + 1e-6f);
+			assert_true(f.b > 0.0f && f.b <= 1.0f + 1e-6f);
+		}
+	}
+	assert_true(pm_conductor_lookup("none", &eta, &k));
+	f = pm_fresnel_conductor(0.3f, eta, k);
+	assert_true(close_to(f.g, 1.0, 1e-6, "none"));
+	assert_false(pm_conductor_lookup("au", &eta, &k));
+	assert_false(pm_conductor_lookup("V", &eta, &k));
+	assert_false(pm_conductor_lookup("", &eta, &k));
+}
+
 int
 main(void)
 {
@@ -620,6 +656,7 @@ main(void)
 		cmocka_unit_test(test_twosided),
 		cmocka_unit_test(test_textures),
 		cmocka_unit_test(test_order),
+		cmocka_unit_test(test_conductor_names),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);
