@@ -5,7 +5,9 @@
  * roughdielectric, plastic, roughplastic, null, and the twosided adapter
  * for the non-transmissive ones), in RGB; principled and principledthin
  * live in bsdf_principled.c;
- * and measured MERL BRDFs, whose lookup and sampling live in merl.c.
+ * measured MERL BRDFs, whose lookup and sampling live in merl.c, and the
+ * BSDFs made of others (blendbsdf, mask, twosided with two sides), which
+ * reach theirs through pointers pm_scene_prepare sets.
  *
  * One switch per operation; no allocation; nothing here prints.  The
  * formulas are the textbook ones (Walter et al. 2007 for GGX and for rough
@@ -25,8 +27,12 @@
  * Beckmann's normals are drawn from D(m) cos even with sample_visible,
  * and roughdielectric without it does not widen alpha for sampling
  * (other densities, the same integrals); roughplastic's tables are the
- * same integrals by another quadrature; and alpha is clamped to 1e-4,
- * below which float breaks down.
+ * same integrals by another quadrature; alpha is clamped to 1e-4,
+ * below which float breaks down; and a blendbsdf's or mask's sample of
+ * a non-delta component carries the density of the whole mix (and its
+ * f / pdf), where Mitsuba's carries its component's own density and
+ * weight, which its path tracer then weighs against light samples that
+ * use the mix's (pm's light samples and BSDF samples see one density).
  */
 #include <math.h>
 #include <string.h>
@@ -35,6 +41,7 @@
 #include "bsdf.h"
 #include "merl.h"
 #include "sampling.h"
+#include "texture.h"
 
 /* Below this the GGX lobe is narrower than float precision can follow. */
 #define PM_MIN_ALPHA 1e-4f
@@ -50,7 +57,38 @@ static bool
 is_transmissive(enum pm_bsdf_type t)
 {
 	return t == PM_BSDF_DIELECTRIC || t == PM_BSDF_THINDIELECTRIC ||
-	    t == PM_BSDF_ROUGHDIELECTRIC || t == PM_BSDF_NULL;
+	    t == PM_BSDF_ROUGHDIELECTRIC || t == PM_BSDF_NULL ||
+	    t == PM_BSDF_MASK;
+}
+
+/* The lobes `only` selects a BSDF that is not made of others by: its own,
+ * except that a measured BRDF, which cannot be split, counts as glossy
+ * where it has a peak and as diffuse where it has none (the photon
+ * render's rule for it). */
+static unsigned
+only_class(const struct pm_bsdf *b)
+{
+	unsigned c = 0;
+	int i;
+
+	if (b->type == PM_BSDF_MERL)
+		return b->merl != NULL && b->merl->glossy ? PM_LOBE_GLOSSY :
+		    PM_LOBE_DIFFUSE;
+	if (b->type != PM_BSDF_BLEND && b->type != PM_BSDF_MASK &&
+	    b->type != PM_BSDF_TWOSIDED)
+		return b->lobes;
+	/* made of others: what theirs are (a mask adds its pass) */
+	for (i = 0; i < 2; i++)
+		if (b->sub[i] != NULL && (i == 0 || b->type != PM_BSDF_MASK))
+			c |= only_class(b->sub[i]);
+	return b->type == PM_BSDF_MASK ? c | PM_LOBE_DELTA_TRANSMISSION : c;
+}
+
+/* Whether `only` leaves nothing of b. */
+static bool
+excluded(const struct pm_bsdf *b)
+{
+	return b->only != 0 && (only_class(b) & b->only) == 0;
 }
 
 /*
@@ -282,6 +320,10 @@ plastic_diffuse(const struct pm_bsdf *b, float fi, float fo)
 static float
 plastic_prob_specular(const struct pm_bsdf *b, float fi)
 {
+	/* `only` one of the two lobes: that one, always */
+	if (b->only != 0 && !(b->only & PM_LOBE_DELTA_REFLECTION) !=
+	    !(b->only & PM_LOBE_DIFFUSE))
+		return (b->only & PM_LOBE_DELTA_REFLECTION) ? 1.0f : 0.0f;
 	float ps = fi * b->specular_sampling_weight;
 	float pd = (1.0f - fi) * (1.0f - b->specular_sampling_weight);
 
@@ -554,6 +596,12 @@ roughplastic_tables(struct pm_bsdf *b)
 	double sum = 0.0;
 	int i;
 
+	/* no storage given: no base (rough_t reads 0), never a crash */
+	if (b->rough_t == NULL) {
+		b->fdr_int = 0.0f;
+		return;
+	}
+
 	for (i = 0; i < PM_ROUGH_T_RES; i++) {
 		float mu = fmaxf(1e-6f, (float)i / (float)(PM_ROUGH_T_RES - 1));
 
@@ -571,6 +619,9 @@ rough_t(const struct pm_bsdf *b, float c)
 {
 	float x = fminf(fmaxf(c, 0.0f), 1.0f) * (float)(PM_ROUGH_T_RES - 1);
 	int i = (int)x;
+
+	if (b->rough_t == NULL)
+		return 0.0f;
 
 	if (i > PM_ROUGH_T_RES - 2)
 		i = PM_ROUGH_T_RES - 2;
@@ -688,6 +739,197 @@ sample_roughplastic(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
 	return true;
 }
 
+/* ---- BSDFs made of others: blendbsdf, mask, twosided with two sides ---- */
+
+/*
+ * Nested BSDF i of b as it stands at this hit: the scene's own when it
+ * takes no texture and b selects no lobes, else a copy in *tmp with
+ * its textures looked up at the hit's uv (which pm_bsdf_at recorded in
+ * b) and b's `only` passed on.  A copy on the stack, never an
+ * allocation; nesting is as deep as the scene file makes it.
+ */
+static const struct pm_bsdf *
+nested_at(const struct pm_bsdf *b, int i, struct pm_bsdf *tmp)
+{
+	const struct pm_bsdf *c = b->sub[i];
+	bool tex = c->tex_diffuse > 0 || c->tex_specular > 0 ||
+	    c->tex_alpha > 0 || c->tex_weight > 0 || c->nested_textures;
+
+	if (!tex && c->only == b->only)
+		return c;
+	*tmp = *c;
+	tmp->only = b->only;
+	if (tex && b->textures != NULL)
+		pm_bsdf_lookup(b->textures, tmp, b->u, b->v);
+	return tmp;
+}
+
+/* Whether `only` leaves anything of c (a nested BSDF as nested_at gives
+ * it, so with the parent's `only`). */
+static bool
+selected(const struct pm_bsdf *c)
+{
+	return c->only == 0 || (only_class(c) & c->only) != 0;
+}
+
+/*
+ * The components a composite chooses between when sampling, in order:
+ * blendbsdf its two BSDFs, mask its BSDF and the pass through it.  m[]
+ * are their shares of the BSDF (the mixture weights), q[] the
+ * probabilities of sampling each: the shares, renormalised over the
+ * components `only` leaves.  Returns how many there are.
+ */
+static int
+components(const struct pm_bsdf *b, const struct pm_bsdf *c0,
+    const struct pm_bsdf *c1, float m[2], float q[2])
+{
+	float w = fminf(fmaxf(b->weight, 0.0f), 1.0f), t;
+	bool a0, a1;
+
+	if (b->type == PM_BSDF_BLEND) {
+		m[0] = 1.0f - w;
+		m[1] = w;
+		a0 = selected(c0);
+		a1 = selected(c1);
+	} else {
+		/* mask: its BSDF at the opacity, the rest a pass */
+		m[0] = w;
+		m[1] = 1.0f - w;
+		a0 = selected(c0);
+		a1 = b->only == 0 || (b->only & PM_LOBE_DELTA_TRANSMISSION);
+	}
+	q[0] = a0 ? m[0] : 0.0f;
+	q[1] = a1 ? m[1] : 0.0f;
+	t = q[0] + q[1];
+	if (t > 0.0f) {
+		q[0] /= t;
+		q[1] /= t;
+	}
+	return 2;
+}
+
+static struct pm_rgb
+eval_composite(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo,
+    enum pm_transport mode)
+{
+	struct pm_bsdf t0, t1;
+	const struct pm_bsdf *c0, *c1;
+	struct pm_rgb r = pm_rgb1(0.0f);
+	float m[2], q[2];
+
+	if (b->type == PM_BSDF_TWOSIDED) {
+		/* the back seen as if from the front (Mitsuba's twosided) */
+		if (wi.z > 0.0f)
+			return pm_bsdf_eval(nested_at(b, 0, &t0), wi, wo, mode);
+		wi.z = -wi.z;
+		wo.z = -wo.z;
+		return pm_bsdf_eval(nested_at(b, 1, &t1), wi, wo, mode);
+	}
+	c0 = nested_at(b, 0, &t0);
+	c1 = b->type == PM_BSDF_BLEND ? nested_at(b, 1, &t1) : NULL;
+	components(b, c0, c1 != NULL ? c1 : c0, m, q);
+	if (m[0] > 0.0f)
+		r = pm_rgb_scale(pm_bsdf_eval(c0, wi, wo, mode), m[0]);
+	if (c1 != NULL && m[1] > 0.0f)
+		r = pm_rgb_madd(r, pm_rgb1(m[1]), pm_bsdf_eval(c1, wi, wo, mode));
+	return r;
+}
+
+static float
+pdf_composite(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo)
+{
+	struct pm_bsdf t0, t1;
+	const struct pm_bsdf *c0, *c1;
+	float m[2], q[2], p = 0.0f;
+
+	if (b->type == PM_BSDF_TWOSIDED) {
+		if (wi.z > 0.0f)
+			return pm_bsdf_pdf(nested_at(b, 0, &t0), wi, wo);
+		wi.z = -wi.z;
+		wo.z = -wo.z;
+		return pm_bsdf_pdf(nested_at(b, 1, &t1), wi, wo);
+	}
+	c0 = nested_at(b, 0, &t0);
+	c1 = b->type == PM_BSDF_BLEND ? nested_at(b, 1, &t1) : NULL;
+	components(b, c0, c1 != NULL ? c1 : c0, m, q);
+	/* the density of the mixture: each component's, by the chance of
+	 * sampling it (a mask's pass is a delta, no density) */
+	if (q[0] > 0.0f)
+		p = q[0] * pm_bsdf_pdf(c0, wi, wo);
+	if (c1 != NULL && q[1] > 0.0f)
+		p += q[1] * pm_bsdf_pdf(c1, wi, wo);
+	return p;
+}
+
+/* Largest float below 1: a remapped u1 must stay in [0, 1). */
+#define BELOW_ONE 0x1.fffffep-1f
+
+/*
+ * One component chosen by u1 with probability q[] (u1 rescaled and used
+ * again inside it), then sampled.  A delta sample keeps its own weight
+ * times share / probability; any other is weighed against the whole
+ * mixture, f / pdf with both summed over the components, so that its pdf
+ * is the one pm_bsdf_pdf gives and MIS sees one density.
+ */
+static bool
+sample_composite(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
+    float u2, float u3, enum pm_transport mode, struct pm_bsdf_sample *s)
+{
+	struct pm_bsdf t0, t1;
+	const struct pm_bsdf *c0, *c1, *c;
+	float m[2], q[2];
+	int k;
+
+	if (b->type == PM_BSDF_TWOSIDED) {
+		bool back = wi.z <= 0.0f;
+
+		if (back)
+			wi.z = -wi.z;
+		if (!pm_bsdf_sample(nested_at(b, back ? 1 : 0, &t0), wi, u1, u2,
+		    u3, mode, s))
+			return false;
+		if (back)
+			s->wo.z = -s->wo.z;
+		return true;
+	}
+	c0 = nested_at(b, 0, &t0);
+	c1 = b->type == PM_BSDF_BLEND ? nested_at(b, 1, &t1) : NULL;
+	components(b, c0, c1 != NULL ? c1 : c0, m, q);
+	if (!(q[0] + q[1] > 0.0f))
+		return false;
+	if (u1 < q[0]) {
+		k = 0;
+		u1 = fminf(u1 / q[0], BELOW_ONE);
+	} else {
+		k = 1;
+		u1 = q[1] > 0.0f ? fminf((u1 - q[0]) / q[1], BELOW_ONE) : 0.0f;
+	}
+	if (!(q[k] > 0.0f))
+		return false;
+	if (c1 == NULL && k == 1) {
+		/* through the mask, as if nothing were there */
+		s->wo = pm_neg(wi);
+		s->pdf = 1.0f;
+		s->weight = pm_rgb1(m[1] / q[1]);
+		s->eta = 1.0f;
+		s->lobe = PM_LOBE_DELTA_TRANSMISSION;
+		return true;
+	}
+	c = k == 0 ? c0 : c1;
+	if (!pm_bsdf_sample(c, wi, u1, u2, u3, mode, s))
+		return false;
+	if (s->lobe & PM_LOBE_DELTA) {
+		s->weight = pm_rgb_scale(s->weight, m[k] / q[k]);
+		return true;
+	}
+	s->pdf = pdf_composite(b, wi, s->wo);
+	if (!(s->pdf > 0.0f))
+		return false;
+	s->weight = pm_rgb_scale(eval_composite(b, wi, s->wo, mode),
+	    1.0f / s->pdf);
+	return true;
+}
+
 /* Fills derived fields (lobes, plastic's tables); call once after loading. */
 void
 pm_bsdf_prepare(struct pm_bsdf *b)
@@ -733,6 +975,16 @@ pm_bsdf_prepare(struct pm_bsdf *b)
 	case PM_BSDF_PRINCIPLEDTHIN:
 		b->lobes = pm_principled_lobes(b);
 		break;
+	case PM_BSDF_BLEND:
+	case PM_BSDF_TWOSIDED:
+		/* what either nested BSDF can do (as Mitsuba's flags) */
+		b->lobes = (b->sub[0] != NULL ? b->sub[0]->lobes : 0) |
+		    (b->sub[1] != NULL ? b->sub[1]->lobes : 0);
+		break;
+	case PM_BSDF_MASK:
+		b->lobes = (b->sub[0] != NULL ? b->sub[0]->lobes : 0) |
+		    PM_LOBE_DELTA_TRANSMISSION;
+		break;
 	case PM_BSDF_ROUGHPLASTIC:
 		b->lobes = PM_LOBE_GLOSSY | PM_LOBE_DIFFUSE;
 		roughplastic_tables(b);
@@ -757,6 +1009,8 @@ pm_bsdf_eval(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo,
 		wi.z = -wi.z;
 		wo.z = -wo.z;
 	}
+	if (excluded(b))
+		return pm_rgb1(0.0f);
 	switch (b->type) {
 	case PM_BSDF_DIFFUSE:
 		if (wi.z <= 0.0f || wo.z <= 0.0f)
@@ -777,7 +1031,8 @@ pm_bsdf_eval(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo,
 		return pm_rgb_scale(pm_rgb_mul(f, b->specular),
 		    d * g / (4.0f * wi.z));
 	case PM_BSDF_PLASTIC:
-		if (wi.z <= 0.0f || wo.z <= 0.0f)
+		if (wi.z <= 0.0f || wo.z <= 0.0f ||
+		    (b->only != 0 && !(b->only & PM_LOBE_DIFFUSE)))
 			break;
 		fi = pm_fresnel_dielectric(wi.z, b->ior, NULL);
 		fo = pm_fresnel_dielectric(wo.z, b->ior, NULL);
@@ -795,6 +1050,10 @@ pm_bsdf_eval(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo,
 	case PM_BSDF_PRINCIPLED:
 	case PM_BSDF_PRINCIPLEDTHIN:
 		return pm_principled_eval(b, wi, wo, mode == PM_RADIANCE);
+	case PM_BSDF_BLEND:
+	case PM_BSDF_MASK:
+	case PM_BSDF_TWOSIDED:
+		return eval_composite(b, wi, wo, mode);
 	case PM_BSDF_CONDUCTOR:
 	case PM_BSDF_DIELECTRIC:
 	case PM_BSDF_THINDIELECTRIC:
@@ -815,6 +1074,8 @@ pm_bsdf_pdf(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo)
 		wi.z = -wi.z;
 		wo.z = -wo.z;
 	}
+	if (excluded(b))
+		return 0.0f;
 	switch (b->type) {
 	case PM_BSDF_DIFFUSE:
 		if (wi.z <= 0.0f || wo.z <= 0.0f)
@@ -848,6 +1109,10 @@ pm_bsdf_pdf(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo)
 	case PM_BSDF_PRINCIPLED:
 	case PM_BSDF_PRINCIPLEDTHIN:
 		return pm_principled_pdf(b, wi, wo);
+	case PM_BSDF_BLEND:
+	case PM_BSDF_MASK:
+	case PM_BSDF_TWOSIDED:
+		return pdf_composite(b, wi, wo);
 	case PM_BSDF_CONDUCTOR:
 	case PM_BSDF_DIELECTRIC:
 	case PM_BSDF_THINDIELECTRIC:
@@ -1028,6 +1293,8 @@ pm_bsdf_sample(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
 {
 	bool flip = twosided_flip(b, wi), ok = false;
 
+	if (excluded(b))
+		return false;
 	if (flip)
 		wi.z = -wi.z;
 	switch (b->type) {
@@ -1088,6 +1355,11 @@ pm_bsdf_sample(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
 		ok = pm_principled_sample(b, wi, u1, u2, u3,
 		    mode == PM_RADIANCE, s);
 		break;
+	case PM_BSDF_BLEND:
+	case PM_BSDF_MASK:
+	case PM_BSDF_TWOSIDED:
+		ok = sample_composite(b, wi, u1, u2, u3, mode, s);
+		break;
 	}
 	if (ok && flip)
 		s->wo.z = -s->wo.z;
@@ -1142,12 +1414,12 @@ pm_ior_lookup(const char *name, float *ior)
 }
 
 /*
- * Conductor presets in RGB.  Mitsuba 3 in its RGB variants turns the
- * spectral eta and k files it ships (data/ior/<name>.{eta,k}.spd, the
- * PBRT/Luxpop data after Palik) into linear sRGB; the triples below are
- * that conversion as commonly tabulated (Bitterli's Tungsten renderer,
- * ComplexIorData; the same numbers appear in Yocto/GL), rounded to six
- * digits.  Names are case-sensitive, as Mitsuba's file names are.
+ * Mitsuba 3's named conductors in RGB: the spectral eta and k it ships
+ * (data/ior/<name>.{eta,k}.spd) as its RGB variants reduce them, asked of
+ * Mitsuba itself by tests/mitsuba/conductors.py, which wrote
+ * conductors.h and checks it against Mitsuba (compare.sh).  Names are
+ * case-sensitive, as Mitsuba's file names are; "none" is a perfect
+ * mirror.
  *
  * Notes for the scene loader (Mitsuba 3 defaults, from its plugin docs):
  *   diffuse:        reflectance 0.5.
@@ -1172,31 +1444,7 @@ static const struct {
 	const char *name;
 	struct pm_rgb eta, k;
 } conductor_table[] = {
-	{ "none", { 0.0f, 0.0f, 0.0f }, { 1.0f, 1.0f, 1.0f } },
-	{ "Ag", { 0.155265f, 0.116723f, 0.138381f },
-	    { 4.828343f, 3.122246f, 2.146950f } },
-	{ "Al", { 1.657460f, 0.880369f, 0.521229f },
-	    { 9.223869f, 6.269523f, 4.837001f } },
-	{ "Au", { 0.143119f, 0.374957f, 1.442479f },
-	    { 3.983160f, 2.385721f, 1.603215f } },
-	{ "Be", { 4.185059f, 3.185060f, 2.784091f },
-	    { 3.835440f, 3.010126f, 2.869009f } },
-	{ "Cr", { 4.369683f, 2.916702f, 1.654701f },
-	    { 5.206434f, 4.231365f, 3.754947f } },
-	{ "Cu", { 0.200438f, 0.924033f, 1.102212f },
-	    { 3.912949f, 2.452848f, 2.142188f } },
-	{ "Hg", { 2.398931f, 1.440025f, 0.909551f },
-	    { 6.327627f, 4.371941f, 3.421790f } },
-	{ "Ir", { 3.086410f, 2.082194f, 1.617887f },
-	    { 5.592151f, 4.067176f, 3.267261f } },
-	{ "Mo", { 4.483701f, 3.525458f, 2.776077f },
-	    { 4.111131f, 3.420872f, 3.150603f } },
-	{ "Rh", { 2.585795f, 1.860187f, 1.554428f },
-	    { 6.782293f, 4.702950f, 3.976089f } },
-	{ "TiN", { 1.648469f, 1.150448f, 1.379780f },
-	    { 3.368460f, 1.943489f, 1.102012f } },
-	{ "W", { 4.370703f, 3.300297f, 2.998267f },
-	    { 3.500678f, 2.604865f, 2.273193f } },
+#include "conductors.h"
 };
 
 /* Named conductor, eta and k in RGB; false if the name is unknown. */

@@ -36,6 +36,11 @@ enum pm_bsdf_type {
 	PM_BSDF_ROUGHPLASTIC,
 	PM_BSDF_PRINCIPLED,	/* Disney's, as Mitsuba: bsdf_principled.c */
 	PM_BSDF_PRINCIPLEDTHIN,
+	/* Made of other BSDFs (nested, sub, below): */
+	PM_BSDF_BLEND,		/* blendbsdf: (1 - weight) sub[0] + weight sub[1] */
+	PM_BSDF_MASK,		/* mask: opacity x sub[0], the rest passes */
+	PM_BSDF_TWOSIDED,	/* twosided with two BSDFs: sub[0] in front,
+				 * sub[1] behind (one BSDF: the flag below) */
 };
 
 /* Resolution of roughplastic's table of the coating's transmittance over
@@ -43,6 +48,7 @@ enum pm_bsdf_type {
 #define PM_ROUGH_T_RES 64
 
 struct pm_merl;
+struct pm_texture;
 
 enum pm_transport {
 	PM_RADIANCE,
@@ -86,12 +92,19 @@ struct pm_bsdf {
 	float fdr_int;
 	float specular_sampling_weight;
 	/* roughplastic: the coating's transmittance from outside at
-	 * cos theta = i / (PM_ROUGH_T_RES - 1); set by pm_bsdf_prepare */
-	float rough_t[PM_ROUGH_T_RES];
+	 * cos theta = i / (PM_ROUGH_T_RES - 1), PM_ROUGH_T_RES floats that
+	 * pm_bsdf_prepare fills; the owner provides them (a scene's BSDFs
+	 * share one array, scene.rough_t, which pm_scene_prepare hands
+	 * out), so that the table is not in every BSDF and its copies */
+	float *rough_t;
 	unsigned lobes;		/* PM_LOBE_* this BSDF can produce */
 	/* If not 0, the only PM_LOBE_* that eval, pdf and sample consider,
 	 * as if the others were not there (Mitsuba's BSDFContext component
-	 * selection); roughplastic and the principled BSDFs honour it.  The photon render uses it
+	 * selection); roughplastic, plastic and the principled BSDFs honour
+	 * it lobe by lobe, BSDFs made of others pass it on to theirs, the
+	 * rest keep or drop themselves whole (a measured BRDF counts as
+	 * glossy if merl.c finds a peak, else as diffuse).  The photon
+	 * render uses it
 	 * to estimate the diffuse base and trace the glossy coating apart. */
 	unsigned only;
 	/* merl: the table, owned by the scene and shared by every BSDF that
@@ -108,6 +121,27 @@ struct pm_bsdf {
 	 * textures' means. */
 	int tex_diffuse, tex_specular, tex_alpha;
 	int tex_transmittance;	/* dielectrics: replaces transmittance */
+	/*
+	 * blendbsdf, mask, twosided with two sides: the nested BSDFs as
+	 * indices into scene.bsdfs (blendbsdf: its first and second; mask:
+	 * [0]; twosided: front, back), each below this BSDF's own index, so
+	 * that nesting has no cycles and pm_scene_prepare prepares children
+	 * first; it also points sub[] at them (and textures at the scene's),
+	 * so that eval, pdf and sample need no scene and copy nothing
+	 * unless a nested BSDF is textured or `only` is set.
+	 */
+	int nested[2];
+	const struct pm_bsdf *sub[2];
+	const struct pm_texture *textures;
+	/* blendbsdf: weight; mask: opacity (Mitsuba clamps both to [0, 1]);
+	 * tex_weight as tex_diffuse (a scalar: the texture's luminance) */
+	float weight;
+	int tex_weight;
+	/* Set by pm_scene_prepare: a BSDF nested in this one takes a
+	 * texture, so pm_bsdf_at copies this one and records the hit's uv
+	 * (u, v) for the nested ones to look theirs up at. */
+	bool nested_textures;
+	float u, v;
 };
 
 struct pm_bsdf_sample {
@@ -118,8 +152,17 @@ struct pm_bsdf_sample {
 	unsigned lobe;		/* the PM_LOBE_* of the sampled event */
 };
 
-/* Fills derived fields (lobes, plastic's tables); call once after loading. */
+/* Fills derived fields (lobes, plastic's tables); call once after loading,
+ * for a BSDF made of others after its sub[] are prepared and set, for
+ * roughplastic after pointing rough_t at its table's storage. */
 void pm_bsdf_prepare(struct pm_bsdf *b);
+
+/* Whether b is made of other BSDFs (blendbsdf, mask, twosided with two). */
+static inline bool pm_bsdf_is_composite(const struct pm_bsdf *b)
+{
+	return b->type == PM_BSDF_BLEND || b->type == PM_BSDF_MASK ||
+	    b->type == PM_BSDF_TWOSIDED;
+}
 
 struct pm_rgb pm_bsdf_eval(const struct pm_bsdf *b, struct pm_vec3 wi,
     struct pm_vec3 wo, enum pm_transport mode);
@@ -161,8 +204,9 @@ struct pm_rgb pm_fresnel_conductor(float cos_i, struct pm_rgb eta, struct pm_rgb
 /* Named indices of refraction (Mitsuba's list: "bk7", "water", ...);
  * returns false if the name is unknown. */
 bool pm_ior_lookup(const char *name, float *ior);
-/* Named conductors ("Au", "Ag", "Cu", "Al", "none"), eta and k in RGB;
- * returns false if the name is unknown. */
+/* Mitsuba 3's named conductors ("Au", "a-C", "Cu_palik", ..., "none"),
+ * eta and k in RGB as its RGB variants have them; returns false if the
+ * name is unknown. */
 bool pm_conductor_lookup(const char *name, struct pm_rgb *eta, struct pm_rgb *k);
 
 #endif

@@ -99,17 +99,26 @@ is_split(const struct pm_bsdf *b)
 	    (b->lobes & PM_LOBE_DIFFUSE) && (b->lobes & ~(unsigned)PM_LOBE_DIFFUSE));
 }
 
+/* Everything but the diffuse: what a BSDF made of others (blendbsdf,
+ * mask, twosided with two) has traced, followed or passed through rather
+ * than estimated from the maps. */
+#define REST_LOBES (PM_LOBE_GLOSSY | PM_LOBE_DELTA | PM_LOBE_TRANSMISSION | \
+	PM_LOBE_DIFFUSE_TRANSMISSION)
+
 /* A split material's diffuse base alone (lobe PM_LOBE_DIFFUSE), or the
  * rest alone (any other lobe), as a BSDF of its own (a copy with `only`
- * set); other materials as they are. */
+ * set), and so the diffuse parts of a BSDF made of others, or the rest;
+ * other materials as they are. */
 static const struct pm_bsdf *
 split_lobe(const struct pm_bsdf *b, unsigned lobe, struct pm_bsdf *tmp)
 {
-	if (!is_split(b))
+	if (!is_split(b) && !pm_bsdf_is_composite(b))
 		return b;
 	*tmp = *b;
-	tmp->only = lobe == PM_LOBE_DIFFUSE ? lobe :
-	    b->lobes & ~(unsigned)PM_LOBE_DIFFUSE;
+	/* a composite's rest as a fixed set: its lobes less the diffuse may
+	 * be none, and `only` 0 would mean all */
+	tmp->only = lobe == PM_LOBE_DIFFUSE ? lobe : pm_bsdf_is_composite(b) ?
+	    REST_LOBES : b->lobes & ~(unsigned)PM_LOBE_DIFFUSE;
 	return tmp;
 }
 
@@ -153,7 +162,8 @@ photon_term(const struct pm_photon *x, const struct pm_bsdf *b,
 bool
 pm_photon_cacheable(const struct pm_bsdf *b)
 {
-	return has_nonspecular(b) && !is_glossy(b);
+	return has_nonspecular(b) && !is_glossy(b) &&
+	    (!pm_bsdf_is_composite(b) || (b->lobes & PM_LOBE_DIFFUSE));
 }
 
 /* The fixed-radius estimate of progressive photon mapping: every photon
@@ -392,7 +402,38 @@ gather_in(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 		fr = pm_frame_from_normal(h.ns);
 		wi = pm_to_local(fr, pm_neg(d));
 		nrm = side_normal(&h, d);
-		if (has_nonspecular(b) && m->irradiance_grid == NULL)
+		if (pm_bsdf_is_composite(b) && has_nonspecular(b)) {
+			/* its diffuse parts from the maps as a diffuse
+			 * surface's, the rest traced as a glossy one is (a
+			 * mask's pass, a mirror in a blend, followed) */
+			const struct pm_bsdf *bb = split_lobe(b,
+			    PM_LOBE_DIFFUSE, &base_tmp);
+
+			if ((b->lobes & PM_LOBE_DIFFUSE) &&
+			    m->irradiance_grid == NULL)
+				L = pm_rgb_madd(L, beta, estimate(m->global,
+				    m->nglobal, m->global_scale, m->global_r2,
+				    m->lookup_size, m->fixed_radius, 0, 0, false,
+				    bb, h.p, nrm, m->gather_max_depth, fr, wi));
+			else if (b->lobes & PM_LOBE_DIFFUSE) {
+				u1 = pm_rng_float(rng);
+				u2 = pm_rng_float(rng);
+				u3 = pm_rng_float(rng);
+				if (pm_bsdf_sample(bb, wi, u1, u2, u3, PM_RADIANCE,
+				    &bs))
+					L = pm_rgb_madd(L, pm_rgb_mul(beta,
+					    bs.weight), pm_rgb_scale(
+					    records_irradiance(m, h.p, nrm),
+					    1.0f / PM_PI));
+			}
+			if (!(b->lobes & REST_LOBES))
+				break;
+			b = split_lobe(b, REST_LOBES, &glossy_tmp);
+			if (b->lobes & (PM_LOBE_GLOSSY |
+			    PM_LOBE_GLOSSY_TRANSMISSION))
+				L = pm_rgb_madd(L, beta, direct_light(ctx, b, &h,
+				    fr, wi, 1, true, NULL, medium, rng));
+		} else if (has_nonspecular(b) && m->irradiance_grid == NULL)
 			return pm_rgb_madd(L, beta, estimate(m->global, m->nglobal,
 			    m->global_scale, m->global_r2, m->lookup_size, m->fixed_radius,
 			    0, 0, false, b, h.p, nrm, m->gather_max_depth, fr, wi));
@@ -424,7 +465,7 @@ gather_in(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 			break;
 		beta = pm_rgb_mul(beta, bs.weight);
 		if (!(bs.lobe & PM_LOBE_DELTA) && has_nonspecular(b) &&
-		    !is_glossy(b) && !is_split(b))
+		    !is_glossy(b) && !is_split(b) && !pm_bsdf_is_composite(b))
 			return pm_rgb_madd(L, beta, pm_rgb_scale(records_irradiance(m,
 			    h.p, nrm), 1.0f / PM_PI));
 		if (!(bs.lobe & PM_LOBE_DELTA) && has_nonspecular(b))
@@ -581,9 +622,11 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			L = pm_rgb_madd(L, pa.beta, direct_light(ctx, b, &h, fr, wi,
 			    1, true, lu, medium, rng));
 			lu = NULL;
-		} else if (has_nonspecular(b)) {
+		} else if (has_nonspecular(b) && (!pm_bsdf_is_composite(b) ||
+		    (b->lobes & PM_LOBE_DIFFUSE))) {
 			/* roughplastic: its diffuse base here, its coating
-			 * below */
+			 * below; a BSDF made of others: its diffuse parts
+			 * here, the rest below */
 			struct pm_bsdf base_tmp;
 			const struct pm_bsdf *bb = split_lobe(b,
 			    PM_LOBE_DIFFUSE, &base_tmp);
@@ -619,12 +662,32 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 				    bb, h.p, nrm, dcap, fr, wi));
 			L = pm_rgb_madd(L, pa.beta, E);
 			if (!(b->lobes & (PM_LOBE_DELTA | PM_LOBE_GLOSSY |
-			    PM_LOBE_GLOSSY_TRANSMISSION |
+			    PM_LOBE_TRANSMISSION |
 			    PM_LOBE_DIFFUSE_TRANSMISSION)))
 				break;
 		}
 
-		if (is_split(b)) {
+		if (pm_bsdf_is_composite(b)) {
+			/* The rest of a BSDF made of others, traced as a
+			 * glossy surface is (light sampling with MIS for
+			 * its glossy parts) and sampled on, its mirrors and
+			 * a mask's pass followed as any specular surface. */
+			struct pm_bsdf rest_tmp;
+			const struct pm_bsdf *br = split_lobe(b, REST_LOBES,
+			    &rest_tmp);
+
+			if (b->lobes & (PM_LOBE_GLOSSY |
+			    PM_LOBE_GLOSSY_TRANSMISSION)) {
+				L = pm_rgb_madd(L, pa.beta, direct_light(ctx, br,
+				    &h, fr, wi, 1, true, lu, medium, rng));
+				lu = NULL;
+			}
+			u1 = pm_rng_float(rng);
+			u2 = pm_rng_float(rng);
+			u3 = pm_rng_float(rng);
+			if (!pm_bsdf_sample(br, wi, u1, u2, u3, PM_RADIANCE, &bs))
+				break;
+		} else if (is_split(b)) {
 			/* A diffuse base with a rough coating (or a
 			 * principled BSDF's other lobes): the base is
 			 * estimated above, the rest path traced as a rough

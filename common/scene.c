@@ -62,6 +62,7 @@ pm_scene_free(struct pm_scene *s)
 		pm_mesh_free(&s->shapes[i].mesh);
 	free(s->shapes);
 	free(s->bsdfs);
+	free(s->rough_t);
 	for (i = 0; i < s->nlights; i++)
 		if (s->lights[i].env != NULL) {
 			pm_envmap_free(s->lights[i].env);
@@ -268,6 +269,57 @@ mesh_attributes_present(const struct pm_scene *s, struct pm_error *err)
 	return PM_OK;
 }
 
+/* One table of PM_ROUGH_T_RES floats for each roughplastic BSDF, in one
+ * array the scene owns; false when out of memory. */
+static bool
+give_rough_tables(struct pm_scene *s)
+{
+	size_t i, n = 0;
+
+	for (i = 0; i < s->nbsdfs; i++)
+		n += s->bsdfs[i].type == PM_BSDF_ROUGHPLASTIC;
+	free(s->rough_t);
+	s->rough_t = NULL;
+	if (n == 0)
+		return true;
+	if ((s->rough_t = calloc(n, PM_ROUGH_T_RES * sizeof(float))) == NULL)
+		return false;
+	for (i = 0, n = 0; i < s->nbsdfs; i++)
+		if (s->bsdfs[i].type == PM_BSDF_ROUGHPLASTIC)
+			s->bsdfs[i].rough_t = &s->rough_t[PM_ROUGH_T_RES * n++];
+	return true;
+}
+
+/* Points a BSDF made of others at its nested ones, which must come
+ * before it (so they are prepared first, and nesting cannot loop). */
+static bool
+link_nested(struct pm_scene *s, size_t i, struct pm_error *err)
+{
+	struct pm_bsdf *b = &s->bsdfs[i];
+	int k, n = b->type == PM_BSDF_MASK ? 1 : 2;
+
+	b->sub[0] = b->sub[1] = NULL;
+	b->textures = s->textures;
+	b->nested_textures = false;
+	for (k = 0; k < n; k++) {
+		const struct pm_bsdf *c;
+
+		if (b->nested[k] < 0 || (size_t)b->nested[k] >= i) {
+			pm_fail(err, PM_ERR_INVALID, "BSDF %zu: nested BSDF "
+			    "index %d not below its own", i, b->nested[k]);
+			return false;
+		}
+		c = &s->bsdfs[b->nested[k]];
+		b->sub[k] = c;
+		if (c->tex_diffuse > 0 || c->tex_specular > 0 ||
+		    c->tex_alpha > 0 || c->tex_weight > 0 ||
+		    c->tex_transmittance > 0 || c->pr.textured ||
+		    c->nested_textures)
+			b->nested_textures = true;
+	}
+	return true;
+}
+
 /* Prepares BSDFs, computes the bounding sphere, light areas and powers,
  * checks indices. */
 enum pm_err
@@ -276,18 +328,24 @@ pm_scene_prepare(struct pm_scene *s, struct pm_error *err)
 	const double pi = 3.14159265358979323846;
 	size_t i;
 
+	if (!give_rough_tables(s))
+		return pm_fail(err, PM_ERR_NOMEM, "no memory for roughplastic's "
+		    "tables");
 	for (i = 0; i < s->nbsdfs; i++) {
-		const struct pm_bsdf *b = &s->bsdfs[i];
+		struct pm_bsdf *b = &s->bsdfs[i];
 		size_t nt = s->ntextures;
 
 		if (b->tex_diffuse < 0 || (size_t)b->tex_diffuse > nt ||
 		    b->tex_specular < 0 || (size_t)b->tex_specular > nt ||
 		    b->tex_alpha < 0 || (size_t)b->tex_alpha > nt ||
 		    b->tex_transmittance < 0 ||
-		    (size_t)b->tex_transmittance > nt)
+		    (size_t)b->tex_transmittance > nt ||
+		    b->tex_weight < 0 || (size_t)b->tex_weight > nt)
 			return pm_fail(err, PM_ERR_INVALID, "BSDF %zu: texture "
 			    "index out of range (%zu textures)", i, nt);
-		pm_bsdf_prepare(&s->bsdfs[i]);
+		if (pm_bsdf_is_composite(b) && !link_nested(s, i, err))
+			return PM_ERR_INVALID;
+		pm_bsdf_prepare(b);
 	}
 	scene_bsphere(s);
 

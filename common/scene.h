@@ -190,6 +190,9 @@ struct pm_scene {
 	 * freed with the scene. */
 	struct pm_texture *textures;
 	size_t ntextures;
+	/* roughplastic's tables (bsdf.h), PM_ROUGH_T_RES floats per
+	 * roughplastic BSDF, allocated by pm_scene_prepare */
+	float *rough_t;
 	/* Filled by pm_scene_prepare: the sphere around the geometry's
 	 * bounding box, computed here once for everything that needs the
 	 * scene's extent (the environment's power and its photons' disk,

@@ -75,6 +75,10 @@ bsdf_reflects(const struct pm_bsdf *b)
 	if (b->type == PM_BSDF_MERL)
 		return b->merl != NULL &&
 		    pm_rgb_max(pm_merl_albedo(b->merl, 0.0f)) > 0.0f;
+	/* blendbsdf, mask, twosided with two: what they hold decides */
+	if (pm_bsdf_is_composite(b))
+		return (b->sub[0] != NULL && bsdf_reflects(b->sub[0])) ||
+		    (b->sub[1] != NULL && bsdf_reflects(b->sub[1]));
 	return pm_rgb_max(pm_rgb_add(b->diffuse, b->type == PM_BSDF_DIFFUSE ?
 	    pm_rgb1(0) : b->specular)) > 0.0f;
 }
@@ -1122,6 +1126,13 @@ pm_scene_hash(const struct pm_scene *s)
 					h = texture_hash(fnv_i(h, 10 + j),
 					    &s->textures[b->pr.tex[j] - 1]);
 		}
+		/* BSDFs made of others, again only when there are any */
+		if (pm_bsdf_is_composite(b)) {
+			h = fnv_i(fnv_i(h, b->nested[0]), b->nested[1]);
+			h = fnv_f(h, b->weight);
+		}
+		if (b->tex_weight > 0)
+			h = texture_hash(fnv_i(h, 4), &s->textures[b->tex_weight - 1]);
 	}
 	/* where textures are, the uv they are looked up by */
 	for (i = 0; s->ntextures > 0 && i < s->nshapes; i++) {

@@ -186,6 +186,30 @@ pm_texture_eval(const struct pm_texture *t, float u, float v)
 	return pm_rgb1(0.0f);
 }
 
+/*
+ * Mitsuba's eval_1, for scalar parameters: a bitmap's luminance there; a
+ * checkerboard's colour reduced by its mean, as Mitsuba reduces a colour
+ * constant, and with the two colours swapped, as Mitsuba 3 has them
+ * (its checkerboard's eval_1 gives color1 where eval gives color0).
+ */
+float
+pm_texture_eval1(const struct pm_texture *t, float u, float v)
+{
+	const float *m = t->to_uv;
+	float tu = m[0] * u + m[1] * v + m[2];
+	float tv = m[3] * u + m[4] * v + m[5];
+	struct pm_rgb c;
+
+	if (t->type == PM_TEXTURE_CHECKERBOARD) {
+		bool hu = tu - floorf(tu) > 0.5f, hv = tv - floorf(tv) > 0.5f;
+
+		c = hu == hv ? t->color1 : t->color0;
+		return (c.r + c.g + c.b) / 3.0f;
+	}
+	c = pm_texture_eval(t, u, v);
+	return 0.212671f * c.r + 0.715160f * c.g + 0.072169f * c.b;
+}
+
 struct pm_rgb
 pm_texture_eval_at(const struct pm_scene *s, const struct pm_texture *t,
     const struct pm_hit *h, float u, float v)
@@ -327,24 +351,53 @@ pm_hit_uv(const struct pm_scene *s, const struct pm_hit *h, float *u, float *v)
 	*v = h->v;
 }
 
-float
-pm_texture_eval1(const struct pm_texture *t, float u, float v)
+/* Colour parameter i (1 + a texture index) at (u, v), at hit h of scene s
+ * where they are known (mesh attributes need the hit), else by uv alone
+ * (BSDFs nested in others are looked up without the hit). */
+static struct pm_rgb
+colour_at(const struct pm_texture *textures, int i, const struct pm_scene *s,
+    const struct pm_hit *h, float u, float v)
 {
-	struct pm_rgb c;
+	const struct pm_texture *t = &textures[i - 1];
 
-	if (t->type == PM_TEXTURE_CHECKERBOARD) {
-		/* Mitsuba's checkerboard gives scalar lookups color1 where
-		 * its colour lookups give color0, and the other way round */
-		const float *a = t->to_uv;
-		float x = a[0] * u + a[1] * v + a[2];
-		float y = a[3] * u + a[4] * v + a[5];
-		bool xh = x - floorf(x) > 0.5f, yh = y - floorf(y) > 0.5f;
+	return s != NULL && h != NULL ? pm_texture_eval_at(s, t, h, u, v) :
+	    pm_texture_eval(t, u, v);
+}
 
-		c = xh == yh ? t->color1 : t->color0;
-	} else {
-		c = pm_texture_eval(t, u, v);
-	}
-	return 0.212671f * c.r + 0.715160f * c.g + 0.072169f * c.b;
+static void
+lookup(const struct pm_texture *textures, const struct pm_scene *s,
+    const struct pm_hit *h, struct pm_bsdf *b, float u, float v)
+{
+	int i;
+
+	if (b->tex_diffuse > 0)
+		b->diffuse = colour_at(textures, b->tex_diffuse, s, h, u, v);
+	if (b->tex_specular > 0)
+		b->specular = colour_at(textures, b->tex_specular, s, h, u, v);
+	if (b->tex_transmittance > 0)
+		b->transmittance = colour_at(textures, b->tex_transmittance, s,
+		    h, u, v);
+	/* scalar parameters, as Mitsuba's eval_1 reduces them */
+	if (b->tex_alpha > 0)
+		b->alpha = pm_texture_eval1(&textures[b->tex_alpha - 1], u, v);
+	if (b->tex_weight > 0)
+		b->weight = pm_texture_eval1(&textures[b->tex_weight - 1], u,
+		    v);
+	/* the principled BSDFs' scalar parameters */
+	for (i = 0; b->pr.textured && i < PM_PR_N; i++)
+		if (b->pr.tex[i] > 0)
+			b->pr.v[i] = pm_texture_eval1(&textures[b->pr.tex[i] - 1],
+			    u, v);
+	/* where BSDFs nested in this one look theirs up */
+	b->u = u;
+	b->v = v;
+}
+
+void
+pm_bsdf_lookup(const struct pm_texture *textures, struct pm_bsdf *b, float u,
+    float v)
+{
+	lookup(textures, NULL, NULL, b, u, v);
 }
 
 const struct pm_bsdf *
@@ -353,34 +406,13 @@ pm_bsdf_at(const struct pm_scene *s, const struct pm_hit *h,
 {
 	const struct pm_bsdf *b = &s->bsdfs[s->shapes[h->shape].bsdf];
 	float u, v;
-	int i;
 
 	if (b->tex_diffuse == 0 && b->tex_specular == 0 && b->tex_alpha == 0 &&
-	    b->tex_transmittance == 0 && !b->pr.textured)
+	    b->tex_transmittance == 0 && !b->pr.textured &&
+	    b->tex_weight == 0 && !b->nested_textures)
 		return b;
 	*tmp = *b;
 	pm_hit_uv(s, h, &u, &v);
-	if (b->tex_diffuse > 0)
-		tmp->diffuse = pm_texture_eval_at(s,
-		    &s->textures[b->tex_diffuse - 1], h, u, v);
-	if (b->tex_specular > 0)
-		tmp->specular = pm_texture_eval_at(s,
-		    &s->textures[b->tex_specular - 1], h, u, v);
-	if (b->tex_transmittance > 0)
-		tmp->transmittance = pm_texture_eval_at(s,
-		    &s->textures[b->tex_transmittance - 1], h, u, v);
-	if (b->tex_alpha > 0) {
-		/* a scalar parameter takes the texture's luminance, as
-		 * Mitsuba's eval_1 does */
-		struct pm_rgb c = pm_texture_eval_at(s,
-		    &s->textures[b->tex_alpha - 1], h, u, v);
-
-		tmp->alpha = 0.212671f * c.r + 0.715160f * c.g + 0.072169f * c.b;
-	}
-	/* the principled BSDFs' scalar parameters */
-	for (i = 0; b->pr.textured && i < PM_PR_N; i++)
-		if (b->pr.tex[i] > 0)
-			tmp->pr.v[i] = pm_texture_eval1(
-			    &s->textures[b->pr.tex[i] - 1], u, v);
+	lookup(s->textures, s, h, tmp, u, v);
 	return tmp;
 }

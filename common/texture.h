@@ -75,6 +75,9 @@ bool pm_texture_copy(struct pm_texture *dst, const struct pm_texture *src);
 
 /* The texture's value at surface coordinates (u, v), before to_uv. */
 struct pm_rgb pm_texture_eval(const struct pm_texture *t, float u, float v);
+/* The texture as a scalar parameter (alpha, weight, opacity) reads it:
+ * Mitsuba's eval_1 (texture.c says how). */
+float pm_texture_eval1(const struct pm_texture *t, float u, float v);
 
 /* The texture's value at hit h of scene s, whose uv is (u, v): as
  * pm_texture_eval, and a mesh_attribute (alone or within a checkerboard)
@@ -115,5 +118,13 @@ void pm_hit_uv(const struct pm_scene *s, const struct pm_hit *h, float *u,
  */
 const struct pm_bsdf *pm_bsdf_at(const struct pm_scene *s,
     const struct pm_hit *h, struct pm_bsdf *tmp);
+
+/*
+ * The textured parameters of b (a copy) looked up at (u, v) in the
+ * scene's textures, and (u, v) recorded for the BSDFs nested in b, which
+ * bsdf.c looks up the same way when it reaches them.
+ */
+void pm_bsdf_lookup(const struct pm_texture *textures, struct pm_bsdf *b,
+    float u, float v);
 
 #endif

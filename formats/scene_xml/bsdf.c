@@ -288,18 +288,122 @@ build_principled(struct ld *ld, struct xnode *n, struct plist *pl,
 	return PM_OK;
 }
 
+/* The k-th nested <bsdf> (or <ref> to one) of a BSDF made of others, by
+ * its index in the scene, where it is built once however often used. */
+static enum pm_err
+nested_bsdf(struct ld *ld, struct plist *pl, size_t k, int *out)
+{
+	struct xnode *inner = pl->obj[k];
+	enum pm_err e;
+
+	if (strcmp(inner->tag, "ref") == 0) {
+		if ((e = sx_deref(ld, inner, &inner)) != PM_OK)
+			return e;
+		if (strcmp(inner->tag, "bsdf") != 0)
+			return sx_fail(ld, pl->obj[k], PM_ERR_INVALID, "%s: <ref> "
+			    "names a <%s>, expected a <bsdf>", pl->what,
+			    inner->tag);
+	} else if (strcmp(inner->tag, "bsdf") != 0) {
+		return sx_fail(ld, inner, PM_ERR_INVALID, "unexpected <%s> inside "
+		    "%s", inner->tag, pl->what);
+	}
+	if (inner->busy)
+		return sx_fail(ld, pl->obj[k], PM_ERR_INVALID, "%s: a nested "
+		    "<bsdf> refers to the one around it", pl->what);
+	return sx_bsdf_index(ld, inner, out);
+}
+
+/* Whether the scene's BSDF i lets light through (Mitsuba's twosided
+ * takes none that does). */
+static bool
+transmits(const struct pm_scene *s, int i)
+{
+	const struct pm_bsdf *b = &s->bsdfs[i];
+
+	switch (b->type) {
+	case PM_BSDF_DIELECTRIC:
+	case PM_BSDF_THINDIELECTRIC:
+	case PM_BSDF_ROUGHDIELECTRIC:
+	case PM_BSDF_NULL:
+	case PM_BSDF_MASK:
+		return true;
+	case PM_BSDF_PRINCIPLED:
+		return b->pr.has_spec_trans;
+	case PM_BSDF_PRINCIPLEDTHIN:
+		return b->pr.has_spec_trans || b->pr.has_diff_trans;
+	case PM_BSDF_BLEND:
+	case PM_BSDF_TWOSIDED:
+		return transmits(s, b->nested[0]) || transmits(s, b->nested[1]);
+	default:
+		return false;
+	}
+}
+
+/*
+ * blendbsdf (a weight, float or texture, required as Mitsuba requires
+ * it, and exactly two nested BSDFs) and mask (an opacity, colour or
+ * texture, default 0.5, taken as its luminance, and one nested BSDF).
+ */
+static enum pm_err
+build_mix(struct ld *ld, struct plist *pl, struct pm_bsdf *b)
+{
+	bool blend = b->type == PM_BSDF_BLEND;
+	const char *pname = blend ? "weight" : "opacity";
+	size_t want = blend ? 2 : 1, k;
+	struct pm_rgb c;
+	enum pm_err e;
+
+	if ((e = sx_get_texture(ld, pl, pname, &b->tex_weight)) != PM_OK)
+		return e;
+	if (b->tex_weight > 0)
+		/* the mean until a hit looks it up (texture.h) */
+		c = pm_texture_mean(&ld->s->textures[b->tex_weight - 1]);
+	else if (blend && !sx_has(pl, "weight"))
+		return sx_missing(ld, pl, "weight", "a <float> or a <texture>");
+	else if ((e = sx_get_color(ld, pl, pname, 0.5f, &c)) != PM_OK)
+		return e;
+	if ((e = sx_finish(ld, pl)) != PM_OK)
+		return e;
+	/* a colour as a scalar: its mean, as Mitsuba's eval_1 of a colour */
+	b->weight = (c.r + c.g + c.b) / 3.0f;
+	if (pl->nobj != want)
+		return sx_fail(ld, pl->nobj > want ? pl->obj[want] : pl->owner,
+		    PM_ERR_INVALID, "%s needs %s nested <bsdf> or <ref>, "
+		    "not %zu", pl->what, blend ? "two" : "one", pl->nobj);
+	for (k = 0; k < want; k++)
+		if ((e = nested_bsdf(ld, pl, k, &b->nested[k])) != PM_OK)
+			return e;
+	return PM_OK;
+}
+
 static enum pm_err
 build_twosided(struct ld *ld, struct plist *pl, struct pm_bsdf *b)
 {
 	struct xnode *inner;
 	enum pm_err e;
+	int k;
 
 	if (pl->nobj == 0)
 		return sx_fail(ld, pl->owner, PM_ERR_INVALID, "%s needs one "
 		    "nested <bsdf> or <ref>", pl->what);
-	if (pl->nobj > 1)
-		return sx_fail(ld, pl->obj[1], PM_ERR_UNSUPPORTED, "%s: different "
-		    "BSDFs on the two sides are not supported", pl->what);
+	if (pl->nobj > 2)
+		return sx_fail(ld, pl->obj[2], PM_ERR_INVALID, "%s takes one "
+		    "or two nested BSDFs", pl->what);
+	if (pl->nobj == 2) {
+		/* front and back: two BSDFs of the scene, as Mitsuba's
+		 * twosided with two, neither letting light through */
+		b->type = PM_BSDF_TWOSIDED;
+		for (k = 0; k < 2; k++) {
+			if ((e = nested_bsdf(ld, pl, (size_t)k, &b->nested[k]))
+			    != PM_OK)
+				return e;
+			if (transmits(ld->s, b->nested[k]))
+				return sx_fail(ld, pl->obj[k], PM_ERR_INVALID,
+				    "%s: only BSDFs that let no light through "
+				    "can be nested (as in Mitsuba)", pl->what);
+		}
+		return PM_OK;
+	}
 	inner = pl->obj[0];
 	if (strcmp(inner->tag, "ref") == 0) {
 		if ((e = sx_deref(ld, inner, &inner)) != PM_OK)
@@ -398,6 +502,12 @@ sx_build_bsdf(struct ld *ld, struct xnode *n, struct pm_bsdf *b)
 			goto out;
 		n->busy = false;
 		return PM_OK;
+	} else if (strcmp(type, "blendbsdf") == 0 ||
+	    strcmp(type, "mask") == 0) {
+		b->type = type[0] == 'b' ? PM_BSDF_BLEND : PM_BSDF_MASK;
+		e = build_mix(ld, &pl, b);
+		n->busy = false;
+		return e;
 	} else if (strcmp(type, "null") == 0) {
 		b->type = PM_BSDF_NULL;
 	} else if (strcmp(type, "merl") == 0) {
@@ -407,7 +517,7 @@ sx_build_bsdf(struct ld *ld, struct xnode *n, struct pm_bsdf *b)
 		e = sx_unknown_plugin(ld, n, type, "diffuse, conductor, "
 		    "roughconductor, dielectric, thindielectric, "
 		    "roughdielectric, plastic, roughplastic, principled, "
-		    "principledthin, merl, twosided and null");
+		    "principledthin, merl, twosided, blendbsdf, mask and null");
 		goto out;
 	}
 	if (e == PM_OK && (e = sx_finish(ld, &pl)) == PM_OK)

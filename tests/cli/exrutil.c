@@ -8,6 +8,10 @@
  *	something to move; each NAME=VALUE becomes a string attribute.
  *   exrutil stat IN.exr
  *	prints "W H meanR meanG meanB min max" with %.9g.
+ *   exrutil se IN.exr
+ *	prints the mean of the green channel and its standard error over
+ *	the pixels, "mean se" with %.9g (pixels taken as independent
+ *	estimates, as a path-traced image's are).
  *   exrutil pngstat IN.png
  *	prints "W H min max" over every byte of the decoded RGB.
  *   exrutil relmse TEST.exr REF.exr
@@ -192,6 +196,26 @@ main(int argc, char **argv)
 		}
 		printf("%d %d %.9g %.9g %.9g %.9g %.9g\n", im.width, im.height,
 		    mean[0] / n, mean[1] / n, mean[2] / n, lo, hi);
+		pm_image_free(&im);
+		return 0;
+	}
+	if (argc == 3 && strcmp(argv[1], "se") == 0) {
+		struct pm_image im;
+		double s1 = 0, s2 = 0, m;
+		size_t i, n;
+
+		if (pm_exr_read(argv[2], &im, &err) != PM_OK) {
+			fprintf(stderr, "exrutil: %s\n", err.msg);
+			return 1;
+		}
+		n = (size_t)im.width * im.height;
+		for (i = 0; i < n; i++) {
+			s1 += im.rgb[3 * i + 1];
+			s2 += (double)im.rgb[3 * i + 1] * im.rgb[3 * i + 1];
+		}
+		m = s1 / (double)n;
+		printf("%.9g %.9g\n", m, n > 1 ? sqrt(fmax(s2 / (double)n - m * m,
+		    0.0) / (double)(n - 1)) : 0.0);
 		pm_image_free(&im);
 		return 0;
 	}

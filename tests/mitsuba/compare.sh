@@ -18,8 +18,10 @@
 # traced and photon-mapped) and
 # the scenes tests/mitsuba/shapes_scene.py writes (shapes and sensors, path
 # traced and photon-mapped), cornell-box, sky and point-lights under
-# Mitsuba's particle tracer (ptracer), and cornell-box under the moment
-# integrator (the variance channel).
+# Mitsuba's particle tracer (ptracer), cornell-box under the moment
+# integrator (the variance channel), tests/mitsuba/composite.xml and
+# conductors.xml (blendbsdf, mask, two-faced twosided; named conductors;
+# path traced and photon-mapped).
 # Results are TAP-like lines and a closing "mitsuba cli: N passed,
 # N failed"; the exit status is non-zero when anything failed, including
 # the set-up of Mitsuba itself (no network means failure, never a pass).
@@ -466,6 +468,26 @@ if [ "$selftest" = 0 ] && wanted cornell-moment && [ -f data/cornell-box.xml ]; 
 	sed 's|<integrator type="path">|<integrator type="moment"><integrator type="path">|; s|</integrator>|</integrator></integrator>|' \
 	    data/cornell-box.xml >"$OUT/moment/cornell-box.xml"
 	moments cornell-moment "$OUT/moment/cornell-box.xml"
+fi
+
+# BSDFs made of others (blendbsdf with a textured weight, mask with a
+# checkerboard opacity, twosided with a different BSDF on each side) and
+# Mitsuba's named conductors, by path tracing and by photon mapping; and
+# pm's table of named conductors, every entry, against what Mitsuba
+# reports (conductors.py).
+# (not $scene: against sets that)
+for nested in composite conductors; do
+	run $nested $HERE/$nested.xml
+	[ "$selftest" = 1 ] || ! wanted $nested-photon ||
+	    against $nested-photon $HERE/$nested.xml photon
+done
+if [ "$selftest" = 0 ] && wanted conductor-table; then
+	"$PY" "$HERE/conductors.py" --check common/conductors.h \
+	    >"$OUT/log" 2>&1
+	_rc=$?
+	diag <"$OUT/log"
+	check "conductor table: pm's named conductors are Mitsuba's" \
+	    test "$_rc" = 0
 fi
 
 if [ -f ../shared/scenes/mitsuba-cbox/cbox-rgb.xml ]; then

@@ -921,7 +921,13 @@ static struct pm_bsdf
 mk_roughplastic(float alpha, bool beckmann, float ior, struct pm_rgb diffuse,
     bool nonlinear)
 {
+	/* the tables' storage (a scene's, in pm): a ring, each BSDF made
+	 * here keeping its own for the next 15 */
+	static float tables[16][PM_ROUGH_T_RES];
+	static int next;
 	struct pm_bsdf b = mk(PM_BSDF_ROUGHPLASTIC);
+
+	b.rough_t = tables[next++ % 16];
 
 	b.alpha = alpha;
 	b.beckmann = beckmann;

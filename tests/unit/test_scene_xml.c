@@ -270,6 +270,88 @@ test_bsdfs(void **state)
 	pm_scene_free(&s);
 }
 
+/* BSDFs made of others: blendbsdf, mask, twosided with two sides; their
+ * nested BSDFs are scene BSDFs below them, shared when referenced; and a
+ * named conductor of Mitsuba's longer table. */
+static void
+test_composite_bsdfs(void **state)
+{
+	struct pm_scene s;
+	const struct pm_bsdf *b, *c;
+	struct pm_rgb eta, k;
+
+	(void)state;
+	load_ok("<scene version=\"3.0.0\">\n"
+	    " <bsdf type=\"diffuse\" id=\"red\">"
+	    "  <rgb name=\"reflectance\" value=\"0.6, 0.1, 0.1\"/></bsdf>\n"
+	    " <shape type=\"rectangle\"><bsdf type=\"blendbsdf\">"
+	    "  <float name=\"weight\" value=\"0.25\"/><ref id=\"red\"/>"
+	    "  <bsdf type=\"conductor\"><string name=\"material\" "
+	    "value=\"a-C\"/></bsdf></bsdf></shape>\n"
+	    " <shape type=\"rectangle\"><bsdf type=\"mask\">"
+	    "  <ref id=\"red\"/></bsdf></shape>\n"
+	    " <shape type=\"rectangle\"><bsdf type=\"mask\">"
+	    "  <texture name=\"opacity\" type=\"checkerboard\"/>"
+	    "  <bsdf type=\"diffuse\"/></bsdf></shape>\n"
+	    " <shape type=\"rectangle\"><bsdf type=\"twosided\">"
+	    "  <ref id=\"red\"/><bsdf type=\"roughconductor\"/></bsdf>"
+	    " </shape>\n"
+	    "</scene>\n", &s);
+	b = shape_bsdf(&s, 0);
+	assert_int_equal(b->type, PM_BSDF_BLEND);
+	NEAR(b->weight, 0.25, 1e-6);
+	assert_true(b->nested[0] < s.shapes[0].bsdf &&
+	    b->nested[1] < s.shapes[0].bsdf);
+	c = &s.bsdfs[b->nested[0]];
+	assert_int_equal(c->type, PM_BSDF_DIFFUSE);
+	assert_rgb(c->diffuse, 0.6, 0.1, 0.1);
+	c = &s.bsdfs[b->nested[1]];
+	assert_int_equal(c->type, PM_BSDF_CONDUCTOR);
+	assert_true(pm_conductor_lookup("a-C", &eta, &k));
+	assert_rgb(c->eta, eta.r, eta.g, eta.b);
+	assert_rgb(c->k, k.r, k.g, k.b);
+	/* the referenced BSDF is one scene BSDF, however often nested */
+	b = shape_bsdf(&s, 1);
+	assert_int_equal(b->type, PM_BSDF_MASK);
+	NEAR(b->weight, 0.5, 1e-6);
+	assert_int_equal(b->nested[0], shape_bsdf(&s, 0)->nested[0]);
+	b = shape_bsdf(&s, 2);
+	assert_int_equal(b->type, PM_BSDF_MASK);
+	assert_true(b->tex_weight > 0);
+	b = shape_bsdf(&s, 3);
+	assert_int_equal(b->type, PM_BSDF_TWOSIDED);
+	assert_int_equal(s.bsdfs[b->nested[0]].type, PM_BSDF_DIFFUSE);
+	assert_int_equal(s.bsdfs[b->nested[1]].type, PM_BSDF_ROUGHCONDUCTOR);
+	pm_scene_free(&s);
+
+	load_fails("<scene version=\"3.0.0\">\n"
+	    "<shape type=\"rectangle\">\n<bsdf type=\"blendbsdf\">"
+	    "<bsdf type=\"diffuse\"/><bsdf type=\"diffuse\"/></bsdf>"
+	    "</shape></scene>", 3, "missing required parameter \"weight\"");
+	load_fails("<scene version=\"3.0.0\">\n"
+	    "<shape type=\"rectangle\"><bsdf type=\"blendbsdf\">"
+	    "<float name=\"weight\" value=\"0.5\"/><bsdf type=\"diffuse\"/>"
+	    "\n<bsdf type=\"diffuse\"/><bsdf type=\"diffuse\"/></bsdf>"
+	    "</shape></scene>", 3, "needs two nested");
+	load_fails("<scene version=\"3.0.0\">\n"
+	    "<shape type=\"rectangle\">\n<bsdf type=\"mask\">"
+	    "</bsdf></shape></scene>", 3, "needs one nested");
+	load_fails("<scene version=\"3.0.0\">\n"
+	    "<shape type=\"rectangle\"><bsdf type=\"twosided\">"
+	    "<bsdf type=\"diffuse\"/>\n<bsdf type=\"dielectric\"/></bsdf>"
+	    "</shape></scene>", 3, "let no light through");
+	load_fails("<scene version=\"3.0.0\">\n"
+	    "<shape type=\"rectangle\"><bsdf type=\"twosided\">"
+	    "<bsdf type=\"diffuse\"/><bsdf type=\"diffuse\"/>\n"
+	    "<bsdf type=\"diffuse\"/></bsdf></shape></scene>", 3,
+	    "takes one or two");
+	load_fails("<scene version=\"3.0.0\">\n"
+	    "<bsdf type=\"blendbsdf\" id=\"loop\">\n"
+	    "<float name=\"weight\" value=\"0.5\"/><ref id=\"loop\"/>"
+	    "<bsdf type=\"diffuse\"/></bsdf><shape type=\"rectangle\">"
+	    "<ref id=\"loop\"/></shape></scene>", 3, "refers to");
+}
+
 /* roughdielectric and roughplastic: Mitsuba's defaults (Beckmann, alpha
  * 0.1, visible normals, bk7 glass, polypropylene plastic) and each
  * parameter read. */
@@ -1374,9 +1456,6 @@ test_errors(void **state)
 		{HEAD "<shape type=\"rectangle\"><bsdf type=\"dielectric\">\n"
 		    "<string name=\"int_ior\" value=\"kryptonite\"/></bsdf>"
 		    "</shape></scene>", 3, "unknown material \"kryptonite\""},
-		{HEAD "<shape type=\"rectangle\"><bsdf type=\"twosided\">\n"
-		    "<bsdf type=\"diffuse\"/><bsdf type=\"diffuse\"/></bsdf>"
-		    "</shape></scene>", 3, "two sides are not supported"},
 		{HEAD "\n<emitter type=\"area\" id=\"lonely\">"
 		    "<rgb name=\"radiance\" value=\"1\"/></emitter></scene>", 3,
 		    "area emitter \"lonely\" is not referenced"},
@@ -1582,6 +1661,7 @@ main(void)
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_empty_scene_defaults),
 		cmocka_unit_test(test_bsdfs),
+		cmocka_unit_test(test_composite_bsdfs),
 		cmocka_unit_test(test_rough_bsdfs),
 		cmocka_unit_test(test_principled_bsdfs),
 		cmocka_unit_test(test_shapes),
