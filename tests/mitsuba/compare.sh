@@ -31,6 +31,8 @@
 # PM_SHOOT (bin/pm-shoot), PM_BALANCE (bin/pm-balance) and PM_PHOTONS
 # (1000000 global and as many caustic photon paths per map) for the
 # photon-mapped renders, PM_THREADS (pm-render's -t, unset: its default),
+# MEDIA_PHOTON_SPP (pm-render's spp for fog-box and glass-medium in
+# photon mode, PM_SPP / 4 unset),
 # MITSUBA_VARIANT, PM_VENV (build/venv), SMOKE_MITSUBA_SPP (smoke's
 # Mitsuba spp, MITSUBA_SPP / 4 unset), MITSUBA_ONLY (the checks to run,
 # by the names the results give them, separated by spaces, e.g. "fog-box
@@ -312,10 +314,16 @@ done
 # Mitsuba's volpath at 256 spp sees its caustics through the ball as
 # fireflies (relMSE 5.5 between two of its renders' halves and pm's path
 # mode), too noisy a reference to decide 1% (docs/media.md).
+# Every camera sample gathers here (no irradiance cache in media), so
+# pm-render takes a quarter of PM_SPP (MEDIA_PHOTON_SPP overrides): its
+# two renders still tell compare.py how noisy they are.
+_pm_spp=$PM_SPP
+PM_SPP=${MEDIA_PHOTON_SPP:-$(( PM_SPP / 4 > 0 ? PM_SPP / 4 : 1 ))}
 for scene in fog-box glass-medium; do
 	[ -f data/$scene.xml ] && [ "$selftest" = 0 ] &&
 	    wanted $scene-photon && against $scene-photon data/$scene.xml photon
 done
+PM_SPP=$_pm_spp
 VARIANTS=build/mitsuba-variants
 mkdir -p "$VARIANTS"
 if [ -f data/fog-box.xml ]; then
