@@ -228,7 +228,8 @@ main(int argc, char *argv[])
 		    argv[i];
 		shards[i].m = &in[i];
 		/* Mapped read-only: the records are copied out below. */
-		if (pm_pmap_read(argv[i], &in[i], true, &err) != PM_OK) {
+		if (pm_pmap_read_threads(argv[i], &in[i], true,
+		    (int)threads, &err) != PM_OK) {
 			fprintf(stderr, "%s: %s\n", PROG, err.msg);
 			goto done;
 		}
