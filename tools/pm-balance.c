@@ -49,8 +49,8 @@ static const char help_text[] =
     "      --pass i          progressive pass i: records over a fixed\n"
     "                        radius shrinking with i\n"
     "  -q, --quiet           no progress line, no warnings\n"
-    "  -t, --threads n       threads for the kd-tree build (default:"
-    " all cores)\n"
+    "  -t, --threads n       threads for the map check and the kd-tree\n"
+    "                        build (default: all cores)\n"
     "  -v, --verbose         per-map counts and build times\n"
     "      --version         print the version and exit\n\n"
     "A progress line goes to stderr when it is a terminal.\n";
