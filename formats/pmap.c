@@ -19,8 +19,8 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <inttypes.h>
-#include <stdatomic.h>
 #include <math.h>
+#include <stdatomic.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -915,17 +915,8 @@ inflate_map(struct pmap_in *in, const struct pmap_entry *me,
 	return PM_OK;
 }
 
-/*
- * Checks the count records at rec, raw bytes: their crc32 (into *crcp)
- * against the stored one when they are the payload as stored (with_crc),
- * then, unless the file is of a newer minor version, that their reserved
- * bytes are zero.  Both walk the records a cache-sized block at a time,
- * so that a memory-mapped map is read from memory once.  A damaged byte
- * is reported as a checksum mismatch first.
- */
-/* The crc32 of raw bytes at rec and the index of their first record with
- * nonzero reserved bytes (UINT64_MAX: none, or not strict), a cache-sized
- * block at a time. */
+/* The crc32 of the raw bytes at rec and the index of their first record
+ * with nonzero reserved bytes (UINT64_MAX: none, or not strict). */
 static uint32_t
 check_span(const unsigned char *rec, uint64_t raw, bool strict, uint64_t *badp)
 {
@@ -977,6 +968,14 @@ check_worker(void *arg)
 	return NULL;
 }
 
+/*
+ * Checks the count records at rec, raw bytes: their crc32 (into *crcp)
+ * against the stored one when they are the payload as stored (with_crc),
+ * then, unless the file is of a newer minor version, that their reserved
+ * bytes are zero.  Both walk the records a cache-sized block at a time,
+ * so that a memory-mapped map is read from memory once.  A damaged byte
+ * is reported as a checksum mismatch first.
+ */
 static enum pm_err
 check_records(struct pmap_in *in, const struct pmap_entry *me,
     const unsigned char *rec, uint64_t raw, bool with_crc, uint32_t *crcp)
@@ -989,11 +988,11 @@ check_records(struct pmap_in *in, const struct pmap_entry *me,
 	 * than one piece, on more than one thread, is checked in pieces
 	 * whose crc32s zlib combines into the very same crc32: the check
 	 * and its page faults were a tenth of a short render's time, on
-	 * one thread. */
+	 * one thread.  (A piece must fit crc32_combine's z_off_t, which
+	 * may have 32 bits.) */
 	piece = PMAP_PIECE_RECS * PMAP_REC;
 	if (raw / PMAP_PIECES >= piece)
 		piece = (raw / PMAP_PIECES / PMAP_REC + 1) * PMAP_REC;
-	/* (z_off_t, crc32_combine's length, may be 32 bits) */
 	if (in->threads <= 1 || raw <= piece || piece > INT32_MAX) {
 		crc = check_span(rec, raw, in->strict, &bad);
 	} else {
