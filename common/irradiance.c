@@ -162,10 +162,11 @@ pm_irradiance_records(const struct pm_photon *g, size_t n, float scale,
  * And at most this many a record.  Records lie on surfaces and the cells
  * fill a volume: cells of twice the records' spacing made 11 a record in
  * the cornell box, and the build was cache misses on them (a tenth of a
- * short render, serial).  Capped at 4, the cells are 1.4x wider and a
- * whole render took 0.91x the time on one thread (the lookups too
- * got faster).  A lookup's record (the nearest of its cell) may change,
- * not the images' means: see docs/accuracy.md.
+ * short render, serial).  Capped at 4, the cells are 1.56x wider, the
+ * build twice as fast, and a whole render took 0.88x to 0.91x the time
+ * on one thread (the lookups too got faster).  A lookup's record (the
+ * nearest of its cell) may change, the images only well within their
+ * noise: see docs/accuracy.md.
  */
 #define GRID_CELLS_PER_REC	4.0f
 
