@@ -40,6 +40,12 @@ enum pm_err pm_pmap_write(const char *path, const struct pm_pmap *m,
 enum pm_err pm_pmap_read(const char *path, struct pm_pmap *m, bool allow_mmap,
     struct pm_error *err);
 
+/* The same, checking the records of a memory-mapped or uncompressed map
+ * (their crc32 and reserved bytes) on up to `threads` threads, with the
+ * same result whatever their number. */
+enum pm_err pm_pmap_read_threads(const char *path, struct pm_pmap *m,
+    bool allow_mmap, int threads, struct pm_error *err);
+
 /* The same from a buffer (tests, fuzzing); name is used in messages. */
 enum pm_err pm_pmap_parse(const char *name, const unsigned char *buf,
     size_t len, struct pm_pmap *m, struct pm_error *err);

@@ -49,8 +49,8 @@ static const char help_text[] =
     "      --pass i          progressive pass i: records over a fixed\n"
     "                        radius shrinking with i\n"
     "  -q, --quiet           no progress line, no warnings\n"
-    "  -t, --threads n       threads for the kd-tree build (default:"
-    " all cores)\n"
+    "  -t, --threads n       threads for the map check and the kd-tree\n"
+    "                        build (default: all cores)\n"
     "  -v, --verbose         per-map counts and build times\n"
     "      --version         print the version and exit\n\n"
     "A progress line goes to stderr when it is a terminal.\n";
@@ -228,7 +228,8 @@ main(int argc, char *argv[])
 		    argv[i];
 		shards[i].m = &in[i];
 		/* Mapped read-only: the records are copied out below. */
-		if (pm_pmap_read(argv[i], &in[i], true, &err) != PM_OK) {
+		if (pm_pmap_read_threads(argv[i], &in[i], true,
+		    (int)threads, &err) != PM_OK) {
 			fprintf(stderr, "%s: %s\n", PROG, err.msg);
 			goto done;
 		}

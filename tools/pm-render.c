@@ -288,14 +288,14 @@ static bool volume_beam;
 static int
 load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
     const struct pppm *pg, struct pm_pmap *pm, struct pm_photon_maps *maps,
-    int verbose)
+    int verbose, int threads)
 {
 	struct pm_error err = {PM_OK, ""};
 	const struct pm_photon_params *pp = &scene->integrator.photon;
 	uint64_t want = pm_scene_hash(scene);
 	struct pm_lookup_radii r;
 
-	if (pm_pmap_read(path, pm, true, &err) != PM_OK) {
+	if (pm_pmap_read_threads(path, pm, true, threads, &err) != PM_OK) {
 		fprintf(stderr, PROG ": %s\n", err.msg);
 		return 0;
 	}
@@ -752,7 +752,7 @@ main(int argc, char **argv)
 		}
 		have_pmap = 1;
 		if (!load_maps(map_path, &scene, scene.radius, &pg, &pmap, &maps,
-		    verbose)) {
+		    verbose, (int)threads)) {
 			status = 1;
 			goto out;
 		}

@@ -1201,6 +1201,74 @@ test_reserved_records(void **state)
 	pm_pmap_free(&m);
 }
 
+/* A map of several 4 MiB pieces is checked in parallel with the result of
+ * one thread: the same crc32 of its records, and the same first record
+ * with nonzero reserved bytes when two pieces have one. */
+static void
+test_threads_check(void **state)
+{
+	const size_t cnt = 500000, bad1 = 200000, bad2 = 450000;
+	const size_t cap = cnt * 24 + 4096;
+	unsigned char *buf = malloc(cap);
+	struct pm_pmap m, r;
+	struct pm_error err;
+	char p[PATHCAP], want[96], first[sizeof(err.msg)];
+	uint32_t crc1 = 0;
+	uint64_t g0;
+	size_t n;
+	int t;
+
+	(void)state;
+	assert_non_null(buf);
+	tpath(p, "threads.pmap");
+	make_pmap(&m, 1, cnt, 0, 0);
+	unlink(p);
+	assert_int_equal(pm_pmap_write(p, &m, false, &err), PM_OK);
+	for (t = 1; t <= 5; t += 2) {
+		assert_int_equal(pm_pmap_read_threads(p, &r, true, t, &err),
+		    PM_OK);
+		assert_int_equal(r.maps[0].count, cnt);
+		if (t == 1)
+			crc1 = r.maps[0].records_crc;
+		assert_int_equal(r.maps[0].records_crc, crc1);
+		assert_int_equal(r.maps[0].records_crc, r.maps[0].stored_crc);
+		pm_pmap_free(&r);
+	}
+	/* Damage without a new crc32: the same mismatch, the same
+	 * computed crc32, on any number of threads. */
+	n = slurp(p, buf, cap);
+	g0 = rd32(buf + 64 + 40);
+	buf[g0 + bad2 * 24 + 3] ^= 0x40;
+	spit(p, buf, n);
+	for (t = 1; t <= 5; t += 2) {
+		assert_int_equal(pm_pmap_read_threads(p, &r, true, t, &err),
+		    PM_ERR_FORMAT);
+		assert_non_null(strstr(err.msg, "checksum mismatch"));
+		if (t == 1)
+			memcpy(first, err.msg, sizeof(first));
+		assert_string_equal(err.msg, first);
+	}
+	/* Two records with reserved bytes set, in different pieces. */
+	buf[g0 + bad2 * 24 + 3] ^= 0x40;
+	buf[g0 + bad1 * 24 + 22] = 1;
+	buf[g0 + bad2 * 24 + 23] = 1;
+	wr32(buf + 64 + 12, (uint32_t)crc32(0, buf + g0, (uInt)(cnt * 24)));
+	fix_crc(buf);
+	spit(p, buf, n);
+	snprintf(want, sizeof(want), "nonzero reserved bytes in record %zu "
+	    "of the global map", bad1);
+	for (t = 1; t <= 5; t += 2) {
+		assert_int_equal(pm_pmap_read_threads(p, &r, t != 3, t, &err),
+		    PM_ERR_FORMAT);
+		if (strstr(err.msg, want) == NULL)
+			fail_msg("%d threads: \"%s\" lacks \"%s\"", t,
+			    err.msg, want);
+	}
+	unlink(p);
+	pm_pmap_free(&m);
+	free(buf);
+}
+
 /* An empty payload may share its offset with the next payload, whatever
  * the order of their entries. */
 static void
@@ -1599,6 +1667,7 @@ main(void)
 		cmocka_unit_test(test_empty_payload_order),
 		cmocka_unit_test(test_forged_zlib),
 		cmocka_unit_test(test_reserved_records),
+		cmocka_unit_test(test_threads_check),
 		cmocka_unit_test(test_pipes),
 		cmocka_unit_test(test_stdout),
 		cmocka_unit_test(test_write_errors),
