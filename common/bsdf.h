@@ -100,6 +100,29 @@ struct pm_bsdf {
 	 * tex_specular specular, tex_alpha alpha; until then those hold the
 	 * textures' means. */
 	int tex_diffuse, tex_specular, tex_alpha;
+	/* rough conductors and dielectrics: anisotropic roughness, alpha
+	 * (and tex_alpha) holding Mitsuba's alpha_u, along the shading
+	 * frame's s (the surface's dp/du), alpha_v along t; tex_alpha_v as
+	 * tex_alpha.  Not aniso: alpha both ways, alpha_v unused. */
+	bool aniso;
+	float alpha_v;
+	int tex_alpha_v;
+	/* Mitsuba's normalmap and bumpmap wrapped around this BSDF: 1 + the
+	 * index into scene.textures of the normal map (RGB in tangent
+	 * space) or of the height field, 0 for none; bump_scale is
+	 * bumpmap's scale.  perturb_in_twosided: the wrapper sits inside
+	 * twosided (twosided mirrors the query before it perturbs). */
+	int tex_normal, tex_bump;
+	float bump_scale;
+	bool perturb_in_twosided;
+	/* Set at a hit by pm_bsdf_frame_at (frame.h) on its copy: the
+	 * perturbed shading frame, in the coordinates of the unperturbed
+	 * one that eval, pdf and sample are given directions in.  They
+	 * evaluate the BSDF in it as Mitsuba's wrappers do (the query
+	 * turned into it, zero where wo lies on different sides of the
+	 * two frames, Estevez et al.'s shadowing term). */
+	bool perturbed;
+	struct pm_frame pframe;
 };
 
 struct pm_bsdf_sample {

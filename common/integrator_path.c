@@ -16,6 +16,7 @@
 #include <math.h>
 
 #include "integrator.h"
+#include "frame.h"
 #include "texture.h"
 
 /* Light arriving at the hit point from one light sample, weighted for MIS. */
@@ -103,8 +104,7 @@ pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 		if (ctx->max_depth >= 0 && depth >= ctx->max_depth)
 			break;
 
-		b = pm_bsdf_at(s, &h, &bt);
-		fr = pm_frame_from_normal(h.ns);
+		b = pm_bsdf_frame_at(s, &h, pa.d, &bt, &fr);
 		wi_local = pm_to_local(fr, pm_neg(pa.d));
 		if (!pm_bsdf_is_delta(b))
 			L = pm_rgb_madd(L, pa.beta,

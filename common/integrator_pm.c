@@ -47,6 +47,7 @@
 #include "irradiance.h"
 #include "kdtree.h"
 #include "merl.h"
+#include "frame.h"
 #include "texture.h"
 
 #define CONE_K 1.1f
@@ -326,8 +327,7 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			break;
 		if (t != NULL && bounce == 0)
 			*t = h.t;
-		b = pm_bsdf_at(s, &h, &bt);
-		fr = pm_frame_from_normal(h.ns);
+		b = pm_bsdf_frame_at(s, &h, d, &bt, &fr);
 		wi = pm_to_local(fr, pm_neg(d));
 		nrm = side_normal(&h, d);
 		if (has_nonspecular(b) && m->irradiance_grid == NULL)
@@ -471,8 +471,7 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			break;
 		if (ctx->max_depth >= 0 && depth >= ctx->max_depth)
 			break;
-		b = pm_bsdf_at(s, &h, &bt);
-		fr = pm_frame_from_normal(h.ns);
+		b = pm_bsdf_frame_at(s, &h, pa.d, &bt, &fr);
 		wi = pm_to_local(fr, pm_neg(pa.d));
 
 		if (is_glossy(b)) {
