@@ -827,20 +827,41 @@ shadow_dir(struct pm_vec3 wi, struct pm_vec3 wo, enum pm_transport mode)
 	return mode == PM_RADIANCE ? wo : wi;
 }
 
+/*
+ * Importance's correction for the tilted normal (Veach 1997, sec. 5.3):
+ * the BSDF's cosine belongs to the light's side, wi for importance, and
+ * the flux leaving towards wo spreads over the unperturbed surface, so
+ * f |cos_p wo| becomes f |cos_p wi| |cos wo| / |cos wi|.  1 for
+ * radiance, whose wo is the light's side already.  wi, wo unperturbed;
+ * wip, wop perturbed.
+ */
+static float
+importance_factor(enum pm_transport mode, struct pm_vec3 wi,
+    struct pm_vec3 wo, struct pm_vec3 wip, struct pm_vec3 wop)
+{
+	float d = wi.z * wop.z;
+
+	if (mode == PM_RADIANCE)
+		return 1.0f;
+	return d != 0.0f ? fabsf(wip.z * wo.z / d) : 0.0f;
+}
+
 static struct pm_rgb
 eval_perturbed(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo,
     enum pm_transport mode)
 {
 	struct pm_bsdf in;
-	struct pm_vec3 wop;
+	struct pm_vec3 wip, wop;
 
 	perturbed_inner(b, &in, &wi, &wo);
+	wip = pm_to_local(b->pframe, wi);
 	wop = pm_to_local(b->pframe, wo);
 	/* light must leave on the same side of both frames */
 	if (wo.z * wop.z <= 0.0f)
 		return pm_rgb1(0.0f);
-	return pm_rgb_scale(pm_bsdf_eval(&in, pm_to_local(b->pframe, wi), wop,
-	    mode), shadow_terminator(b->pframe.n, shadow_dir(wi, wo, mode)));
+	return pm_rgb_scale(pm_bsdf_eval(&in, wip, wop, mode),
+	    shadow_terminator(b->pframe.n, shadow_dir(wi, wo, mode)) *
+	    importance_factor(mode, wi, wo, wip, wop));
 }
 
 static float
@@ -863,20 +884,21 @@ sample_perturbed(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
     struct pm_bsdf_sample *s)
 {
 	struct pm_bsdf in;
-	struct pm_vec3 wo;
+	struct pm_vec3 wo, wip;
 	bool mirror = perturbed_inner(b, &in, &wi, NULL), ok;
 
-	ok = coating ? pm_bsdf_coating(&in, pm_to_local(b->pframe, wi), s) :
-	    pm_bsdf_sample(&in, pm_to_local(b->pframe, wi), u1, u2, u3, mode,
-	    s);
+	wip = pm_to_local(b->pframe, wi);
+	ok = coating ? pm_bsdf_coating(&in, wip, s) :
+	    pm_bsdf_sample(&in, wip, u1, u2, u3, mode, s);
 	if (!ok)
 		return false;
 	wo = pm_to_world(b->pframe, s->wo);
 	if (s->wo.z * wo.z <= 0.0f)
 		return false;
-	s->wo = wo;
 	s->weight = pm_rgb_scale(s->weight,
-	    shadow_terminator(b->pframe.n, shadow_dir(wi, wo, mode)));
+	    shadow_terminator(b->pframe.n, shadow_dir(wi, wo, mode)) *
+	    importance_factor(mode, wi, wo, wip, s->wo));
+	s->wo = wo;
 	if (mirror)
 		s->wo.z = -s->wo.z;
 	return true;
