@@ -12,7 +12,8 @@
 # The scenes: data/cornell-box.xml and the others of data/ listed below
 # (ours, must exist; fog-box and glass-medium have media), Mitsuba's own
 # Cornell box from ../shared/scenes/mitsuba-cbox (skipped when ../shared is
-# absent), tests/mitsuba/textures.xml (path traced and photon-mapped) and
+# absent), tests/mitsuba/textures.xml and tests/mitsuba/frames.xml (path
+# traced and photon-mapped) and
 # the scenes tests/mitsuba/shapes_scene.py writes (shapes and sensors, path
 # traced and photon-mapped).
 # Results are TAP-like lines and a closing "mitsuba cli: N passed,
@@ -320,6 +321,19 @@ if "$PY" "$HERE/write_png.py" "$OUT/textures/wall.png"; then
 	    against textures-photon "$OUT/textures/textures.xml" photon
 else
 	check "textures: cannot write the bitmap" false
+fi
+
+# Shading frames: tests/mitsuba/frames.xml (anisotropic rough metals and
+# glass, normal and bump maps) with its bitmaps written here, in a folder
+# of their own as the textures, by path tracing and by photon mapping.
+mkdir -p "$OUT/frames"
+cp tests/mitsuba/frames.xml "$OUT/frames/frames.xml"
+if "$PY" "$HERE/frames_maps.py" "$OUT/frames"; then
+	run frames "$OUT/frames/frames.xml"
+	[ "$selftest" = 1 ] || ! wanted frames-photon ||
+	    against frames-photon "$OUT/frames/frames.xml" photon
+else
+	check "frames: cannot write the bitmaps" false
 fi
 
 # Rough glass and rough plastic, by path tracing and by photon mapping
