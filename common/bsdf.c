@@ -782,10 +782,13 @@ pm_bsdf_prepare(struct pm_bsdf *b)
  * untilted normal, falling off towards grazing w as the tilt grows.
  */
 static float
-shadow_terminator(struct pm_vec3 n, struct pm_vec3 w)
+shadow_terminator(const struct pm_bsdf *b, struct pm_vec3 n,
+    struct pm_vec3 w)
 {
 	float n2 = n.z * n.z, w2 = w.z * w.z, a2;
 
+	if (b->no_shadowing)
+		return 1.0f;
 	a2 = n2 > 0.0f ? fminf(0.125f * fmaxf(0.0f, 1.0f - n2) / n2, 1.0f) :
 	    1.0f;
 	if (a2 == 0.0f)
@@ -860,7 +863,7 @@ eval_perturbed(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo,
 	if (wo.z * wop.z <= 0.0f)
 		return pm_rgb1(0.0f);
 	return pm_rgb_scale(pm_bsdf_eval(&in, wip, wop, mode),
-	    shadow_terminator(b->pframe.n, shadow_dir(wi, wo, mode)) *
+	    shadow_terminator(b, b->pframe.n, shadow_dir(wi, wo, mode)) *
 	    importance_factor(mode, wi, wo, wip, wop));
 }
 
@@ -896,7 +899,7 @@ sample_perturbed(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
 	if (s->wo.z * wo.z <= 0.0f)
 		return false;
 	s->weight = pm_rgb_scale(s->weight,
-	    shadow_terminator(b->pframe.n, shadow_dir(wi, wo, mode)) *
+	    shadow_terminator(b, b->pframe.n, shadow_dir(wi, wo, mode)) *
 	    importance_factor(mode, wi, wo, wip, s->wo));
 	s->wo = wo;
 	if (mirror)

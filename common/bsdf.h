@@ -123,6 +123,9 @@ struct pm_bsdf {
 	 * two frames, Estevez et al.'s shadowing term). */
 	bool perturbed;
 	struct pm_frame pframe;
+	/* normalmap, bumpmap: Mitsuba's flip_invalid_normals and
+	 * use_shadowing_function turned off (both on by default) */
+	bool keep_invalid_normals, no_shadowing;
 };
 
 struct pm_bsdf_sample {

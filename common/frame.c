@@ -150,7 +150,7 @@ pm_bsdf_frame_at(const struct pm_scene *s, const struct pm_hit *h,
 		wi.z = -wi.z;	/* twosided mirrors the query first */
 	/* keep the normal on the side wi arrives from (Mitsuba's
 	 * flip_invalid_normals, after Schuessler et al. 2017) */
-	if (wi.z * pm_dot(wi, n) <= 0.0f)
+	if (!tmp->keep_invalid_normals && wi.z * pm_dot(wi, n) <= 0.0f)
 		n = pm_v3(-n.x, -n.y, n.z);
 	l2 = pm_dot(n, n);
 	n = l2 > 0.0f && isfinite(l2) ? pm_scale(n, 1.0f / sqrtf(l2)) :

@@ -262,6 +262,7 @@ build_perturbed(struct ld *ld, struct plist *pl, struct pm_bsdf *b,
 	double scale = 1.0;
 	size_t i;
 	int tex = 0;
+	bool flip, shadow;
 	enum pm_err e;
 
 	if (!bump) {
@@ -281,7 +282,9 @@ build_perturbed(struct ld *ld, struct plist *pl, struct pm_bsdf *b,
 		    &scale)) != PM_OK)
 			return e;
 	}
-	if ((e = sx_finish(ld, pl)) != PM_OK)
+	if ((e = sx_get_bool(ld, pl, "flip_invalid_normals", true, &flip))
+	    != PM_OK || (e = sx_get_bool(ld, pl, "use_shadowing_function",
+	    true, &shadow)) != PM_OK || (e = sx_finish(ld, pl)) != PM_OK)
 		return e;
 	for (i = 0; i < pl->nobj; i++) {
 		o = pl->obj[i];
@@ -323,6 +326,8 @@ build_perturbed(struct ld *ld, struct plist *pl, struct pm_bsdf *b,
 		b->bump_scale = (float)scale;
 	} else
 		b->tex_normal = tex;
+	b->keep_invalid_normals = !flip;
+	b->no_shadowing = !shadow;
 	return PM_OK;
 }
 
