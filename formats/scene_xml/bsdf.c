@@ -175,7 +175,8 @@ microfacet_params(struct ld *ld, struct xnode *n, struct plist *pl,
 		    "supported (\"beckmann\" or \"ggx\")", pl->what, s);
 	if (param_given(pl, "alpha_u") || param_given(pl, "alpha_v")) {
 		if (param_given(pl, "alpha"))
-			return sx_fail(ld, n,
+			return sx_fail(ld, sx_has(pl, "alpha") ?
+			    sx_prop_find(pl, "alpha")->n : n,
 			    PM_ERR_INVALID, "%s: give either alpha or "
 			    "alpha_u and alpha_v", pl->what);
 		if ((e = alpha_param(ld, pl, "alpha_u", alpha_tex, &au,
