@@ -125,19 +125,16 @@ perturbation(const struct pm_scene *s, const struct pm_hit *h,
 	return pm_to_local(fr, cr);
 }
 
+/* pm_bsdf_frame_at's work for a BSDF b (pm_bsdf_at's answer) that
+ * needs the tangent. */
 const struct pm_bsdf *
-pm_bsdf_frame_at(const struct pm_scene *s, const struct pm_hit *h,
-    struct pm_vec3 d, struct pm_bsdf *tmp, struct pm_frame *fr)
+pm_bsdf_frame_tangent(const struct pm_scene *s, const struct pm_hit *h,
+    struct pm_vec3 d, const struct pm_bsdf *b, struct pm_bsdf *tmp,
+    struct pm_frame *fr)
 {
-	const struct pm_bsdf *b = pm_bsdf_at(s, h, tmp);
 	struct pm_vec3 dpdu, dpdv, n, wi, st;
 	float l2;
 
-	if (!b->aniso && b->tex_normal == 0 && b->tex_bump == 0) {
-		/* isotropic: any frame around the normal will do */
-		*fr = pm_frame_from_normal(h->ns);
-		return b;
-	}
 	pm_hit_dpdu(s, h, &dpdu, &dpdv);
 	*fr = pm_frame_gram_schmidt(h->ns, dpdu);
 	if (b->tex_normal == 0 && b->tex_bump == 0)

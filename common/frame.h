@@ -15,6 +15,7 @@
 #include "accel.h"
 #include "bsdf.h"
 #include "scene.h"
+#include "texture.h"
 #include "vec.h"
 
 /*
@@ -40,8 +41,23 @@ struct pm_frame pm_frame_gram_schmidt(struct pm_vec3 n, struct pm_vec3 dpdu);
  * frame in its pframe (bsdf.h): *fr stays the unperturbed frame, whose
  * local directions eval, pdf and sample take as for any other BSDF.
  */
-const struct pm_bsdf *pm_bsdf_frame_at(const struct pm_scene *s,
-    const struct pm_hit *h, struct pm_vec3 d, struct pm_bsdf *tmp,
-    struct pm_frame *fr);
+const struct pm_bsdf *pm_bsdf_frame_tangent(const struct pm_scene *s,
+    const struct pm_hit *h, struct pm_vec3 d, const struct pm_bsdf *b,
+    struct pm_bsdf *tmp, struct pm_frame *fr);
+
+static inline const struct pm_bsdf *
+pm_bsdf_frame_at(const struct pm_scene *s, const struct pm_hit *h,
+    struct pm_vec3 d, struct pm_bsdf *tmp, struct pm_frame *fr)
+{
+	const struct pm_bsdf *b = pm_bsdf_at(s, h, tmp);
+
+	/* isotropic (nearly every hit): any frame around the normal, in
+	 * line, as before frames followed the surface */
+	if (!b->aniso && b->tex_normal == 0 && b->tex_bump == 0) {
+		*fr = pm_frame_from_normal(h->ns);
+		return b;
+	}
+	return pm_bsdf_frame_tangent(s, h, d, b, tmp, fr);
+}
 
 #endif
