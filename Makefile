@@ -45,7 +45,19 @@ MANS     = $(sort $(wildcard man/*.[1-9]))
 	check-sanitize check-tsan turntable deps-cluster check-cluster
 .PHONY: fuzz fuzz-build check-fuzz
 
-all: $(BINS)
+# Data files written by a program rather than stored: the .vol grids of
+# data/smoke.xml (tests/volgen.c).
+DATA_GEN = data/smoke.vol data/smoke-tint.vol
+
+all: $(BINS) $(DATA_GEN)
+
+$(BUILD)/tests/volgen: tests/volgen.c $(LIB)
+	@mkdir -p $(dir $@)
+	$(CC) $(PM_CFLAGS) $(CFLAGS) -o $@ tests/volgen.c $(LIB) $(PM_LIBS)
+data/smoke.vol: $(BUILD)/tests/volgen
+	$(BUILD)/tests/volgen smoke $@
+data/smoke-tint.vol: $(BUILD)/tests/volgen
+	$(BUILD)/tests/volgen tint $@
 
 $(BUILD)/%.o: %.c
 	@mkdir -p $(dir $@)
@@ -207,7 +219,12 @@ $(BUILD)/tests/texlookup: tests/mitsuba/texlookup.c $(LIB)
 	@mkdir -p $(dir $@)
 	$(CC) $(PM_CFLAGS) $(CFLAGS) -o $@ tests/mitsuba/texlookup.c $(LIB) $(PM_LIBS)
 
-check-mitsuba: $(BINS) $(BUILD)/tests/texlookup
+# pm's principled BSDF values, for tests/mitsuba/bsdf_eval.py.
+$(BUILD)/tests/bsdfeval: tests/mitsuba/bsdfeval.c $(LIB)
+	@mkdir -p $(dir $@)
+	$(CC) $(PM_CFLAGS) $(CFLAGS) -o $@ tests/mitsuba/bsdfeval.c $(LIB) $(PM_LIBS)
+
+check-mitsuba: $(BINS) $(BUILD)/tests/texlookup $(BUILD)/tests/bsdfeval $(BUILD)/tests/volgen $(DATA_GEN)
 	@sh tests/mitsuba/compare.sh
 	@sh tests/mitsuba/emitters.sh
 
@@ -220,4 +237,4 @@ install: all
 
 clean:
 	rm -rf $(BUILD)/*.a $(BUILD)/common $(BUILD)/formats $(BUILD)/tools $(BUILD)/san $(BUILD)/tsan \
-		$(BUILD)/tests $(BUILD)/fuzz bin out
+		$(BUILD)/tests $(BUILD)/fuzz bin out $(DATA_GEN)

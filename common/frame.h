@@ -45,6 +45,17 @@ const struct pm_bsdf *pm_bsdf_frame_tangent(const struct pm_scene *s,
     const struct pm_hit *h, struct pm_vec3 d, const struct pm_bsdf *b,
     struct pm_bsdf *tmp, struct pm_frame *fr);
 
+/* Whether b's lobes turn with the tangent (anisotropic roughness, a
+ * principled BSDF's anisotropic) or its frame is perturbed by a map. */
+static inline bool
+pm_bsdf_needs_tangent(const struct pm_bsdf *b)
+{
+	return b->aniso || b->tex_normal != 0 || b->tex_bump != 0 ||
+	    ((b->type == PM_BSDF_PRINCIPLED ||
+	    b->type == PM_BSDF_PRINCIPLEDTHIN) &&
+	    b->pr.v[PM_PR_ANISOTROPIC] != 0.0f);
+}
+
 static inline const struct pm_bsdf *
 pm_bsdf_frame_at(const struct pm_scene *s, const struct pm_hit *h,
     struct pm_vec3 d, struct pm_bsdf *tmp, struct pm_frame *fr)
@@ -53,7 +64,7 @@ pm_bsdf_frame_at(const struct pm_scene *s, const struct pm_hit *h,
 
 	/* isotropic (nearly every hit): any frame around the normal, in
 	 * line, as before frames followed the surface */
-	if (!b->aniso && b->tex_normal == 0 && b->tex_bump == 0) {
+	if (!pm_bsdf_needs_tangent(b)) {
 		*fr = pm_frame_from_normal(h->ns);
 		return b;
 	}

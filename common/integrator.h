@@ -114,6 +114,20 @@ bool pm_path_continue(struct pm_path *pa, const struct pm_hit *h,
 struct pm_rgb pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o,
     struct pm_vec3 d, float tmin, float tmax, struct pm_rng *rng);
 
+/* One camera ray of pm_path_li_batch, its own random numbers, and what
+ * comes back along it. */
+struct pm_path_sample {
+	struct pm_vec3 o, d;
+	float tmin, tmax;
+	struct pm_rng rng;
+	struct pm_rgb L;		/* out */
+};
+
+/* smp[i].L = pm_path_li(ctx, smp[i].o, ..., &smp[i].rng) for i < n, bit for
+ * bit, but faster: the paths go together and their rays in batches. */
+void pm_path_li_batch(const struct pm_render_ctx *ctx,
+    struct pm_path_sample *smp, size_t n);
+
 /* Radiance along a camera ray from photon maps: exact direct light,
  * specular recursion, caustic and global maps or final gathering
  * (integrator_pm.c). */
@@ -153,7 +167,14 @@ int pm_medium_after(const struct pm_scene *s, const struct pm_hit *h,
     struct pm_vec3 d, int medium);
 
 /* Transmittance from o, in `medium`, to the light sample ls through media
- * and null-BSDF boundaries; zero where another surface blocks it. */
+ * and null-BSDF boundaries; zero where another surface blocks it.
+ * Heterogeneous media estimate it (ratio tracking) from rng. */
+struct pm_rgb pm_volume_tr(const struct pm_render_ctx *ctx,
+    struct pm_vec3 o, int medium, const struct pm_light_sample *ls,
+    struct pm_rng *rng);
+
+/* pm_volume_tr with a generator seeded from the ray (o, ls->wi): the same
+ * for homogeneous media, which draw nothing. */
 struct pm_rgb pm_volume_shadow(const struct pm_render_ctx *ctx,
     struct pm_vec3 o, int medium, const struct pm_light_sample *ls);
 

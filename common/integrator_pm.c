@@ -14,10 +14,16 @@
  *     with multiple importance sampling; roughplastic's rough coating is
  *     traced the same way, every time, beside the estimates of its
  *     diffuse base (as plastic's smooth coating is followed);
+ *   - the principled BSDFs split as roughplastic does: the diffuse base
+ *     (with sheen) from the maps, every other lobe (GGX reflection,
+ *     clearcoat, GGX transmission, the thin sheet's diffuse
+ *     transmission) traced; those without a base are traced whole,
+ *     as rough conductors (metals) or rough dielectrics (transmitters);
  *   - rough dielectrics hold no photons: pm-shoot passes photons through
  *     them as through glass, into the caustic map, so light through
  *     frosted glass reaches diffuse surfaces as caustics; gather rays
- *     follow them by sampling;
+ *     follow them by sampling (so do principled BSDFs that transmit and
+ *     have no diffuse base);
  *   - at a diffuse surface the path ends with four estimates:
  *       direct light, exactly, from `direct_samples` light samples;
  *       caustics (light, specular+, here) from the caustic map with a cone
@@ -58,8 +64,14 @@
 static bool
 has_nonspecular(const struct pm_bsdf *b)
 {
-	return b->type != PM_BSDF_NULL && b->type != PM_BSDF_ROUGHDIELECTRIC &&
+	return b->type != PM_BSDF_NULL && !pm_bsdf_passes_photons(b) &&
 	    (b->lobes & (PM_LOBE_DIFFUSE | PM_LOBE_GLOSSY | PM_LOBE_GLOSSY_TRANSMISSION));
+}
+
+static bool
+is_principled(const struct pm_bsdf *b)
+{
+	return b->type == PM_BSDF_PRINCIPLED || b->type == PM_BSDF_PRINCIPLEDTHIN;
 }
 
 /* Rough conductors and dielectrics, and measured materials with a peak
@@ -72,18 +84,33 @@ is_glossy(const struct pm_bsdf *b)
 {
 	return b->type == PM_BSDF_ROUGHCONDUCTOR ||
 	    b->type == PM_BSDF_ROUGHDIELECTRIC ||
-	    (b->type == PM_BSDF_MERL && b->merl != NULL && b->merl->glossy);
+	    (b->type == PM_BSDF_MERL && b->merl != NULL && b->merl->glossy) ||
+	    (is_principled(b) && !(b->lobes & PM_LOBE_DIFFUSE));
 }
 
-/* Roughplastic's diffuse base alone, or its rough coating alone, as a
- * BSDF of their own (a copy with `only` set); other types as they are. */
+/* Materials split into a diffuse base, estimated from the maps, and the
+ * rest, traced: roughplastic (its rough coating), and the principled
+ * BSDFs with a base and something else (their GGX and clearcoat lobes,
+ * their transmission, the thin sheet's diffuse transmission too: the
+ * photons on its other side are not on this one). */
+static bool
+is_split(const struct pm_bsdf *b)
+{
+	return b->type == PM_BSDF_ROUGHPLASTIC || (is_principled(b) &&
+	    (b->lobes & PM_LOBE_DIFFUSE) && (b->lobes & ~(unsigned)PM_LOBE_DIFFUSE));
+}
+
+/* A split material's diffuse base alone (lobe PM_LOBE_DIFFUSE), or the
+ * rest alone (any other lobe), as a BSDF of its own (a copy with `only`
+ * set); other materials as they are. */
 static const struct pm_bsdf *
 split_lobe(const struct pm_bsdf *b, unsigned lobe, struct pm_bsdf *tmp)
 {
-	if (b->type != PM_BSDF_ROUGHPLASTIC)
+	if (!is_split(b))
 		return b;
 	*tmp = *b;
-	tmp->only = lobe;
+	tmp->only = lobe == PM_LOBE_DIFFUSE ? lobe :
+	    b->lobes & ~(unsigned)PM_LOBE_DIFFUSE;
 	return tmp;
 }
 
@@ -334,12 +361,11 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			return pm_rgb_madd(L, beta, estimate(m->global, m->nglobal,
 			    m->global_scale, m->global_r2, m->lookup_size, m->fixed_radius,
 			    0, 0, false, b, h.p, nrm, m->gather_max_depth, fr, wi));
-		if (has_nonspecular(b) && (is_glossy(b) ||
-		    b->type == PM_BSDF_ROUGHPLASTIC)) {
+		if (has_nonspecular(b) && (is_glossy(b) || is_split(b))) {
 			const struct pm_bsdf *bg = split_lobe(b, PM_LOBE_GLOSSY,
 			    &glossy_tmp);
 
-			if (b->type == PM_BSDF_ROUGHPLASTIC) {
+			if (is_split(b)) {
 				const struct pm_bsdf *bb = split_lobe(b,
 				    PM_LOBE_DIFFUSE, &base_tmp);
 
@@ -363,7 +389,7 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			break;
 		beta = pm_rgb_mul(beta, bs.weight);
 		if (!(bs.lobe & PM_LOBE_DELTA) && has_nonspecular(b) &&
-		    !is_glossy(b) && b->type != PM_BSDF_ROUGHPLASTIC)
+		    !is_glossy(b) && !is_split(b))
 			return pm_rgb_madd(L, beta, pm_rgb_scale(records_irradiance(m,
 			    h.p, nrm), 1.0f / PM_PI));
 		if (!(bs.lobe & PM_LOBE_DELTA) && has_nonspecular(b))
@@ -515,15 +541,18 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 				    m->fixed_radius, PM_PHOTON_VIA_DIFFUSE, PM_PHOTON_VIA_DIFFUSE, false,
 				    bb, h.p, nrm, dcap, fr, wi));
 			L = pm_rgb_madd(L, pa.beta, E);
-			if (!(b->lobes & (PM_LOBE_DELTA | PM_LOBE_GLOSSY)))
+			if (!(b->lobes & (PM_LOBE_DELTA | PM_LOBE_GLOSSY |
+			    PM_LOBE_GLOSSY_TRANSMISSION |
+			    PM_LOBE_DIFFUSE_TRANSMISSION)))
 				break;
 		}
 
-		if (b->type == PM_BSDF_ROUGHPLASTIC) {
-			/* A diffuse base with a rough coating: the base is
-			 * estimated above, the coating path traced as a rough
+		if (is_split(b)) {
+			/* A diffuse base with a rough coating (or a
+			 * principled BSDF's other lobes): the base is
+			 * estimated above, the rest path traced as a rough
 			 * conductor is (light sampling with MIS here, then
-			 * a sample of the coating alone), every time. */
+			 * a sample of the rest alone), every time. */
 			struct pm_bsdf coat_tmp;
 			const struct pm_bsdf *bc = split_lobe(b,
 			    PM_LOBE_GLOSSY, &coat_tmp);

@@ -13,13 +13,15 @@
  *     from the phase function;
  *   - shadow rays carry the transmittance of every medium they cross and
  *     pass through null-BSDF (index-matched) boundaries, switching medium
- *     there; any other surface blocks them.  The transmittance is
- *     computed exactly (Beer-Lambert) where Mitsuba estimates it by
- *     tracking, which has the same expectation.
+ *     there; any other surface blocks them.  The transmittance of a
+ *     homogeneous medium is computed exactly (Beer-Lambert) where Mitsuba
+ *     estimates it by tracking, which has the same expectation; that of a
+ *     heterogeneous one is estimated by ratio tracking (medium.h).
  * Only scenes with media come here; the others keep the plain path
  * tracer's behaviour to the bit.
  */
 #include <math.h>
+#include <stdint.h>
 
 #include "integrator.h"
 
@@ -38,9 +40,38 @@ pm_medium_after(const struct pm_scene *s, const struct pm_hit *h,
 	return (pm_dot(d, h->ng) > 0.0f ? sh->exterior : sh->interior) - 1;
 }
 
+/* The transmittance of `medium` (-1: none) from the point `from` along
+ * unit d for len (may be INFINITY). */
+static struct pm_rgb
+segment_tr(const struct pm_scene *s, int medium, struct pm_vec3 from,
+    struct pm_vec3 d, float len, struct pm_rng *rng)
+{
+	if (medium < 0)
+		return pm_rgb1(1.0f);
+	return pm_medium_transmittance_ray(&s->media[medium], from, d, 0.0f,
+	    len, rng);
+}
+
 struct pm_rgb
 pm_volume_shadow(const struct pm_render_ctx *ctx, struct pm_vec3 o,
     int medium, const struct pm_light_sample *ls)
+{
+	/* Without the caller's generator, one seeded from the ray itself:
+	 * only a heterogeneous medium draws from it. */
+	union {
+		float f[6];
+		uint32_t u[6];
+	} k = {{o.x, o.y, o.z, ls->wi.x, ls->wi.y, ls->wi.z}};
+	uint64_t a = ((uint64_t)k.u[0] << 32 | k.u[1]) ^ k.u[2];
+	uint64_t b = ((uint64_t)k.u[3] << 32 | k.u[4]) ^ k.u[5];
+	struct pm_rng rng = pm_rng_seed(0x7e7e, a, b);
+
+	return pm_volume_tr(ctx, o, medium, ls, &rng);
+}
+
+struct pm_rgb
+pm_volume_tr(const struct pm_render_ctx *ctx, struct pm_vec3 o,
+    int medium, const struct pm_light_sample *ls, struct pm_rng *rng)
 {
 	const struct pm_scene *s = ctx->scene;
 	struct pm_rgb tr = pm_rgb1(1.0f);
@@ -65,16 +96,16 @@ pm_volume_shadow(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 		}
 		if (!pm_accel_intersect(ctx->accel, o, d, 0.0f, dist, &h)) {
 			if (medium >= 0)
-				tr = pm_rgb_mul(tr, pm_medium_transmittance(
-				    &s->media[medium], isinf(ls->dist) ?
-				    INFINITY : pm_length(pm_sub(ls->p, from))));
+				tr = pm_rgb_mul(tr, segment_tr(s, medium, from,
+				    d, isinf(ls->dist) ? INFINITY :
+				    pm_length(pm_sub(ls->p, from)), rng));
 			return tr;
 		}
 		if (s->bsdfs[s->shapes[h.shape].bsdf].type != PM_BSDF_NULL)
 			return pm_rgb1(0.0f);
 		if (medium >= 0)
-			tr = pm_rgb_mul(tr, pm_medium_transmittance(
-			    &s->media[medium], pm_length(pm_sub(h.p, from))));
+			tr = pm_rgb_mul(tr, segment_tr(s, medium, from, d,
+			    pm_length(pm_sub(h.p, from)), rng));
 		if (pm_rgb_is_black(tr))
 			return tr;
 		medium = pm_medium_after(s, &h, d, medium);
@@ -102,7 +133,7 @@ medium_direct(const struct pm_render_ctx *ctx, int medium, struct pm_vec3 p,
 	ph = pm_phase_eval(&m->phase, d, ls.wi);
 	if (!(ph > 0.0f))
 		return pm_rgb1(0.0f);
-	tr = pm_volume_shadow(ctx, p, medium, &ls);
+	tr = pm_volume_tr(ctx, p, medium, &ls, rng);
 	if (pm_rgb_is_black(tr))
 		return tr;
 	w = ls.delta ? 1.0f :
@@ -125,7 +156,8 @@ pm_volume_step(const struct pm_render_ctx *ctx, struct pm_path *pa,
 		if (pa->hero > 2)
 			pa->hero = 2;
 	}
-	pm_medium_sample(m, t_end - pa->tmin, pa->hero, pm_rng_float(rng), &ms);
+	pm_medium_sample_ray(m, pa->o, pa->d, pa->tmin, t_end, pa->hero, rng,
+	    &ms);
 	/*
 	 * Spectral MIS over the whole path: with beta = f / p_hero / mean(r)
 	 * and r_c = p_c / p_hero so far (mean 1), this flight multiplies f

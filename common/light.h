@@ -67,6 +67,10 @@ bool pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
  */
 bool pm_light_occluded(const struct pm_accel *a, const struct pm_hit *h,
     const struct pm_light_sample *ls);
+/* That shadow ray, for casting in a batch; false when there is none to
+ * cast (the light point is the origin: nothing can block it). */
+bool pm_light_shadow_ray(const struct pm_hit *h, const struct pm_light_sample *ls,
+    struct pm_ray *r);
 
 /* Solid-angle density with which pm_lights_sample picks the point p (normal
  * n) of area light `light` from ref. */

@@ -67,6 +67,8 @@ pm_scene_free(struct pm_scene *s)
 			free(s->lights[i].env);
 		}
 	free(s->lights);
+	for (i = 0; i < s->nmedia; i++)
+		pm_medium_release(&s->media[i]);
 	free(s->media);
 	for (i = 0; i < s->nmerls; i++)
 		pm_merl_free(s->merls[i]);

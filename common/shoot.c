@@ -10,8 +10,9 @@
  * weight as survival probability keeps surviving photons' flux similar
  * (Jensen 2004, sec. 5.3).
  *
- * Rough dielectrics count as specular here: photons are not stored on
- * them and cross them on caustic paths (the camera pass traces them).
+ * Rough dielectrics (and principled BSDFs that transmit and have no
+ * diffuse base) count as specular here: photons are not stored on them
+ * and cross them on caustic paths (the camera pass traces them).
  *
  * Caustic pass: photons are aimed at the bounding spheres of the specular
  * shapes, the direction drawn from the mixture of the cones they subtend
@@ -44,7 +45,7 @@
 static bool
 bsdf_has_nonspecular(const struct pm_bsdf *b)
 {
-	return b->type != PM_BSDF_NULL && b->type != PM_BSDF_ROUGHDIELECTRIC &&
+	return b->type != PM_BSDF_NULL && !pm_bsdf_passes_photons(b) &&
 	    (b->lobes & (PM_LOBE_DIFFUSE | PM_LOBE_GLOSSY | PM_LOBE_GLOSSY_TRANSMISSION));
 }
 
@@ -68,14 +69,14 @@ static bool
 bsdf_has_specular(const struct pm_bsdf *b)
 {
 	return b->type != PM_BSDF_NULL && ((b->lobes & PM_LOBE_DELTA) ||
-	    b->type == PM_BSDF_ROUGHDIELECTRIC);
+	    pm_bsdf_passes_photons(b));
 }
 
 /* Whether a sampled event keeps a photon's path specular. */
 static bool
 event_specular(const struct pm_bsdf *b, const struct pm_bsdf_sample *bs)
 {
-	return (bs->lobe & PM_LOBE_DELTA) || b->type == PM_BSDF_ROUGHDIELECTRIC;
+	return (bs->lobe & PM_LOBE_DELTA) || pm_bsdf_passes_photons(b);
 }
 
 void
@@ -94,7 +95,8 @@ pm_shoot_effects(const struct pm_scene *s, struct pm_effects *e)
 			nspec++;
 		if (b->type == PM_BSDF_DIELECTRIC ||
 		    b->type == PM_BSDF_THINDIELECTRIC ||
-		    b->type == PM_BSDF_ROUGHDIELECTRIC)
+		    b->type == PM_BSDF_ROUGHDIELECTRIC ||
+		    (b->lobes & PM_LOBE_GLOSSY_TRANSMISSION))
 			nrefr++;
 	}
 	e->nspecular = nspec;
@@ -818,6 +820,20 @@ pm_scene_hash(const struct pm_scene *s)
 			h = texture_hash(fnv_i(h, 2), &s->textures[b->tex_specular - 1]);
 		if (b->tex_alpha > 0)
 			h = texture_hash(fnv_i(h, 3), &s->textures[b->tex_alpha - 1]);
+		/* the principled BSDFs' parameters, only for them */
+		if (b->type == PM_BSDF_PRINCIPLED ||
+		    b->type == PM_BSDF_PRINCIPLEDTHIN) {
+			int j;
+
+			h = fnv(h, b->pr.v, sizeof(b->pr.v));
+			h = fnv(h, b->pr.rate, sizeof(b->pr.rate));
+			h = fnv_i(h, b->pr.has_spec_trans +
+			    2 * b->pr.has_clearcoat + 4 * b->pr.has_diff_trans);
+			for (j = 0; j < PM_PR_N; j++)
+				if (b->pr.tex[j] > 0)
+					h = texture_hash(fnv_i(h, 10 + j),
+					    &s->textures[b->pr.tex[j] - 1]);
+		}
 	}
 	/* where textures are, the uv they are looked up by */
 	for (i = 0; s->ntextures > 0 && i < s->nshapes; i++) {

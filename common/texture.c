@@ -212,17 +212,17 @@ pm_texture_eval1(const struct pm_texture *t, float u, float v)
 	struct pm_rgb c;
 
 	if (t->type == PM_TEXTURE_CHECKERBOARD) {
-		/* Mitsuba 3's checkerboard answers scalar lookups (eval_1)
-		 * with color0 where the halves of u and v differ, the
-		 * other way round from its colour lookups; pm follows */
-		const float *m = t->to_uv;
-		float tu = m[0] * u + m[1] * v + m[2];
-		float tv = m[3] * u + m[4] * v + m[5];
-		bool hu = tu - floorf(tu) > 0.5f, hv = tv - floorf(tv) > 0.5f;
+		/* Mitsuba's checkerboard gives scalar lookups color1 where
+		 * its colour lookups give color0, and the other way round */
+		const float *a = t->to_uv;
+		float x = a[0] * u + a[1] * v + a[2];
+		float y = a[3] * u + a[4] * v + a[5];
+		bool xh = x - floorf(x) > 0.5f, yh = y - floorf(y) > 0.5f;
 
-		c = hu != hv ? t->color0 : t->color1;
-	} else
+		c = xh == yh ? t->color1 : t->color0;
+	} else {
 		c = pm_texture_eval(t, u, v);
+	}
 	return 0.212671f * c.r + 0.715160f * c.g + 0.072169f * c.b;
 }
 
@@ -232,9 +232,10 @@ pm_bsdf_at(const struct pm_scene *s, const struct pm_hit *h,
 {
 	const struct pm_bsdf *b = &s->bsdfs[s->shapes[h->shape].bsdf];
 	float u, v;
+	int i;
 
 	if (b->tex_diffuse == 0 && b->tex_specular == 0 && b->tex_alpha == 0 &&
-	    b->tex_alpha_v == 0)
+	    b->tex_alpha_v == 0 && !b->pr.textured)
 		return b;
 	*tmp = *b;
 	pm_hit_uv(s, h, &u, &v);
@@ -250,6 +251,11 @@ pm_bsdf_at(const struct pm_scene *s, const struct pm_hit *h,
 	if (b->tex_alpha_v > 0)
 		tmp->alpha_v = pm_texture_eval1(
 		    &s->textures[b->tex_alpha_v - 1], u, v);
+	/* the principled BSDFs' scalar parameters */
+	for (i = 0; b->pr.textured && i < PM_PR_N; i++)
+		if (b->pr.tex[i] > 0)
+			tmp->pr.v[i] = pm_texture_eval1(
+			    &s->textures[b->pr.tex[i] - 1], u, v);
 	return tmp;
 }
 

@@ -59,9 +59,9 @@ struct pm_rgb pm_texture_eval(const struct pm_texture *t, float u, float v);
  * steers its samples by it). */
 struct pm_rgb pm_texture_mean(const struct pm_texture *t);
 
-/* The texture as a scalar parameter at (u, v), as Mitsuba's eval_1: the
- * luminance of its value, a checkerboard's colours swapped (Mitsuba's
- * scalar lookup of it puts them the other way round). */
+/* The texture's value for a scalar parameter at (u, v), as Mitsuba's
+ * eval_1: the luminance, except that a checkerboard answers with its
+ * colours the other way round (Mitsuba 3.9.1's behaviour, followed). */
 float pm_texture_eval1(const struct pm_texture *t, float u, float v);
 
 /* The gradient over surface (u, v) of the texture's luminance into g

@@ -45,9 +45,10 @@ build_scene(struct ld *ld)
 			e = sx_load_sensor(ld, k);
 		else if (strcmp(k->tag, "integrator") == 0)
 			e = sx_load_integrator(ld, k);
-		else if (strcmp(k->tag, "medium") == 0)
+		else if (strcmp(k->tag, "medium") == 0) {
 			e = sx_build_medium(ld, k, &mtmp);	/* checked only */
-		else if (strcmp(k->tag, "phase") == 0)
+			pm_medium_release(&mtmp);
+		} else if (strcmp(k->tag, "phase") == 0)
 			e = sx_check_phase(ld, k);
 		else if (strcmp(k->tag, "texture") == 0)
 			e = sx_texture_index(ld, k, &ti);	/* once, if used */

@@ -15,7 +15,7 @@ sx_is_object_tag(const char *t)
 {
 	static const char *const tags[] = {"bsdf", "emitter", "shape",
 	    "sensor", "sampler", "film", "rfilter", "integrator", "ref", "medium",
-	    "phase", NULL};
+	    "phase", "volume", NULL};
 	const char *const *p;
 
 	for (p = tags; *p != NULL; p++)

@@ -82,8 +82,8 @@ xml_refused "a negative radius" "neg.xml:2.*radius" neg.xml
 
 # --- participating media: photon mode refuses them, naming the medium --
 scene bad-medium.xml "<shape type=\"sphere\"><bsdf type=\"null\"/>
-<medium type=\"heterogeneous\" name=\"interior\"/></shape>$light"
-xml_refused "an unknown medium type" "bad-medium.xml:3.*heterogeneous" bad-medium.xml
+<medium type=\"nebula\" name=\"interior\"/></shape>$light"
+xml_refused "an unknown medium type" "bad-medium.xml:3.*nebula" bad-medium.xml
 check "pm-shoot: a scene with a medium" refused 1 \
     'medium "fog" \(the sensor.s\).*pm-render --method path' \
     $S -q --photons 100 -o "$tmp/o.pmap" data/fog-box.xml
@@ -92,6 +92,13 @@ check "pm-render: a scene with a medium, photon mode" refused 1 \
     $R -q --spp 1 --size 8x8 -o "$tmp/o.exr" data/fog-box.xml "$tmp/none.pmap"
 check "pm-render: ...which path mode renders, exit 0" status 0 \
     $R -q --spp 1 --size 8x8 -o "$tmp/fog.exr" data/fog-box.xml
+if [ -f data/smoke.vol ]; then
+	check "pm-shoot: a heterogeneous medium" refused 1 \
+	    'medium "smoke": .*heterogeneous media.*--method path' \
+	    $S -q --photons 100 -o "$tmp/o.pmap" data/smoke.xml
+	check "pm-render: ...which path mode renders, exit 0" status 0 \
+	    $R -q --spp 1 --size 8x8 -o "$tmp/smoke.exr" data/smoke.xml
+fi
 
 # --- meshes ------------------------------------------------------------
 mesh_refused() { # description pattern mesh-file-name type

@@ -10,9 +10,11 @@
 # is); Mitsuba's renders are cached under build/mitsuba-cache/, so after the
 # first run only pm-render's cost remains. Outputs land in build/mitsuba-out/.
 # The scenes: data/cornell-box.xml and the others of data/ listed below
-# (ours, must exist; fog-box and glass-medium have media), Mitsuba's own
+# (ours, must exist; fog-box, glass-medium and smoke have media), Mitsuba's own
 # Cornell box from ../shared/scenes/mitsuba-cbox (skipped when ../shared is
-# absent), tests/mitsuba/textures.xml and tests/mitsuba/frames.xml (path
+# absent), data/principled.xml (path traced and photon-mapped, after the
+# principled BSDFs point by point), tests/mitsuba/textures.xml and
+# tests/mitsuba/frames.xml (path
 # traced and photon-mapped) and
 # the scenes tests/mitsuba/shapes_scene.py writes (shapes and sensors, path
 # traced and photon-mapped).
@@ -25,7 +27,8 @@
 # PM_SHOOT (bin/pm-shoot), PM_BALANCE (bin/pm-balance) and PM_PHOTONS
 # (1000000 global and as many caustic photon paths per map) for the
 # photon-mapped renders, PM_THREADS (pm-render's -t, unset: its default),
-# MITSUBA_VARIANT, PM_VENV (build/venv), MITSUBA_ONLY (the checks to run,
+# MITSUBA_VARIANT, PM_VENV (build/venv), SMOKE_MITSUBA_SPP (smoke's
+# Mitsuba spp, MITSUBA_SPP / 4 unset), MITSUBA_ONLY (the checks to run,
 # by the names the results give them, separated by spaces, e.g. "fog-box
 # texture-lookups"; unset: all).
 
@@ -285,6 +288,33 @@ if [ -f data/glass-medium.xml ]; then
 	run haze-ball "$VARIANTS/haze-ball.xml"
 fi
 
+# Heterogeneous media: smoke from a grid (data/smoke.xml; `make` writes
+# its grids), and fog-box's fog as a constant RGB grid volume
+# (heterogeneous, delta tracking against a majorant, the camera inside it)
+# where fog-box has it homogeneous.
+# Mitsuba's volpath tracks the smoke against the grid's largest value
+# alone, each null collision a turn of its whole loop: at 256x256 and
+# 256 spp a render of it took 40 times fog-box's, so it gets a quarter
+# of MITSUBA_SPP (SMOKE_MITSUBA_SPP overrides).
+if [ -f data/smoke.xml ] && [ -f data/smoke.vol ]; then
+	_mi_spp=$MI_SPP
+	MI_SPP=${SMOKE_MITSUBA_SPP:-$(( MI_SPP / 4 > 0 ? MI_SPP / 4 : 1 ))}
+	run smoke data/smoke.xml
+	MI_SPP=$_mi_spp
+elif wanted smoke; then
+	check "smoke: data/smoke.xml or its grid (make data/smoke.vol) is missing" false
+fi
+if [ -f data/fog-box.xml ] && wanted hetero-box; then
+	if build/tests/volgen const "$VARIANTS/fog-const.vol" 2 2 2 0.3 0.4 0.5; then
+		sed 's|<medium type="homogeneous" id="fog">|<medium type="heterogeneous" id="fog">|
+		    s|<rgb name="sigma_t" value="0.3, 0.4, 0.5"/>|<volume type="gridvolume" name="sigma_t"><string name="filename" value="fog-const.vol"/><transform name="to_world"><scale x="2.4" y="2.4" z="5.6"/><translate x="-1.2" y="-0.2" z="-1.2"/></transform></volume>|' \
+		    data/fog-box.xml >"$VARIANTS/hetero-box.xml"
+		run hetero-box "$VARIANTS/hetero-box.xml"
+	else
+		check "hetero-box: build/tests/volgen not built (make build/tests/volgen)" false
+	fi
+fi
+
 # Spectra (wavelength:value lists, .spd files, blackbody) reduced to RGB
 # as Mitsuba's RGB variants reduce them: noise-free scenes, 1e-4 agreement.
 if [ "$selftest" = 0 ] && wanted spectra; then
@@ -308,6 +338,29 @@ if [ "$selftest" = 0 ] && wanted texture-lookups; then
 		diag <"$OUT/log"
 		check "texture lookups: pm's bitmap lookups differ from Mitsuba's" false
 	fi
+fi
+
+# The principled BSDFs: eval and pdf point by point against Mitsuba's
+# (bsdf_eval.py), then data/principled.xml by path tracing and by photon
+# mapping.
+if [ "$selftest" = 0 ] && wanted principled-eval; then
+	if [ ! -x build/tests/bsdfeval ]; then
+		check "principled eval: build/tests/bsdfeval not built" false
+	elif "$PY" "$HERE/bsdf_eval.py" build/tests/bsdfeval \
+	    "$OUT/principled-eval" >"$OUT/log" 2>&1; then
+		diag <"$OUT/log"
+		check "principled eval: pm's principled BSDFs equal Mitsuba's" true
+	else
+		diag <"$OUT/log"
+		check "principled eval: pm's principled BSDFs differ from Mitsuba's" false
+	fi
+fi
+if [ -f data/principled.xml ]; then
+	run principled data/principled.xml
+	[ "$selftest" = 1 ] || ! wanted principled-photon ||
+	    against principled-photon data/principled.xml photon
+else
+	check "principled: data/principled.xml is missing" false
 fi
 
 # Textures: tests/mitsuba/textures.xml with its bitmap written here, in a

@@ -688,8 +688,8 @@ test_load_errors(void **state)
 	load_fails(HEAD BALL("<medium type=\"homogeneous\" name=\"interior\"/>"
 	    "<medium type=\"homogeneous\" name=\"interior\"/>") "</scene>",
 	    "more than one interior medium");
-	load_fails(HEAD BALL("<medium type=\"heterogeneous\" name=\"interior\"/>")
-	    "</scene>", "unknown medium type \"heterogeneous\"");
+	load_fails(HEAD BALL("<medium type=\"nebula\" name=\"interior\"/>")
+	    "</scene>", "unknown medium type \"nebula\"");
 	load_fails(HEAD "<medium type=\"homogeneous\"><phase type=\"hg\">"
 	    "<float name=\"g\" value=\"1\"/></phase></medium></scene>",
 	    "strictly between -1 and 1");

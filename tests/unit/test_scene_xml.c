@@ -1137,8 +1137,8 @@ test_errors(void **state)
 		    "unknown element <bar> in shape \"sphere\""},
 		{HEAD "<shape type=\"teapot\"/></scene>", 2,
 		    "unknown shape type \"teapot\""},
-		{HEAD "<shape type=\"sphere\"><bsdf type=\"principled\"/>"
-		    "</shape></scene>", 2, "unknown bsdf type \"principled\""},
+		{HEAD "<shape type=\"sphere\"><bsdf type=\"hair\"/>"
+		    "</shape></scene>", 2, "unknown bsdf type \"hair\""},
 		{HEAD "<emitter type=\"projector\"/></scene>", 2,
 		    "unknown emitter type \"projector\""},
 		{HEAD "<integrator type=\"aov\"/></scene>", 2,
@@ -1312,10 +1312,10 @@ test_errors(void **state)
 		    "<bsdf type=\"diffuse\" id=\"b\"/></scene>", 3,
 		    "names a <bsdf>, expected a <texture>"},
 		/* an unknown plugin is named before the texture inside it */
-		{HEAD "<shape type=\"rectangle\">\n<bsdf type=\"principled\">"
+		{HEAD "<shape type=\"rectangle\">\n<bsdf type=\"hair\">"
 		    "<texture name=\"base_color\" type=\"bitmap\"/>"
 		    "</bsdf></shape></scene>", 3,
-		    "unknown bsdf type \"principled\""},
+		    "unknown bsdf type \"hair\""},
 		/* a texture by reference is a texture */
 		{HEAD "<shape type=\"rectangle\"><bsdf type=\"dielectric\">\n"
 		    "<ref name=\"specular_transmittance\" id=\"t\"/></bsdf>"
@@ -1466,6 +1466,92 @@ test_cbox(void **state)
 	}
 }
 
+/* principled and principledthin: Mitsuba's defaults, eta from
+ * specular, the transmission adjustments, textured scalars. */
+static void
+test_principled_bsdfs(void **state)
+{
+	struct pm_scene s;
+	const struct pm_bsdf *b;
+
+	(void)state;
+	load_ok("<scene version=\"3.0.0\">\n"
+	    " <shape type=\"rectangle\"><bsdf type=\"principled\"/></shape>\n"
+	    " <shape type=\"rectangle\"><bsdf type=\"principled\">"
+	    "  <rgb name=\"base_color\" value=\"0.1, 0.2, 0.3\"/>"
+	    "  <float name=\"specular\" value=\"0.7\"/>"
+	    "  <float name=\"metallic\" value=\"1\"/>"
+	    "  <float name=\"anisotropic\" value=\"0.5\"/>"
+	    "  <float name=\"clearcoat\" value=\"0\"/>"
+	    "  <float name=\"clearcoat_sampling_rate\" value=\"2\"/>"
+	    " </bsdf></shape>\n"
+	    " <shape type=\"rectangle\"><bsdf type=\"principled\">"
+	    "  <float name=\"spec_trans\" value=\"1\"/>"
+	    "  <float name=\"eta\" value=\"1\"/>"
+	    "  <texture name=\"roughness\" type=\"checkerboard\">"
+	    "   <rgb name=\"color0\" value=\"0.2\"/>"
+	    "   <rgb name=\"color1\" value=\"0.6\"/></texture>"
+	    " </bsdf></shape>\n"
+	    " <shape type=\"rectangle\"><bsdf type=\"principledthin\"/>"
+	    "</shape>\n"
+	    " <shape type=\"rectangle\"><bsdf type=\"principledthin\">"
+	    "  <float name=\"diff_trans\" value=\"2\"/>"
+	    "  <float name=\"eta\" value=\"1.33\"/>"
+	    " </bsdf></shape>\n"
+	    "</scene>\n", &s);
+	assert_int_equal(s.nshapes, 5);
+
+	b = shape_bsdf(&s, 0);
+	assert_int_equal(b->type, PM_BSDF_PRINCIPLED);
+	assert_rgb(b->diffuse, 0.5, 0.5, 0.5);
+	NEAR(b->pr.v[PM_PR_ROUGHNESS], 0.5, 1e-7);
+	NEAR(b->pr.v[PM_PR_ETA], 1.5, 1e-6);	/* specular 0.5 */
+	NEAR(b->pr.v[PM_PR_METALLIC], 0.0, 0.0);
+	assert_false(b->pr.has_spec_trans || b->pr.has_clearcoat ||
+	    b->pr.textured);
+	NEAR(b->pr.rate[PM_PR_RATE_OTHER], 1.0, 0.0);
+	assert_int_equal(b->lobes, PM_LOBE_DIFFUSE | PM_LOBE_GLOSSY);
+
+	b = shape_bsdf(&s, 1);
+	assert_rgb(b->diffuse, 0.1, 0.2, 0.3);
+	NEAR(b->pr.v[PM_PR_ETA], 2.0 / (1.0 - sqrt(0.08 * 0.7)) - 1.0, 1e-6);
+	NEAR(b->pr.v[PM_PR_ANISOTROPIC], 0.5, 1e-7);
+	/* clearcoat given as 0 is off, as Mitsuba's flag says */
+	assert_false(b->pr.has_clearcoat);
+	NEAR(b->pr.rate[PM_PR_RATE_OTHER], 2.0, 0.0);
+	assert_int_equal(b->lobes, PM_LOBE_GLOSSY);
+
+	b = shape_bsdf(&s, 2);
+	assert_true(b->pr.has_spec_trans);
+	NEAR(b->pr.v[PM_PR_ETA], 1.001, 1e-6);
+	assert_true(b->pr.textured && b->pr.tex[PM_PR_ROUGHNESS] > 0);
+	NEAR(b->pr.v[PM_PR_ROUGHNESS], 0.4, 1e-6);	/* the mean */
+	assert_int_equal(b->lobes, PM_LOBE_GLOSSY | PM_LOBE_GLOSSY_TRANSMISSION);
+	assert_true(pm_bsdf_passes_photons(b));
+
+	b = shape_bsdf(&s, 3);
+	assert_int_equal(b->type, PM_BSDF_PRINCIPLEDTHIN);
+	NEAR(b->pr.v[PM_PR_ETA], 1.5, 1e-7);
+	assert_int_equal(b->lobes, PM_LOBE_DIFFUSE);
+
+	b = shape_bsdf(&s, 4);
+	NEAR(b->pr.v[PM_PR_ETA], 1.33, 1e-6);
+	assert_true(b->pr.has_diff_trans);
+	assert_int_equal(b->lobes, PM_LOBE_DIFFUSE_TRANSMISSION);
+	pm_scene_free(&s);
+
+	load_fails("<scene version=\"3.0.0\"><shape type=\"rectangle\">\n"
+	    "<bsdf type=\"principled\"><float name=\"eta\" value=\"1.5\"/>"
+	    "<float name=\"specular\" value=\"0.5\"/></bsdf></shape></scene>",
+	    2, "give either eta or specular");
+	load_fails("<scene version=\"3.0.0\"><shape type=\"rectangle\">\n"
+	    "<bsdf type=\"principledthin\">\n<float name=\"diff_trans\" "
+	    "value=\"3\"/></bsdf></shape></scene>", 3, "outside [0, 2]");
+	load_fails("<scene version=\"3.0.0\"><shape type=\"rectangle\">\n"
+	    "<bsdf type=\"principledthin\">\n<float name=\"clearcoat\" "
+	    "value=\"1\"/></bsdf></shape></scene>", 3, "clearcoat");
+}
+
 int
 main(void)
 {
@@ -1473,6 +1559,7 @@ main(void)
 		cmocka_unit_test(test_empty_scene_defaults),
 		cmocka_unit_test(test_bsdfs),
 		cmocka_unit_test(test_rough_bsdfs),
+		cmocka_unit_test(test_principled_bsdfs),
 		cmocka_unit_test(test_shapes),
 		cmocka_unit_test(test_meshes),
 		cmocka_unit_test(test_emitters),
