@@ -177,17 +177,17 @@ fresnel_diffuse_reflectance(float eta)
 	    4.98554f * i4 - 1.36881f * i5;
 }
 
-/* ---- GGX (Trowbridge-Reitz), isotropic ---- */
+/* ---- GGX (Trowbridge-Reitz), alpha ax along the frame's s, ay along t ---- */
 
 static float
-ggx_d(float alpha, struct pm_vec3 m)
+ggx_d(float ax, float ay, struct pm_vec3 m)
 {
-	float a2 = alpha * alpha, c2 = m.z * m.z, t, d;
+	float c2 = m.z * m.z, t, d;
 
 	if (m.z <= 0.0f)
 		return 0.0f;
-	t = (m.x * m.x + m.y * m.y) / a2 + c2;
-	d = 1.0f / (PM_PI * a2 * t * t);
+	t = m.x * m.x / (ax * ax) + m.y * m.y / (ay * ay) + c2;
+	d = 1.0f / (PM_PI * ax * ay * t * t);
 	/* as Mitsuba: drop values too small to matter, avoiding denormals */
 	return d * m.z > 1e-20f ? d : 0.0f;
 }
@@ -196,14 +196,16 @@ ggx_d(float alpha, struct pm_vec3 m)
  * exact form, or Beckmann's by Walter et al.'s rational fit (both as
  * Mitsuba 3 evaluates them). */
 static float
-smith_g1(bool beckmann, float alpha, struct pm_vec3 v, struct pm_vec3 m)
+smith_g1(bool beckmann, float ax, float ay, struct pm_vec3 v,
+    struct pm_vec3 m)
 {
 	float xy, tan2, a;
 
 	/* a facet seen from behind masks everything */
 	if (pm_dot(v, m) * v.z <= 0.0f)
 		return 0.0f;
-	xy = alpha * alpha * (v.x * v.x + v.y * v.y);
+	/* the roughness projected on v's azimuth, squared, times sin^2 */
+	xy = ax * ax * v.x * v.x + ay * ay * v.y * v.y;
 	if (xy == 0.0f)
 		return 1.0f;
 	tan2 = xy / (v.z * v.z);
@@ -222,12 +224,13 @@ smith_g1(bool beckmann, float alpha, struct pm_vec3 v, struct pm_vec3 m)
  * and unstretch.  Density G1(wi,m) max(0, wi.m) D(m) / wi.z.
  */
 static struct pm_vec3
-ggx_sample_visible(float alpha, struct pm_vec3 wi, float u1, float u2)
+ggx_sample_visible(float ax, float ay, struct pm_vec3 wi, float u1,
+    float u2)
 {
 	struct pm_vec3 vh, t1, t2, nh;
 	float len2, r, phi, p1, p2, s;
 
-	vh = pm_normalize(pm_v3(alpha * wi.x, alpha * wi.y, wi.z));
+	vh = pm_normalize(pm_v3(ax * wi.x, ay * wi.y, wi.z));
 	len2 = vh.x * vh.x + vh.y * vh.y;
 	t1 = len2 > 0.0f ? pm_scale(pm_v3(-vh.y, vh.x, 0.0f),
 	    1.0f / sqrtf(len2)) : pm_v3(1.0f, 0.0f, 0.0f);
@@ -241,8 +244,7 @@ ggx_sample_visible(float alpha, struct pm_vec3 wi, float u1, float u2)
 	p2 = (1.0f - s) * sqrtf(fmaxf(0.0f, 1.0f - p1 * p1)) + s * p2;
 	nh = pm_add(pm_add(pm_scale(t1, p1), pm_scale(t2, p2)),
 	    pm_scale(vh, sqrtf(fmaxf(0.0f, 1.0f - p1 * p1 - p2 * p2))));
-	return pm_normalize(pm_v3(alpha * nh.x, alpha * nh.y,
-	    fmaxf(0.0f, nh.z)));
+	return pm_normalize(pm_v3(ax * nh.x, ay * nh.y, fmaxf(0.0f, nh.z)));
 }
 
 /* The microfacet normal of polar angle tan^2 theta = tan2 and azimuth
@@ -264,16 +266,17 @@ ggx_sample_all(float alpha, float u1, float u2)
 	return normal_from_tan2(alpha * alpha * u1 / (1.0f - u1), u2);
 }
 
-/* ---- Beckmann, isotropic, as Mitsuba 3 writes it ---- */
+/* ---- Beckmann, as Mitsuba 3 writes it ---- */
 
 static float
-beckmann_d(float alpha, struct pm_vec3 m)
+beckmann_d(float ax, float ay, struct pm_vec3 m)
 {
-	float a2 = alpha * alpha, c2 = m.z * m.z, d;
+	float c2 = m.z * m.z, d;
 
 	if (m.z <= 0.0f)
 		return 0.0f;
-	d = expf(-(m.x * m.x + m.y * m.y) / (a2 * c2)) / (PM_PI * a2 * c2 * c2);
+	d = expf(-(m.x * m.x / (ax * ax) + m.y * m.y / (ay * ay)) / c2) /
+	    (PM_PI * ax * ay * c2 * c2);
 	return d * m.z > 1e-20f ? d : 0.0f;
 }
 
@@ -284,12 +287,42 @@ beckmann_sample_all(float alpha, float u1, float u2)
 	return normal_from_tan2(-alpha * alpha * logf(1.0f - u1), u2);
 }
 
+/*
+ * A normal from D(m) cos(theta_m) of an anisotropic distribution: one of
+ * the distribution at alpha 1, stretched by (ax, ay).  Both distributions
+ * are those of slopes stretched from the unit one (Heitz 2014, sec. 5),
+ * and the stretch of a normal's slopes is the stretch of its x and y.
+ * Isotropic alphas keep the direct inversion (the same points as before
+ * anisotropy existed).
+ */
+static struct pm_vec3
+md_sample_all(bool beckmann, float ax, float ay, float u1, float u2)
+{
+	struct pm_vec3 m;
+
+	if (ax == ay)
+		return beckmann ? beckmann_sample_all(ax, u1, u2) :
+		    ggx_sample_all(ax, u1, u2);
+	m = beckmann ? beckmann_sample_all(1.0f, u1, u2) :
+	    ggx_sample_all(1.0f, u1, u2);
+	return pm_normalize(pm_v3(ax * m.x, ay * m.y, m.z));
+}
+
 /* The rough conductor's distribution; visible-normal sampling
  * is GGX's only (Beckmann draws from D(m) cos, its own density). */
 static float
-md_d(const struct pm_bsdf *b, float alpha, struct pm_vec3 m)
+md_d(const struct pm_bsdf *b, float ax, float ay, struct pm_vec3 m)
 {
-	return b->beckmann ? beckmann_d(alpha, m) : ggx_d(alpha, m);
+	return b->beckmann ? beckmann_d(ax, ay, m) : ggx_d(ax, ay, m);
+}
+
+/* The BSDF's roughness along the frame's s and t, clamped as alpha is:
+ * alpha_u and alpha_v where anisotropic, alpha twice else. */
+static void
+md_alphas(const struct pm_bsdf *b, float *ax, float *ay)
+{
+	*ax = fmaxf(b->alpha, PM_MIN_ALPHA);
+	*ay = b->aniso ? fmaxf(b->alpha_v, PM_MIN_ALPHA) : *ax;
 }
 
 static bool
@@ -335,32 +368,31 @@ plastic_prob_specular(const struct pm_bsdf *b, float fi)
 /* A microfacet normal for a query from wi_up (above the surface) and its
  * density: visible normals for GGX with sample_visible, D(m) cos else. */
 static struct pm_vec3
-md_sample(const struct pm_bsdf *b, float alpha, struct pm_vec3 wi_up,
+md_sample(const struct pm_bsdf *b, float ax, float ay, struct pm_vec3 wi_up,
     float u2, float u3, float *pdf_m)
 {
 	struct pm_vec3 m;
 
 	if (md_visible(b)) {
-		m = ggx_sample_visible(alpha, wi_up, u2, u3);
-		*pdf_m = smith_g1(false, alpha, wi_up, m) *
-		    fmaxf(pm_dot(wi_up, m), 0.0f) * ggx_d(alpha, m) / wi_up.z;
+		m = ggx_sample_visible(ax, ay, wi_up, u2, u3);
+		*pdf_m = smith_g1(false, ax, ay, wi_up, m) *
+		    fmaxf(pm_dot(wi_up, m), 0.0f) * ggx_d(ax, ay, m) / wi_up.z;
 	} else {
-		m = b->beckmann ? beckmann_sample_all(alpha, u2, u3) :
-		    ggx_sample_all(alpha, u2, u3);
-		*pdf_m = md_d(b, alpha, m) * m.z;
+		m = md_sample_all(b->beckmann, ax, ay, u2, u3);
+		*pdf_m = md_d(b, ax, ay, m) * m.z;
 	}
 	return m;
 }
 
 /* The density md_sample draws m with. */
 static float
-md_pdf(const struct pm_bsdf *b, float alpha, struct pm_vec3 wi_up,
+md_pdf(const struct pm_bsdf *b, float ax, float ay, struct pm_vec3 wi_up,
     struct pm_vec3 m)
 {
 	if (md_visible(b))
-		return smith_g1(false, alpha, wi_up, m) *
-		    fmaxf(pm_dot(wi_up, m), 0.0f) * ggx_d(alpha, m) / wi_up.z;
-	return md_d(b, alpha, m) * m.z;
+		return smith_g1(false, ax, ay, wi_up, m) *
+		    fmaxf(pm_dot(wi_up, m), 0.0f) * ggx_d(ax, ay, m) / wi_up.z;
+	return md_d(b, ax, ay, m) * m.z;
 }
 
 /* ---- roughdielectric (Walter et al. 2007, as Mitsuba 3 writes it) ---- */
@@ -413,20 +445,21 @@ static struct pm_rgb
 eval_roughdielectric(const struct pm_bsdf *b, struct pm_vec3 wi,
     struct pm_vec3 wo, enum pm_transport mode)
 {
-	float alpha = fmaxf(b->alpha, PM_MIN_ALPHA);
+	float ax, ay;
 	struct pm_vec3 m;
 	float eta, d, g, f, im, om, den2, v;
 	bool reflect;
 
+	md_alphas(b, &ax, &ay);
 	if (!rd_normal(b, wi, wo, &m, &eta, &reflect, &den2))
 		return pm_rgb1(0.0f);
-	d = md_d(b, alpha, m);
+	d = md_d(b, ax, ay, m);
 	if (d == 0.0f)
 		return pm_rgb1(0.0f);
 	im = pm_dot(wi, m);
 	om = pm_dot(wo, m);
-	g = smith_g1(b->beckmann, alpha, wi, m) *
-	    smith_g1(b->beckmann, alpha, wo, m);
+	g = smith_g1(b->beckmann, ax, ay, wi, m) *
+	    smith_g1(b->beckmann, ax, ay, wo, m);
 	f = pm_fresnel_dielectric(im, b->ior, NULL);
 	if (reflect)
 		return pm_rgb_scale(b->specular, f * d * g / (4.0f * fabsf(wi.z)));
@@ -445,15 +478,16 @@ static float
 pdf_roughdielectric(const struct pm_bsdf *b, struct pm_vec3 wi,
     struct pm_vec3 wo)
 {
-	float alpha = fmaxf(b->alpha, PM_MIN_ALPHA);
+	float ax, ay;
 	struct pm_vec3 m, wi_up = wi.z < 0.0f ? pm_neg(wi) : wi;
 	float eta, f, den2;
 	bool reflect;
 
+	md_alphas(b, &ax, &ay);
 	if (!rd_normal(b, wi, wo, &m, &eta, &reflect, &den2))
 		return 0.0f;
 	f = pm_fresnel_dielectric(pm_dot(wi, m), b->ior, NULL);
-	return md_pdf(b, alpha, wi_up, m) * (reflect ? f : 1.0f - f) *
+	return md_pdf(b, ax, ay, wi_up, m) * (reflect ? f : 1.0f - f) *
 	    rd_jacobian(wo, m, eta, reflect, den2);
 }
 
@@ -463,14 +497,15 @@ static bool
 sample_roughdielectric(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
     float u2, float u3, enum pm_transport mode, struct pm_bsdf_sample *s)
 {
-	float alpha = fmaxf(b->alpha, PM_MIN_ALPHA);
+	float ax, ay;
 	struct pm_vec3 m, wi_up = wi.z < 0.0f ? pm_neg(wi) : wi;
 	float pdf_m, im, f, cos_t, eta_it, eta_ti, w, pe, den2;
 	bool reflect;
 
+	md_alphas(b, &ax, &ay);
 	if (wi.z == 0.0f)
 		return false;
-	m = md_sample(b, alpha, wi_up, u2, u3, &pdf_m);
+	m = md_sample(b, ax, ay, wi_up, u2, u3, &pdf_m);
 	im = pm_dot(wi, m);
 	/* a facet that faces away from wi is not seen from there */
 	if (!(pdf_m > 0.0f) || im * wi.z <= 0.0f)
@@ -510,10 +545,10 @@ sample_roughdielectric(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
 		return false;
 	/* f |cos_o| / pdf: D and the Fresnel choice cancel */
 	if (md_visible(b))
-		w = smith_g1(false, alpha, s->wo, m);
+		w = smith_g1(false, ax, ay, s->wo, m);
 	else
-		w = smith_g1(b->beckmann, alpha, wi, m) *
-		    smith_g1(b->beckmann, alpha, s->wo, m) *
+		w = smith_g1(b->beckmann, ax, ay, wi, m) *
+		    smith_g1(b->beckmann, ax, ay, s->wo, m) *
 		    fabsf(im / (wi.z * m.z));
 	s->weight = pm_rgb_scale(s->weight, w);
 	return true;
@@ -572,8 +607,8 @@ rough_interface(const struct pm_bsdf *b, float alpha, float mu, float eta,
 			}
 			/* visible-normal density over D(m) cos:
 			 * G1(wi) wi.m / (mu m.z) */
-			g = smith_g1(b->beckmann, alpha, wi, m) *
-			    smith_g1(b->beckmann, alpha, wo, m);
+			g = smith_g1(b->beckmann, alpha, alpha, wi, m) *
+			    smith_g1(b->beckmann, alpha, alpha, wo, m);
 			row += (double)(f * g * im / (mu * m.z));
 		}
 		sum += w * row;
@@ -668,8 +703,8 @@ eval_roughplastic(const struct pm_bsdf *b, struct pm_vec3 wi,
 	rp_lobes(b, &spec, &diff);
 	if (spec) {
 		h = pm_normalize(pm_add(wi, wo));
-		s = md_d(b, alpha, h) * smith_g1(b->beckmann, alpha, wi, h) *
-		    smith_g1(b->beckmann, alpha, wo, h) *
+		s = md_d(b, alpha, alpha, h) * smith_g1(b->beckmann, alpha, alpha, wi, h) *
+		    smith_g1(b->beckmann, alpha, alpha, wo, h) *
 		    pm_fresnel_dielectric(pm_dot(wi, h), b->ior, NULL) /
 		    (4.0f * wi.z);
 		r = pm_rgb_scale(b->specular, s);
@@ -702,7 +737,7 @@ pdf_roughplastic(const struct pm_bsdf *b, struct pm_vec3 wi,
 	ps = rp_prob_specular(b, rough_t(b, wi.z));
 	if (ps > 0.0f) {
 		h = pm_normalize(pm_add(wi, wo));
-		p = ps * md_pdf(b, alpha, wi, h) / (4.0f * pm_dot(wo, h));
+		p = ps * md_pdf(b, alpha, alpha, wi, h) / (4.0f * pm_dot(wo, h));
 	}
 	return p + (1.0f - ps) * wo.z * PM_INV_PI;
 }
@@ -718,7 +753,7 @@ sample_roughplastic(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
 		return false;
 	ps = rp_prob_specular(b, rough_t(b, wi.z));
 	if (u1 < ps) {
-		m = md_sample(b, alpha, wi, u2, u3, &pdf_m);
+		m = md_sample(b, alpha, alpha, wi, u2, u3, &pdf_m);
 		if (!(pdf_m > 0.0f) || pm_dot(wi, m) <= 0.0f)
 			return false;
 		s->wo = pm_normalize(pm_sub(pm_scale(m, 2.0f * pm_dot(wi, m)),
@@ -996,6 +1031,140 @@ pm_bsdf_prepare(struct pm_bsdf *b)
 	}
 }
 
+/* ---- normalmap and bumpmap: the BSDF in a perturbed frame ---- */
+
+/*
+ * Estevez et al.'s shadowing of light arriving along w at a surface whose
+ * normal a map tilted to n (Ray Tracing Gems, 2019, ch. 12), both in the
+ * unperturbed frame, as Mitsuba's wrappers apply it by default: 1 for an
+ * untilted normal, falling off towards grazing w as the tilt grows.
+ */
+static float
+shadow_terminator(const struct pm_bsdf *b, struct pm_vec3 n,
+    struct pm_vec3 w)
+{
+	float n2 = n.z * n.z, w2 = w.z * w.z, a2;
+
+	if (b->no_shadowing)
+		return 1.0f;
+	a2 = n2 > 0.0f ? fminf(0.125f * fmaxf(0.0f, 1.0f - n2) / n2, 1.0f) :
+	    1.0f;
+	if (a2 == 0.0f)
+		return 1.0f;
+	if (!(w2 > 0.0f))
+		return 0.0f;
+	return 2.0f / (1.0f + sqrtf(1.0f + a2 * fmaxf(0.0f, 1.0f - w2) / w2));
+}
+
+/*
+ * The wrapped BSDF (b without its wrapper) and the query as it sees it:
+ * mirrored first where the wrapper sits inside twosided (Mitsuba's
+ * twosided mirrors the query before handing it on), and returns whether
+ * it was mirrored.
+ */
+static bool
+perturbed_inner(const struct pm_bsdf *b, struct pm_bsdf *inner,
+    struct pm_vec3 *wi, struct pm_vec3 *wo)
+{
+	*inner = *b;
+	inner->perturbed = false;
+	if (!b->perturb_in_twosided)
+		return false;
+	inner->twosided = false;
+	if (wi->z >= 0.0f)
+		return false;
+	wi->z = -wi->z;
+	if (wo != NULL)
+		wo->z = -wo->z;
+	return true;
+}
+
+/* Which direction the shadowing term takes: the light's, wo for
+ * radiance, wi for importance (the term is not symmetric, and photons
+ * must meet it where the camera's paths do). */
+static struct pm_vec3
+shadow_dir(struct pm_vec3 wi, struct pm_vec3 wo, enum pm_transport mode)
+{
+	return mode == PM_RADIANCE ? wo : wi;
+}
+
+/*
+ * Importance's correction for the tilted normal (Veach 1997, sec. 5.3):
+ * the BSDF's cosine belongs to the light's side, wi for importance, and
+ * the flux leaving towards wo spreads over the unperturbed surface, so
+ * f |cos_p wo| becomes f |cos_p wi| |cos wo| / |cos wi|.  1 for
+ * radiance, whose wo is the light's side already.  wi, wo unperturbed;
+ * wip, wop perturbed.
+ */
+static float
+importance_factor(enum pm_transport mode, struct pm_vec3 wi,
+    struct pm_vec3 wo, struct pm_vec3 wip, struct pm_vec3 wop)
+{
+	float d = wi.z * wop.z;
+
+	if (mode == PM_RADIANCE)
+		return 1.0f;
+	return d != 0.0f ? fabsf(wip.z * wo.z / d) : 0.0f;
+}
+
+static struct pm_rgb
+eval_perturbed(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo,
+    enum pm_transport mode)
+{
+	struct pm_bsdf in;
+	struct pm_vec3 wip, wop;
+
+	perturbed_inner(b, &in, &wi, &wo);
+	wip = pm_to_local(b->pframe, wi);
+	wop = pm_to_local(b->pframe, wo);
+	/* light must leave on the same side of both frames */
+	if (wo.z * wop.z <= 0.0f)
+		return pm_rgb1(0.0f);
+	return pm_rgb_scale(pm_bsdf_eval(&in, wip, wop, mode),
+	    shadow_terminator(b, b->pframe.n, shadow_dir(wi, wo, mode)) *
+	    importance_factor(mode, wi, wo, wip, wop));
+}
+
+static float
+pdf_perturbed(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo)
+{
+	struct pm_bsdf in;
+	struct pm_vec3 wop;
+
+	perturbed_inner(b, &in, &wi, &wo);
+	wop = pm_to_local(b->pframe, wo);
+	if (wo.z * wop.z <= 0.0f)
+		return 0.0f;
+	return pm_bsdf_pdf(&in, pm_to_local(b->pframe, wi), wop);
+}
+
+/* pm_bsdf_sample, or pm_bsdf_coating where coating, through the wrapper. */
+static bool
+sample_perturbed(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
+    float u2, float u3, enum pm_transport mode, bool coating,
+    struct pm_bsdf_sample *s)
+{
+	struct pm_bsdf in;
+	struct pm_vec3 wo, wip;
+	bool mirror = perturbed_inner(b, &in, &wi, NULL), ok;
+
+	wip = pm_to_local(b->pframe, wi);
+	ok = coating ? pm_bsdf_coating(&in, wip, s) :
+	    pm_bsdf_sample(&in, wip, u1, u2, u3, mode, s);
+	if (!ok)
+		return false;
+	wo = pm_to_world(b->pframe, s->wo);
+	if (s->wo.z * wo.z <= 0.0f)
+		return false;
+	s->weight = pm_rgb_scale(s->weight,
+	    shadow_terminator(b, b->pframe.n, shadow_dir(wi, wo, mode)) *
+	    importance_factor(mode, wi, wo, wip, s->wo));
+	s->wo = wo;
+	if (mirror)
+		s->wo.z = -s->wo.z;
+	return true;
+}
+
 /* f(wi, wo) |cos theta_o|; zero for delta components. */
 struct pm_rgb
 pm_bsdf_eval(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo,
@@ -1003,8 +1172,10 @@ pm_bsdf_eval(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo,
 {
 	struct pm_vec3 h;
 	struct pm_rgb f;
-	float alpha, d, g, fi, fo;
+	float ax, ay, d, g, fi, fo;
 
+	if (b->perturbed)
+		return eval_perturbed(b, wi, wo, mode);
 	if (twosided_flip(b, wi)) {
 		wi.z = -wi.z;
 		wo.z = -wo.z;
@@ -1019,13 +1190,13 @@ pm_bsdf_eval(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo,
 	case PM_BSDF_ROUGHCONDUCTOR:
 		if (wi.z <= 0.0f || wo.z <= 0.0f)
 			break;
-		alpha = fmaxf(b->alpha, PM_MIN_ALPHA);
+		md_alphas(b, &ax, &ay);
 		h = pm_normalize(pm_add(wi, wo));
-		d = md_d(b, alpha, h);
+		d = md_d(b, ax, ay, h);
 		if (d == 0.0f)
 			break;
-		g = smith_g1(b->beckmann, alpha, wi, h) *
-		    smith_g1(b->beckmann, alpha, wo, h);
+		g = smith_g1(b->beckmann, ax, ay, wi, h) *
+		    smith_g1(b->beckmann, ax, ay, wo, h);
 		f = pm_fresnel_conductor(pm_dot(wi, h), b->eta, b->k);
 		/* D G F / (4 cos_i cos_o), times cos_o */
 		return pm_rgb_scale(pm_rgb_mul(f, b->specular),
@@ -1068,8 +1239,10 @@ float
 pm_bsdf_pdf(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo)
 {
 	struct pm_vec3 m;
-	float alpha, fi;
+	float ax, ay, fi;
 
+	if (b->perturbed)
+		return pdf_perturbed(b, wi, wo);
 	if (twosided_flip(b, wi)) {
 		wi.z = -wi.z;
 		wo.z = -wo.z;
@@ -1088,11 +1261,11 @@ pm_bsdf_pdf(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo)
 		/* the same side tests smith_g1 applies while sampling */
 		if (pm_dot(wi, m) <= 0.0f || pm_dot(wo, m) <= 0.0f)
 			break;
-		alpha = fmaxf(b->alpha, PM_MIN_ALPHA);
+		md_alphas(b, &ax, &ay);
 		if (md_visible(b))
-			return ggx_d(alpha, m) * smith_g1(false, alpha, wi, m) /
+			return ggx_d(ax, ay, m) * smith_g1(false, ax, ay, wi, m) /
 			    (4.0f * wi.z);
-		return md_d(b, alpha, m) * m.z / (4.0f * pm_dot(wo, m));
+		return md_d(b, ax, ay, m) * m.z / (4.0f * pm_dot(wo, m));
 	case PM_BSDF_PLASTIC:
 		if (wi.z <= 0.0f || wo.z <= 0.0f)
 			break;
@@ -1126,22 +1299,22 @@ static bool
 sample_roughconductor(const struct pm_bsdf *b, struct pm_vec3 wi, float u2,
     float u3, struct pm_bsdf_sample *s)
 {
-	float alpha = fmaxf(b->alpha, PM_MIN_ALPHA);
+	float ax, ay;
 	struct pm_vec3 m;
 	float dim, pdf_m, w;
 
+	md_alphas(b, &ax, &ay);
 	if (wi.z <= 0.0f)
 		return false;
 	if (md_visible(b)) {
-		m = ggx_sample_visible(alpha, wi, u2, u3);
+		m = ggx_sample_visible(ax, ay, wi, u2, u3);
 		dim = pm_dot(wi, m);
-		pdf_m = smith_g1(false, alpha, wi, m) * fmaxf(dim, 0.0f) *
-		    ggx_d(alpha, m) / wi.z;
+		pdf_m = smith_g1(false, ax, ay, wi, m) * fmaxf(dim, 0.0f) *
+		    ggx_d(ax, ay, m) / wi.z;
 	} else {
-		m = b->beckmann ? beckmann_sample_all(alpha, u2, u3) :
-		    ggx_sample_all(alpha, u2, u3);
+		m = md_sample_all(b->beckmann, ax, ay, u2, u3);
 		dim = pm_dot(wi, m);
-		pdf_m = md_d(b, alpha, m) * m.z;
+		pdf_m = md_d(b, ax, ay, m) * m.z;
 	}
 	/* a facet facing away from wi cannot reflect it */
 	if (dim <= 0.0f || pdf_m <= 0.0f)
@@ -1152,10 +1325,10 @@ sample_roughconductor(const struct pm_bsdf *b, struct pm_vec3 wi, float u2,
 	/* Jacobian of the half-vector map; wo.m = wi.m for a reflection */
 	s->pdf = pdf_m / (4.0f * dim);
 	if (md_visible(b))
-		w = smith_g1(false, alpha, s->wo, m);
+		w = smith_g1(false, ax, ay, s->wo, m);
 	else
-		w = smith_g1(b->beckmann, alpha, wi, m) *
-		    smith_g1(b->beckmann, alpha, s->wo, m) * dim /
+		w = smith_g1(b->beckmann, ax, ay, wi, m) *
+		    smith_g1(b->beckmann, ax, ay, s->wo, m) * dim /
 		    (wi.z * m.z);
 	s->weight = pm_rgb_scale(pm_rgb_mul(pm_fresnel_conductor(dim, b->eta,
 	    b->k), b->specular), w);
@@ -1271,6 +1444,9 @@ pm_bsdf_coating(const struct pm_bsdf *b, struct pm_vec3 wi,
 
 	if (b->type != PM_BSDF_PLASTIC)
 		return false;
+	if (b->perturbed)
+		return sample_perturbed(b, wi, 0.0f, 0.0f, 0.0f, PM_RADIANCE,
+		    true, s);
 	if (flip)
 		wi.z = -wi.z;
 	if (wi.z <= 0.0f)
@@ -1295,6 +1471,8 @@ pm_bsdf_sample(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
 
 	if (excluded(b))
 		return false;
+	if (b->perturbed)
+		return sample_perturbed(b, wi, u1, u2, u3, mode, false, s);
 	if (flip)
 		wi.z = -wi.z;
 	switch (b->type) {

@@ -142,6 +142,32 @@ struct pm_bsdf {
 	 * (u, v) for the nested ones to look theirs up at. */
 	bool nested_textures;
 	float u, v;
+	/* rough conductors and dielectrics: anisotropic roughness, alpha
+	 * (and tex_alpha) holding Mitsuba's alpha_u, along the shading
+	 * frame's s (the surface's dp/du), alpha_v along t; tex_alpha_v as
+	 * tex_alpha.  Not aniso: alpha both ways, alpha_v unused. */
+	bool aniso;
+	float alpha_v;
+	int tex_alpha_v;
+	/* Mitsuba's normalmap and bumpmap wrapped around this BSDF: 1 + the
+	 * index into scene.textures of the normal map (RGB in tangent
+	 * space) or of the height field, 0 for none; bump_scale is
+	 * bumpmap's scale.  perturb_in_twosided: the wrapper sits inside
+	 * twosided (twosided mirrors the query before it perturbs). */
+	int tex_normal, tex_bump;
+	float bump_scale;
+	bool perturb_in_twosided;
+	/* Set at a hit by pm_bsdf_frame_at (frame.h) on its copy: the
+	 * perturbed shading frame, in the coordinates of the unperturbed
+	 * one that eval, pdf and sample are given directions in.  They
+	 * evaluate the BSDF in it as Mitsuba's wrappers do (the query
+	 * turned into it, zero where wo lies on different sides of the
+	 * two frames, Estevez et al.'s shadowing term). */
+	bool perturbed;
+	struct pm_frame pframe;
+	/* normalmap, bumpmap: Mitsuba's flip_invalid_normals and
+	 * use_shadowing_function turned off (both on by default) */
+	bool keep_invalid_normals, no_shadowing;
 };
 
 struct pm_bsdf_sample {

@@ -16,6 +16,7 @@
 #include <math.h>
 
 #include "integrator.h"
+#include "frame.h"
 #include "texture.h"
 
 /* A light sample for direct_light: the BSDF's value f for it (false
@@ -125,8 +126,7 @@ pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 		if (ctx->max_depth >= 0 && depth >= ctx->max_depth)
 			break;
 
-		b = pm_bsdf_at(s, &h, &bt);
-		fr = pm_frame_from_normal(h.ns);
+		b = pm_bsdf_frame_at(s, &h, pa.d, &bt, &fr);
 		wi_local = pm_to_local(fr, pm_neg(pa.d));
 		if (!pm_bsdf_is_delta(b))
 			L = pm_rgb_madd(L, pa.beta,
@@ -223,8 +223,7 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 				q->alive = false;
 				continue;
 			}
-			b = pm_bsdf_at(s, h, &bt);
-			fr = pm_frame_from_normal(h->ns);
+			b = pm_bsdf_frame_at(s, h, q->pa.d, &bt, &fr);
 			wi_local = pm_to_local(fr, pm_neg(q->pa.d));
 			if (!pm_bsdf_is_delta(b)) {
 				struct pm_light_sample ls;

@@ -53,6 +53,7 @@
 #include "irradiance.h"
 #include "kdtree.h"
 #include "merl.h"
+#include "frame.h"
 #include "texture.h"
 
 #define CONE_K 1.1f
@@ -398,8 +399,7 @@ gather_in(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 			bounce--;
 			continue;
 		}
-		b = pm_bsdf_at(s, &h, &bt);
-		fr = pm_frame_from_normal(h.ns);
+		b = pm_bsdf_frame_at(s, &h, d, &bt, &fr);
 		wi = pm_to_local(fr, pm_neg(d));
 		nrm = side_normal(&h, d);
 		if (pm_bsdf_is_composite(b) && has_nonspecular(b)) {
@@ -613,8 +613,7 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 		}
 		if (ctx->max_depth >= 0 && depth >= ctx->max_depth)
 			break;
-		b = pm_bsdf_at(s, &h, &bt);
-		fr = pm_frame_from_normal(h.ns);
+		b = pm_bsdf_frame_at(s, &h, pa.d, &bt, &fr);
 		wi = pm_to_local(fr, pm_neg(pa.d));
 
 		if (is_glossy(b)) {

@@ -20,6 +20,7 @@
 #include <string.h>
 
 #include "camera.h"
+#include "frame.h"
 #include "render.h"
 #include "shoot.h"
 #include "texture.h"
@@ -347,8 +348,10 @@ light_path(const struct job *j, struct film *f, uint64_t index)
 		return;
 	while (max_depth < 0 || depth < max_depth) {
 		struct pm_bsdf bt;
-		const struct pm_bsdf *b = pm_bsdf_at(s, &h, &bt);
-		struct pm_frame fr = pm_frame_from_normal(h.ns);
+		struct pm_frame fr;
+		/* the frame along dp/du where the BSDF needs one
+		 * (anisotropic, normal and bump maps), as pm-shoot's */
+		const struct pm_bsdf *b = pm_bsdf_frame_at(s, &h, d, &bt, &fr);
 		struct pm_vec3 wi = pm_to_local(fr, pm_neg(d)), wo_w;
 		float wi_ng = pm_dot(h.ng, pm_neg(d)), wo_ng, lu, lv;
 		float u1, u2, u3, q;

@@ -50,6 +50,7 @@
 #include "rng.h"
 #include "sampling.h"
 #include "shoot.h"
+#include "frame.h"
 #include "texture.h"
 
 /* A photon stuck between mirrors, or inside glass by total internal
@@ -772,7 +773,7 @@ trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 			depth--;
 			continue;
 		}
-		b = pm_bsdf_at(s, &h, &bt);
+		b = pm_bsdf_frame_at(s, &h, d, &bt, &fr);
 		if (depth == 0 && bsdf_has_specular(b))
 			co->paths_specular++;
 		if (bsdf_has_nonspecular(b) &&
@@ -806,7 +807,6 @@ trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 			break;
 		if (depth >= max_depth)
 			break;
-		fr = pm_frame_from_normal(h.ns);
 		wi_local = pm_to_local(fr, pm_neg(d));
 		u1 = pm_rng_float(&rng);
 		u2 = pm_rng_float(&rng);

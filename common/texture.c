@@ -380,6 +380,9 @@ lookup(const struct pm_texture *textures, const struct pm_scene *s,
 	/* scalar parameters, as Mitsuba's eval_1 reduces them */
 	if (b->tex_alpha > 0)
 		b->alpha = pm_texture_eval1(&textures[b->tex_alpha - 1], u, v);
+	if (b->tex_alpha_v > 0)
+		b->alpha_v = pm_texture_eval1(&textures[b->tex_alpha_v - 1], u,
+		    v);
 	if (b->tex_weight > 0)
 		b->weight = pm_texture_eval1(&textures[b->tex_weight - 1], u,
 		    v);
@@ -409,10 +412,66 @@ pm_bsdf_at(const struct pm_scene *s, const struct pm_hit *h,
 
 	if (b->tex_diffuse == 0 && b->tex_specular == 0 && b->tex_alpha == 0 &&
 	    b->tex_transmittance == 0 && !b->pr.textured &&
-	    b->tex_weight == 0 && !b->nested_textures)
+	    b->tex_weight == 0 && !b->nested_textures && b->tex_alpha_v == 0)
 		return b;
 	*tmp = *b;
 	pm_hit_uv(s, h, &u, &v);
 	lookup(s->textures, s, h, tmp, u, v);
 	return tmp;
+}
+
+static inline struct pm_rgb
+rgb_diff(struct pm_rgb a, struct pm_rgb b)
+{
+	return pm_rgb(a.r - b.r, a.g - b.g, a.b - b.b);
+}
+
+/*
+ * The gradient over (u, v) of the texture's luminance, as Mitsuba's
+ * eval_1_grad: a bilinear bitmap's exact derivative within the cell the
+ * point falls in (the chain rule through to_uv included); nearest
+ * lookups and checkerboards are flat almost everywhere, so zero.
+ */
+void
+pm_texture_grad1(const struct pm_texture *t, float u, float v, float g[2])
+{
+	const float *m = t->to_uv;
+	float tu = m[0] * u + m[1] * v + m[2];
+	float tv = m[3] * u + m[4] * v + m[5];
+	float x, y, fx, fy, dx, dy;
+	struct pm_rgb ex, ey;
+	long ix, iy;
+	int x0, x1, y0, y1;
+
+	g[0] = g[1] = 0.0f;
+	if (t->type != PM_TEXTURE_BITMAP || t->nearest || t->rgb == NULL ||
+	    t->width <= 0 || t->height <= 0)
+		return;
+	x = tu * (float)t->width - 0.5f;
+	y = tv * (float)t->height - 0.5f;
+	ix = texel_floor(x);
+	iy = texel_floor(y);
+	fx = x - (float)ix;
+	fy = y - (float)iy;
+	if (!(fx >= 0.0f && fx <= 1.0f))
+		fx = 0.0f;
+	if (!(fy >= 0.0f && fy <= 1.0f))
+		fy = 0.0f;
+	x0 = wrap_index(ix, t->width, t->wrap);
+	x1 = wrap_index(ix + 1, t->width, t->wrap);
+	y0 = wrap_index(iy, t->height, t->wrap);
+	y1 = wrap_index(iy + 1, t->height, t->wrap);
+	/* d/dx and d/dy of the bilinear blend, in texels */
+	ex = pm_rgb_add(pm_rgb_scale(rgb_diff(texel(t, x1, y0),
+	    texel(t, x0, y0)), 1.0f - fy), pm_rgb_scale(rgb_diff(texel(t,
+	    x1, y1), texel(t, x0, y1)), fy));
+	ey = pm_rgb_add(pm_rgb_scale(rgb_diff(texel(t, x0, y1),
+	    texel(t, x0, y0)), 1.0f - fx), pm_rgb_scale(rgb_diff(texel(t,
+	    x1, y1), texel(t, x1, y0)), fx));
+	dx = (0.212671f * ex.r + 0.715160f * ex.g + 0.072169f * ex.b) *
+	    (float)t->width;
+	dy = (0.212671f * ey.r + 0.715160f * ey.g + 0.072169f * ey.b) *
+	    (float)t->height;
+	g[0] = m[0] * dx + m[3] * dy;
+	g[1] = m[1] * dx + m[4] * dy;
 }

@@ -99,6 +99,12 @@ struct pm_rgb pm_texture_mean(const struct pm_texture *t);
  * colours the other way round (Mitsuba 3.9.1's behaviour, followed). */
 float pm_texture_eval1(const struct pm_texture *t, float u, float v);
 
+/* The gradient over surface (u, v) of the texture's luminance into g
+ * (Mitsuba's eval_1_grad): a bilinear bitmap's derivative within the
+ * cell, zero for nearest lookups and checkerboards. */
+void pm_texture_grad1(const struct pm_texture *t, float u, float v,
+    float g[2]);
+
 /* sRGB's transfer curve undone: an encoded value in [0, 1] to linear. */
 float pm_srgb_to_linear(float c);
 

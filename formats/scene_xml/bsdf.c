@@ -107,15 +107,56 @@ build_merl(struct ld *ld, struct xnode *n, struct plist *pl,
 	return PM_OK;
 }
 
+/* Whether parameter name is given at all: a property, a nested
+ * <texture> or a <ref> of that name. */
+static bool
+param_given(struct plist *pl, const char *name)
+{
+	const char *nm;
+	size_t i;
+
+	if (sx_has(pl, name))
+		return true;
+	for (i = 0; i < pl->ntex; i++)
+		if ((nm = sx_attr(pl->tex[i], "name")) != NULL &&
+		    strcmp(nm, name) == 0)
+			return true;
+	for (i = 0; i < pl->nobj; i++)
+		if ((nm = sx_attr(pl->obj[i], "name")) != NULL &&
+		    strcmp(nm, name) == 0)
+			return true;
+	return false;
+}
+
+/* alpha_u or alpha_v: a number in [1e-4, 10], or, where alpha_tex, a
+ * texture (*tex), its mean luminance in *a until a hit looks it up. */
+static enum pm_err
+alpha_param(struct ld *ld, struct plist *pl, const char *name,
+    bool alpha_tex, double *a, int *tex)
+{
+	enum pm_err e;
+
+	if (alpha_tex && (e = sx_get_texture(ld, pl, name, tex)) != PM_OK)
+		return e;
+	if (*tex > 0) {
+		struct pm_rgb m = pm_texture_mean(&ld->s->textures[*tex - 1]);
+
+		*a = 0.212671 * m.r + 0.715160 * m.g + 0.072169 * m.b;
+		return PM_OK;
+	}
+	return sx_get_float(ld, pl, name, -1, 1e-4, 10, a);
+}
+
 /*
  * The microfacet parameters of the rough plugins: distribution
  * ("beckmann", Mitsuba's default, or "ggx"), sample_visible, and alpha or
- * alpha_u and alpha_v (isotropic only: pm's shading frames do not follow
- * a surface parameterisation, so anisotropy would have no direction).
+ * alpha_u and alpha_v, both or neither, as Mitsuba requires: roughness
+ * along the shading frame's s (the surface's dp/du) and t.  Textures
+ * where alpha_tex; anisotropy where aniso_ok (roughplastic has none).
  */
 static enum pm_err
 microfacet_params(struct ld *ld, struct xnode *n, struct plist *pl,
-    struct pm_bsdf *b, bool alpha_tex)
+    struct pm_bsdf *b, bool alpha_tex, bool aniso_ok)
 {
 	const char *s;
 	double a, au, av;
@@ -132,20 +173,31 @@ microfacet_params(struct ld *ld, struct xnode *n, struct plist *pl,
 		return sx_fail(ld, sx_prop_find(pl, "distribution")->n,
 		    PM_ERR_UNSUPPORTED, "%s: distribution \"%s\" is not "
 		    "supported (\"beckmann\" or \"ggx\")", pl->what, s);
-	if (sx_has(pl, "alpha_u") || sx_has(pl, "alpha_v")) {
-		if (sx_has(pl, "alpha"))
-			return sx_fail(ld, sx_prop_find(pl, "alpha")->n,
+	if (param_given(pl, "alpha_u") || param_given(pl, "alpha_v")) {
+		if (param_given(pl, "alpha"))
+			return sx_fail(ld, sx_has(pl, "alpha") ?
+			    sx_prop_find(pl, "alpha")->n : n,
 			    PM_ERR_INVALID, "%s: give either alpha or "
 			    "alpha_u and alpha_v", pl->what);
-		if ((e = sx_get_float(ld, pl, "alpha_u", -1, 1e-4, 10, &au))
-		    != PM_OK || (e = sx_get_float(ld, pl, "alpha_v", -1, 1e-4,
-		    10, &av)) != PM_OK)
+		if ((e = alpha_param(ld, pl, "alpha_u", alpha_tex, &au,
+		    &b->tex_alpha)) != PM_OK ||
+		    (e = alpha_param(ld, pl, "alpha_v", alpha_tex, &av,
+		    &b->tex_alpha_v)) != PM_OK)
 			return e;
-		if (au != av)
+		if (b->tex_alpha == 0 && !param_given(pl, "alpha_u"))
+			return sx_missing(ld, pl, "alpha_u", "alpha_v is given");
+		if (b->tex_alpha_v == 0 && !param_given(pl, "alpha_v"))
+			return sx_missing(ld, pl, "alpha_v", "alpha_u is given");
+		if (!aniso_ok && (au != av || b->tex_alpha != b->tex_alpha_v))
 			return sx_fail(ld, n, PM_ERR_UNSUPPORTED, "%s: "
 			    "anisotropic roughness (alpha_u %g != alpha_v %g) "
-			    "is not supported", pl->what, au, av);
+			    "is not supported (Mitsuba's roughplastic is "
+			    "isotropic)", pl->what, au, av);
 		a = au;
+		b->alpha_v = (float)av;
+		b->aniso = aniso_ok;
+		if (!aniso_ok)
+			b->tex_alpha_v = 0;
 	} else if (alpha_tex && (e = sx_get_texture(ld, pl, "alpha",
 	    &b->tex_alpha)) != PM_OK) {
 		return e;
@@ -419,6 +471,93 @@ build_twosided(struct ld *ld, struct plist *pl, struct pm_bsdf *b)
 	if ((e = sx_build_bsdf(ld, inner, b)) != PM_OK)
 		return e;
 	b->twosided = true;
+	/* twosided(normalmap(...)): the query is mirrored, then perturbed */
+	b->perturb_in_twosided = b->tex_normal > 0 || b->tex_bump > 0;
+	return PM_OK;
+}
+
+/*
+ * Mitsuba's normalmap (an RGB texture "normalmap", the normal in the
+ * shading frame mapped to [0, 1]) and bumpmap (a nested texture of
+ * heights, times "scale"), each around one nested BSDF.  pm has no
+ * BSDF tree: the wrapped BSDF is built into *b and names the texture
+ * (tex_normal, tex_bump), and pm_bsdf_frame_at perturbs its frame.
+ */
+static enum pm_err
+build_perturbed(struct ld *ld, struct plist *pl, struct pm_bsdf *b,
+    bool bump)
+{
+	struct xnode *inner = NULL, *tnode = NULL, *o;
+	const struct pm_texture *t;
+	double scale = 1.0;
+	size_t i;
+	int tex = 0;
+	bool flip, shadow;
+	enum pm_err e;
+
+	if (!bump) {
+		if ((e = sx_get_texture(ld, pl, "normalmap", &tex)) != PM_OK)
+			return e;
+		if (tex == 0)
+			return sx_missing(ld, pl, "normalmap", "a <texture>");
+	} else {
+		/* the one nested texture, whatever its name */
+		if (pl->ntex > 1)
+			return sx_fail(ld, pl->tex[1], PM_ERR_INVALID, "%s takes "
+			    "one nested <texture>", pl->what);
+		if (pl->ntex == 1)
+			tnode = pl->tex[0];
+		pl->ntex = 0;
+		if ((e = sx_get_float(ld, pl, "scale", 1.0, -1e30, 1e30,
+		    &scale)) != PM_OK)
+			return e;
+	}
+	if ((e = sx_get_bool(ld, pl, "flip_invalid_normals", true, &flip))
+	    != PM_OK || (e = sx_get_bool(ld, pl, "use_shadowing_function",
+	    true, &shadow)) != PM_OK || (e = sx_finish(ld, pl)) != PM_OK)
+		return e;
+	for (i = 0; i < pl->nobj; i++) {
+		o = pl->obj[i];
+		if (strcmp(o->tag, "ref") == 0 && (e = sx_deref(ld, o, &o))
+		    != PM_OK)
+			return e;
+		if (strcmp(o->tag, "bsdf") == 0 && inner == NULL)
+			inner = o;
+		else if (bump && strcmp(o->tag, "texture") == 0 && tnode == NULL)
+			tnode = o;
+		else
+			return sx_fail(ld, pl->obj[i], PM_ERR_INVALID, "%s takes "
+			    "one nested <bsdf>%s, not this <%s>", pl->what,
+			    bump ? " and one <texture>" : "", o->tag);
+	}
+	if (inner == NULL)
+		return sx_fail(ld, pl->owner, PM_ERR_INVALID, "%s needs one "
+		    "nested <bsdf> or <ref>", pl->what);
+	if (bump) {
+		if (tnode == NULL)
+			return sx_fail(ld, pl->owner, PM_ERR_INVALID, "%s needs "
+			    "one nested <texture> of heights", pl->what);
+		if ((e = sx_texture_index(ld, tnode, &tex)) != PM_OK)
+			return e;
+		tex++;
+	}
+	t = &ld->s->textures[tex - 1];
+	if (bump && t->type != PM_TEXTURE_BITMAP)
+		return sx_fail(ld, tnode, PM_ERR_UNSUPPORTED, "%s: the heights "
+		    "must be a bitmap (Mitsuba can take the gradient of no "
+		    "other texture)", pl->what);
+	if ((e = sx_build_bsdf(ld, inner, b)) != PM_OK)
+		return e;
+	if (b->tex_normal > 0 || b->tex_bump > 0)
+		return sx_fail(ld, inner, PM_ERR_UNSUPPORTED, "%s: a normalmap "
+		    "or bumpmap inside another is not supported", pl->what);
+	if (bump) {
+		b->tex_bump = tex;
+		b->bump_scale = (float)scale;
+	} else
+		b->tex_normal = tex;
+	b->keep_invalid_normals = !flip;
+	b->no_shadowing = !shadow;
 	return PM_OK;
 }
 
@@ -448,7 +587,7 @@ sx_build_bsdf(struct ld *ld, struct xnode *n, struct pm_bsdf *b)
 	} else if (strcmp(type, "roughconductor") == 0) {
 		b->type = PM_BSDF_ROUGHCONDUCTOR;
 		if ((e = conductor_params(ld, &pl, b)) == PM_OK)
-			e = microfacet_params(ld, n, &pl, b, true);
+			e = microfacet_params(ld, n, &pl, b, true, true);
 	} else if (strcmp(type, "roughdielectric") == 0) {
 		b->type = PM_BSDF_ROUGHDIELECTRIC;
 		if ((e = get_ior(ld, &pl, "int_ior", IOR_BK7, &iint)) != PM_OK ||
@@ -457,7 +596,7 @@ sx_build_bsdf(struct ld *ld, struct xnode *n, struct pm_bsdf *b)
 		    &b->specular, &b->tex_specular)) != PM_OK ||
 		    (e = sx_get_color_tex(ld, &pl, "specular_transmittance",
 		    1.0f, &b->transmittance, &b->tex_transmittance)) != PM_OK ||
-		    (e = microfacet_params(ld, n, &pl, b, false)) != PM_OK)
+		    (e = microfacet_params(ld, n, &pl, b, false, true)) != PM_OK)
 			goto out;
 		b->ior = iint / iext;
 	} else if (strcmp(type, "dielectric") == 0 ||
@@ -477,7 +616,7 @@ sx_build_bsdf(struct ld *ld, struct xnode *n, struct pm_bsdf *b)
 		b->type = type[0] == 'p' ? PM_BSDF_PLASTIC :
 		    PM_BSDF_ROUGHPLASTIC;
 		if (b->type == PM_BSDF_ROUGHPLASTIC &&
-		    (e = microfacet_params(ld, n, &pl, b, false)) != PM_OK)
+		    (e = microfacet_params(ld, n, &pl, b, false, false)) != PM_OK)
 			goto out;
 		if ((e = sx_get_color_tex(ld, &pl, "diffuse_reflectance", 0.5f,
 		    &b->diffuse, &b->tex_diffuse)) != PM_OK ||
@@ -508,6 +647,11 @@ sx_build_bsdf(struct ld *ld, struct xnode *n, struct pm_bsdf *b)
 		e = build_mix(ld, &pl, b);
 		n->busy = false;
 		return e;
+	} else if (strcmp(type, "normalmap") == 0 ||
+	    strcmp(type, "bumpmap") == 0) {
+		e = build_perturbed(ld, &pl, b, type[0] == 'b');
+		n->busy = false;
+		return e;
 	} else if (strcmp(type, "null") == 0) {
 		b->type = PM_BSDF_NULL;
 	} else if (strcmp(type, "merl") == 0) {
@@ -517,7 +661,8 @@ sx_build_bsdf(struct ld *ld, struct xnode *n, struct pm_bsdf *b)
 		e = sx_unknown_plugin(ld, n, type, "diffuse, conductor, "
 		    "roughconductor, dielectric, thindielectric, "
 		    "roughdielectric, plastic, roughplastic, principled, "
-		    "principledthin, merl, twosided, blendbsdf, mask and null");
+		    "principledthin, merl, twosided, blendbsdf, mask, "
+		    "normalmap, bumpmap and null");
 		goto out;
 	}
 	if (e == PM_OK && (e = sx_finish(ld, &pl)) == PM_OK)

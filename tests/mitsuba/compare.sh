@@ -14,7 +14,8 @@
 # and glass-medium checked in path and photon mode), Mitsuba's own
 # Cornell box from ../shared/scenes/mitsuba-cbox (skipped when ../shared is
 # absent), data/principled.xml (path traced and photon-mapped, after the
-# principled BSDFs point by point), tests/mitsuba/textures.xml (path
+# principled BSDFs point by point), tests/mitsuba/textures.xml and
+# tests/mitsuba/frames.xml (path
 # traced and photon-mapped) and
 # the scenes tests/mitsuba/shapes_scene.py writes (shapes and sensors, path
 # traced and photon-mapped), cornell-box, sky and point-lights under
@@ -423,6 +424,19 @@ if "$PY" "$HERE/write_png.py" "$OUT/textures/wall.png"; then
 	    against textures-photon "$OUT/textures/textures.xml" photon
 else
 	check "textures: cannot write the bitmap" false
+fi
+
+# Shading frames: tests/mitsuba/frames.xml (anisotropic rough metals and
+# glass, normal and bump maps) with its bitmaps written here, in a folder
+# of their own as the textures, by path tracing and by photon mapping.
+mkdir -p "$OUT/frames"
+cp tests/mitsuba/frames.xml "$OUT/frames/frames.xml"
+if "$PY" "$HERE/frames_maps.py" "$OUT/frames"; then
+	run frames "$OUT/frames/frames.xml"
+	[ "$selftest" = 1 ] || ! wanted frames-photon ||
+	    against frames-photon "$OUT/frames/frames.xml" photon
+else
+	check "frames: cannot write the bitmaps" false
 fi
 
 # Rough glass and rough plastic, by path tracing and by photon mapping

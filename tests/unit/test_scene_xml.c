@@ -426,7 +426,7 @@ test_rough_bsdfs(void **state)
 	pm_scene_free(&s);
 
 	load_fails("<scene version=\"3.0.0\"><shape type=\"rectangle\">\n"
-	    "<bsdf type=\"roughdielectric\"><float name=\"alpha_u\" "
+	    "<bsdf type=\"roughplastic\"><float name=\"alpha_u\" "
 	    "value=\"0.1\"/><float name=\"alpha_v\" value=\"0.3\"/></bsdf>"
 	    "</shape></scene>", 2, "anisotropic");
 	load_fails("<scene version=\"3.0.0\"><shape type=\"rectangle\">\n"
@@ -1445,11 +1445,20 @@ test_errors(void **state)
 		    "<string name=\"distribution\" value=\"phong\"/></bsdf>"
 		    "</shape></scene>", 3,
 		    "distribution \"phong\" is not supported"},
-		{HEAD "<shape type=\"rectangle\"><bsdf type=\"roughconductor\">\n"
+		{HEAD "<shape type=\"rectangle\"><bsdf type=\"roughplastic\">\n"
 		    "<string name=\"distribution\" value=\"ggx\"/>"
 		    "<float name=\"alpha_u\" value=\"0.1\"/>"
 		    "<float name=\"alpha_v\" value=\"0.2\"/></bsdf></shape>"
 		    "</scene>", 2, "anisotropic"},
+		{HEAD "<shape type=\"rectangle\"><bsdf type=\"roughconductor\">\n"
+		    "<float name=\"alpha_u\" value=\"0.1\"/></bsdf></shape>"
+		    "</scene>", 2, "alpha_v"},
+		{HEAD "<shape type=\"rectangle\"><bsdf type=\"bumpmap\">\n"
+		    "<texture type=\"checkerboard\"/><bsdf type=\"diffuse\"/>"
+		    "</bsdf></shape></scene>", 3, "must be a bitmap"},
+		{HEAD "<shape type=\"rectangle\"><bsdf type=\"normalmap\">\n"
+		    "<bsdf type=\"diffuse\"/></bsdf></shape></scene>", 2,
+		    "normalmap"},
 		{HEAD "<shape type=\"rectangle\"><bsdf type=\"conductor\">\n"
 		    "<string name=\"material\" value=\"Unobtainium\"/></bsdf>"
 		    "</shape></scene>", 3, "unknown conductor material"},
