@@ -323,6 +323,22 @@ if [ "$selftest" = 0 ] && wanted spectra; then
 	    test "$_rc" = 0
 fi
 
+# Grid-volume lookups (gridvolume: filters, wrap modes, 1 and 3 channels,
+# grids Mitsuba writes), point by point, against Mitsuba's
+# (lookup_volume.py).
+if [ "$selftest" = 0 ] && wanted grid-lookups; then
+	if [ ! -x build/tests/volgen ]; then
+		check "grid lookups: build/tests/volgen not built" false
+	elif "$PY" "$HERE/lookup_volume.py" build/tests/volgen \
+	    "$OUT/grid-lookup" >"$OUT/log" 2>&1; then
+		diag <"$OUT/log"
+		check "grid lookups: pm reads Mitsuba's .vol grids and looks them up as Mitsuba does" true
+	else
+		diag <"$OUT/log"
+		check "grid lookups: pm's grid lookups differ from Mitsuba's" false
+	fi
+fi
+
 # Bitmap lookups, point by point, against Mitsuba's (texture_lookup.py).
 if [ "$selftest" = 0 ] && wanted texture-lookups; then
 	if [ ! -x build/tests/texlookup ]; then
