@@ -291,8 +291,9 @@ fi
 # where fog-box has it homogeneous.
 # Mitsuba's volpath tracks the smoke against the grid's largest value
 # alone, each null collision a turn of its whole loop: at 256x256 and
-# 256 spp a render of it took 40 times fog-box's, so it gets a quarter
-# of MITSUBA_SPP (SMOKE_MITSUBA_SPP overrides).
+# only 64 spp its renders took 528 s and 574 s (2026-12-01, a shared and
+# loaded machine, where hetero-box's at 256 spp took 114 s and 130 s), so
+# it gets a quarter of MITSUBA_SPP (SMOKE_MITSUBA_SPP overrides).
 if [ -f data/smoke.xml ] && [ -f data/smoke.vol ]; then
 	_mi_spp=$MI_SPP
 	MI_SPP=${SMOKE_MITSUBA_SPP:-$(( MI_SPP / 4 > 0 ? MI_SPP / 4 : 1 ))}
