@@ -175,7 +175,8 @@ check-sanitize:
 # threads, and the CLI scripts that drive the threaded tools (pm-shoot,
 # pm-balance, pm-render with its progress and preview thread).
 TSAN_FLAGS = -O1 -g -fsanitize=thread -fno-omit-frame-pointer
-TSAN_UNIT  = test_render test_kdtree test_shoot test_irradiance test_photonmap
+TSAN_UNIT  = test_render test_kdtree test_shoot test_irradiance test_photonmap \
+	     test_ptracer
 TSAN_CLI   = tests/cli/render.sh tests/cli/photon.sh tests/cli/dialect.sh
 check-tsan:
 	$(MAKE) BUILD=build/tsan BIN=build/tsan/bin CFLAGS="$(TSAN_FLAGS)" \
@@ -219,7 +220,12 @@ $(BUILD)/tests/texlookup: tests/mitsuba/texlookup.c $(LIB)
 	@mkdir -p $(dir $@)
 	$(CC) $(PM_CFLAGS) $(CFLAGS) -o $@ tests/mitsuba/texlookup.c $(LIB) $(PM_LIBS)
 
-check-mitsuba: $(BINS) $(BUILD)/tests/texlookup $(BUILD)/tests/volgen $(DATA_GEN)
+# pm's principled BSDF values, for tests/mitsuba/bsdf_eval.py.
+$(BUILD)/tests/bsdfeval: tests/mitsuba/bsdfeval.c $(LIB)
+	@mkdir -p $(dir $@)
+	$(CC) $(PM_CFLAGS) $(CFLAGS) -o $@ tests/mitsuba/bsdfeval.c $(LIB) $(PM_LIBS)
+
+check-mitsuba: $(BINS) $(BUILD)/tests/texlookup $(BUILD)/tests/bsdfeval $(BUILD)/tests/volgen $(DATA_GEN)
 	@sh tests/mitsuba/compare.sh
 	@sh tests/mitsuba/emitters.sh
 

@@ -3,7 +3,8 @@
  * materials, each meaning what the Mitsuba 3 plugin of the same name means
  * (diffuse, conductor, roughconductor, dielectric, thindielectric,
  * roughdielectric, plastic, roughplastic, null, and the twosided adapter
- * for the non-transmissive ones), in RGB,
+ * for the non-transmissive ones), in RGB; principled and principledthin
+ * live in bsdf_principled.c;
  * and measured MERL BRDFs, whose lookup and sampling live in merl.c.
  *
  * One switch per operation; no allocation; nothing here prints.  The
@@ -60,7 +61,8 @@ is_transmissive(enum pm_bsdf_type t)
 static bool
 twosided_flip(const struct pm_bsdf *b, struct pm_vec3 wi)
 {
-	return b->twosided && wi.z < 0.0f && !is_transmissive(b->type);
+	return b->twosided && wi.z < 0.0f && !is_transmissive(b->type) &&
+	    !(b->lobes & (PM_LOBE_TRANSMISSION | PM_LOBE_DIFFUSE_TRANSMISSION));
 }
 
 /* Fresnel reflectance of a dielectric; see bsdf.h for the conventions. */
@@ -727,6 +729,10 @@ pm_bsdf_prepare(struct pm_bsdf *b)
 	case PM_BSDF_ROUGHDIELECTRIC:
 		b->lobes = PM_LOBE_GLOSSY | PM_LOBE_GLOSSY_TRANSMISSION;
 		break;
+	case PM_BSDF_PRINCIPLED:
+	case PM_BSDF_PRINCIPLEDTHIN:
+		b->lobes = pm_principled_lobes(b);
+		break;
 	case PM_BSDF_ROUGHPLASTIC:
 		b->lobes = PM_LOBE_GLOSSY | PM_LOBE_DIFFUSE;
 		roughplastic_tables(b);
@@ -786,6 +792,9 @@ pm_bsdf_eval(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo,
 		return eval_roughdielectric(b, wi, wo, mode);
 	case PM_BSDF_ROUGHPLASTIC:
 		return eval_roughplastic(b, wi, wo);
+	case PM_BSDF_PRINCIPLED:
+	case PM_BSDF_PRINCIPLEDTHIN:
+		return pm_principled_eval(b, wi, wo, mode == PM_RADIANCE);
 	case PM_BSDF_CONDUCTOR:
 	case PM_BSDF_DIELECTRIC:
 	case PM_BSDF_THINDIELECTRIC:
@@ -836,6 +845,9 @@ pm_bsdf_pdf(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo)
 		return pdf_roughdielectric(b, wi, wo);
 	case PM_BSDF_ROUGHPLASTIC:
 		return pdf_roughplastic(b, wi, wo);
+	case PM_BSDF_PRINCIPLED:
+	case PM_BSDF_PRINCIPLEDTHIN:
+		return pm_principled_pdf(b, wi, wo);
 	case PM_BSDF_CONDUCTOR:
 	case PM_BSDF_DIELECTRIC:
 	case PM_BSDF_THINDIELECTRIC:
@@ -1070,6 +1082,11 @@ pm_bsdf_sample(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
 		break;
 	case PM_BSDF_ROUGHPLASTIC:
 		ok = sample_roughplastic(b, wi, u1, u2, u3, s);
+		break;
+	case PM_BSDF_PRINCIPLED:
+	case PM_BSDF_PRINCIPLEDTHIN:
+		ok = pm_principled_sample(b, wi, u1, u2, u3,
+		    mode == PM_RADIANCE, s);
 		break;
 	}
 	if (ok && flip)

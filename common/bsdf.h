@@ -20,6 +20,7 @@
 
 #include <stdbool.h>
 
+#include "bsdf_principled.h"
 #include "vec.h"
 
 enum pm_bsdf_type {
@@ -33,6 +34,8 @@ enum pm_bsdf_type {
 	PM_BSDF_MERL,		/* a measured BRDF in MERL's layout (merl.h) */
 	PM_BSDF_ROUGHDIELECTRIC,
 	PM_BSDF_ROUGHPLASTIC,
+	PM_BSDF_PRINCIPLED,	/* Disney's, as Mitsuba: bsdf_principled.c */
+	PM_BSDF_PRINCIPLEDTHIN,
 };
 
 /* Resolution of roughplastic's table of the coating's transmittance over
@@ -53,6 +56,7 @@ enum {
 	PM_LOBE_DELTA_REFLECTION = 1 << 2,
 	PM_LOBE_DELTA_TRANSMISSION = 1 << 3,
 	PM_LOBE_GLOSSY_TRANSMISSION = 1 << 4,
+	PM_LOBE_DIFFUSE_TRANSMISSION = 1 << 5,	/* principledthin's */
 	PM_LOBE_DELTA = PM_LOBE_DELTA_REFLECTION | PM_LOBE_DELTA_TRANSMISSION,
 	PM_LOBE_TRANSMISSION = PM_LOBE_DELTA_TRANSMISSION | PM_LOBE_GLOSSY_TRANSMISSION,
 };
@@ -87,19 +91,23 @@ struct pm_bsdf {
 	unsigned lobes;		/* PM_LOBE_* this BSDF can produce */
 	/* If not 0, the only PM_LOBE_* that eval, pdf and sample consider,
 	 * as if the others were not there (Mitsuba's BSDFContext component
-	 * selection); roughplastic honours it.  The photon render uses it
+	 * selection); roughplastic and the principled BSDFs honour it.  The photon render uses it
 	 * to estimate the diffuse base and trace the glossy coating apart. */
 	unsigned only;
 	/* merl: the table, owned by the scene and shared by every BSDF that
 	 * names the same file, and PM_MERL_INTERPOLATE, PM_MERL_COSINE */
 	const struct pm_merl *merl;
 	unsigned merl_flags;
+	/* principled, principledthin: the parameters but base_color
+	 * (diffuse, tex_diffuse) */
+	struct pm_principled pr;
 	/* Parameters given as textures: 1 + the index into scene.textures,
 	 * 0 for none (so that a zeroed BSDF has none); pm_bsdf_at
 	 * (texture.h) looks them up at a hit.  tex_diffuse replaces diffuse,
 	 * tex_specular specular, tex_alpha alpha; until then those hold the
 	 * textures' means. */
 	int tex_diffuse, tex_specular, tex_alpha;
+	int tex_transmittance;	/* dielectrics: replaces transmittance */
 };
 
 struct pm_bsdf_sample {
@@ -129,6 +137,18 @@ bool pm_bsdf_coating(const struct pm_bsdf *b, struct pm_vec3 wi,
 static inline bool pm_bsdf_is_delta(const struct pm_bsdf *b)
 {
 	return (b->lobes & ~(unsigned)PM_LOBE_DELTA) == 0;
+}
+
+/* Whether photons cross b as they cross glass, holding none there (the
+ * rule of pm-shoot and of the gather pass): a rough dielectric, or a
+ * principled BSDF that transmits and has no diffuse base. */
+static inline bool pm_bsdf_passes_photons(const struct pm_bsdf *b)
+{
+	return b->type == PM_BSDF_ROUGHDIELECTRIC ||
+	    ((b->type == PM_BSDF_PRINCIPLED ||
+	    b->type == PM_BSDF_PRINCIPLEDTHIN) &&
+	    !(b->lobes & PM_LOBE_DIFFUSE) && (b->lobes &
+	    (PM_LOBE_GLOSSY_TRANSMISSION | PM_LOBE_DIFFUSE_TRANSMISSION)));
 }
 
 /* Fresnel reflectance of a dielectric interface; cos_i may be negative

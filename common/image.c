@@ -17,10 +17,6 @@
 
 #include "image.h"
 
-/* Keeps sizes small enough that 3 * width * height floats fit comfortably in
- * size_t and int arithmetic stays exact; 32768^2 is far beyond any film. */
-#define PM_IMAGE_MAX_SIDE	32768
-#define PM_IMAGE_MAX_PIXELS	((size_t)1 << 28)
 
 /* One filter tap row: the weights of output pixel j start at input index
  * first[j] and run for count[j] entries of w, at offset j * stride. */

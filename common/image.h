@@ -11,6 +11,13 @@
 
 #include "error.h"
 
+/* Keeps sizes small enough that 3 * width * height floats fit comfortably in
+ * size_t and int arithmetic stays exact; 32768^2 is far beyond any film.
+ * pm_image_alloc refuses more; the EXR reader holds all of a file's
+ * channels within PM_IMAGE_MAX_PIXELS RGB pixels. */
+#define PM_IMAGE_MAX_SIDE	32768
+#define PM_IMAGE_MAX_PIXELS	((size_t)1 << 28)
+
 struct pm_image {
 	int width, height;
 	float *rgb;		/* 3 * width * height, row-major, top row first */

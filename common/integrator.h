@@ -47,6 +47,17 @@ struct pm_photon_maps {
 	int icache_step;
 	int icache_rays;
 	float icache_a;
+	/* The volume map (participating media; integrator_pmvol.c), in
+	 * kd-tree order, its flux normaliser and squared lookup radius. */
+	const struct pm_photon *volume;
+	size_t nvolume;
+	float volume_scale;
+	float volume_r2;
+	int volume_samples;		/* points per camera segment in a
+					 * medium (0: 1) */
+	bool volume_beam;		/* the volume map by the beam radiance
+					 * estimate (fixed radius), not at
+					 * those points */
 	/* Progressive photon mapping: every photon within the radii counts
 	 * (no k-nearest), so that passes with shrinking radii average to the
 	 * right answer; lookup_size is then unused. */
@@ -114,6 +125,20 @@ bool pm_path_continue(struct pm_path *pa, const struct pm_hit *h,
 struct pm_rgb pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o,
     struct pm_vec3 d, float tmin, float tmax, struct pm_rng *rng);
 
+/* One camera ray of pm_path_li_batch, its own random numbers, and what
+ * comes back along it. */
+struct pm_path_sample {
+	struct pm_vec3 o, d;
+	float tmin, tmax;
+	struct pm_rng rng;
+	struct pm_rgb L;		/* out */
+};
+
+/* smp[i].L = pm_path_li(ctx, smp[i].o, ..., &smp[i].rng) for i < n, bit for
+ * bit, but faster: the paths go together and their rays in batches. */
+void pm_path_li_batch(const struct pm_render_ctx *ctx,
+    struct pm_path_sample *smp, size_t n);
+
 /* Radiance along a camera ray from photon maps: exact direct light,
  * specular recursion, caustic and global maps or final gathering
  * (integrator_pm.c). */
@@ -163,6 +188,29 @@ struct pm_rgb pm_volume_tr(const struct pm_render_ctx *ctx,
  * for homogeneous media, which draw nothing. */
 struct pm_rgb pm_volume_shadow(const struct pm_render_ctx *ctx,
     struct pm_vec3 o, int medium, const struct pm_light_sample *ls);
+
+/* Photon mode in media (integrator_pmvol.c). */
+
+/* In-scattered radiance sigma_s * integral(phase L) at p toward -d (d:
+ * the camera ray's direction) from the volume map's photons of 1 to
+ * max_depth bounces (-1: any), phase ph. */
+struct pm_rgb pm_volume_map_estimate(const struct pm_photon_maps *m,
+    const struct pm_phase *ph, struct pm_vec3 p, struct pm_vec3 d,
+    int max_depth);
+
+/* The same integrated along the camera segment o + t d, t in (tmin,
+ * t_end), in medium med, times the transmittance from tmin: the beam
+ * radiance estimate with the fixed radius sqrt(m->volume_r2). */
+struct pm_rgb pm_volume_beam_estimate(const struct pm_photon_maps *m,
+    const struct pm_medium *med, struct pm_vec3 o, struct pm_vec3 d,
+    float tmin, float t_end, int max_depth);
+
+/* Light scattered towards o along the segment o + t d, t in (tmin,
+ * t_end), in `medium`, for a camera path vertex number depth; *tr gets
+ * the segment's transmittance, for what lies beyond. */
+struct pm_rgb pm_volume_inscatter(const struct pm_render_ctx *ctx, int medium,
+    struct pm_vec3 o, struct pm_vec3 d, float tmin, float t_end, int depth,
+    struct pm_rgb *tr, struct pm_rng *rng);
 
 enum pm_vol_event {
 	PM_VOL_PASS,		/* reached the surface; beta weighted */

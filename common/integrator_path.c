@@ -18,6 +18,36 @@
 #include "integrator.h"
 #include "texture.h"
 
+/* A light sample for direct_light: the BSDF's value f for it (false
+ * when there is none or f is black, and then nothing arrives). */
+static bool
+light_sample(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
+    const struct pm_hit *h, struct pm_frame fr, struct pm_vec3 wi_local,
+    struct pm_rng *rng, struct pm_light_sample *ls, struct pm_vec3 *wo_local,
+    struct pm_rgb *f)
+{
+	float u0 = pm_rng_float(rng), u1 = pm_rng_float(rng);
+	float u2 = pm_rng_float(rng);
+
+	if (!pm_lights_sample(ctx->lights, ctx->scene, h->p, u0, u1, u2, ls))
+		return false;
+	*wo_local = pm_to_local(fr, ls->wi);
+	*f = pm_bsdf_eval(b, wi_local, *wo_local, PM_RADIANCE);
+	return !pm_rgb_is_black(*f);
+}
+
+/* What the light sample ls brings through f if nothing blocks it,
+ * weighted for MIS. */
+static struct pm_rgb
+light_weighted(const struct pm_bsdf *b, struct pm_vec3 wi_local,
+    struct pm_vec3 wo_local, const struct pm_light_sample *ls, struct pm_rgb f)
+{
+	float w = ls->delta ? 1.0f :
+	    pm_power_heuristic(ls->pdf, pm_bsdf_pdf(b, wi_local, wo_local));
+
+	return pm_rgb_scale(pm_rgb_mul(f, ls->value), w / ls->pdf);
+}
+
 /* Light arriving at the hit point from one light sample, weighted for MIS. */
 static struct pm_rgb
 direct_light(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
@@ -27,14 +57,8 @@ direct_light(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 	struct pm_light_sample ls;
 	struct pm_vec3 wo_local;
 	struct pm_rgb f;
-	float u0 = pm_rng_float(rng), u1 = pm_rng_float(rng);
-	float u2 = pm_rng_float(rng), w;
 
-	if (!pm_lights_sample(ctx->lights, ctx->scene, h->p, u0, u1, u2, &ls))
-		return pm_rgb1(0.0f);
-	wo_local = pm_to_local(fr, ls.wi);
-	f = pm_bsdf_eval(b, wi_local, wo_local, PM_RADIANCE);
-	if (pm_rgb_is_black(f))
+	if (!light_sample(ctx, b, h, fr, wi_local, rng, &ls, &wo_local, &f))
 		return pm_rgb1(0.0f);
 	if (ctx->scene->nmedia > 0) {
 		/* media: the shadow ray's transmittance */
@@ -45,9 +69,7 @@ direct_light(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 	} else if (pm_light_occluded(ctx->accel, h, &ls)) {
 		return pm_rgb1(0.0f);
 	}
-	w = ls.delta ? 1.0f :
-	    pm_power_heuristic(ls.pdf, pm_bsdf_pdf(b, wi_local, wo_local));
-	return pm_rgb_scale(pm_rgb_mul(f, ls.value), w / ls.pdf);
+	return light_weighted(b, wi_local, wo_local, &ls, f);
 }
 
 struct pm_rgb
@@ -124,6 +146,155 @@ pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 	return L;
 }
 
+/*
+ * pm_path_li for many camera rays at once, without media: the paths
+ * advance together one bounce per round, and each round's closest-hit
+ * rays, then its shadow rays, go to the accelerator as one batch (Embree
+ * packets).  Every path does exactly what pm_path_li does, in the same
+ * order and with the same random numbers; a light sample's contribution
+ * only waits for its shadow ray until the end of the round, before
+ * anything else changes the path's L.
+ */
+#define PATH_BATCH 64
+
+struct path_lane {
+	struct pm_path pa;
+	struct pm_rgb L;
+	struct pm_rgb dl, dl_beta;	/* a light sample waiting for its ray */
+	int depth;
+	bool alive;
+};
+
+static void
+path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
+    size_t n)
+{
+	const struct pm_scene *s = ctx->scene;
+	struct path_lane l[PATH_BATCH];
+	struct pm_ray rays[PATH_BATCH], srays[PATH_BATCH];
+	struct pm_hit hits[PATH_BATCH];
+	bool hitf[PATH_BATCH], occ[PATH_BATCH];
+	uint8_t idx[PATH_BATCH], sidx[PATH_BATCH];
+	size_t i, k, na = n, ns;
+
+	for (i = 0; i < n; i++) {
+		pm_path_start(&l[i].pa, smp[i].o, smp[i].d, smp[i].tmin,
+		    smp[i].tmax);
+		l[i].L = pm_rgb1(0.0f);
+		l[i].depth = 1;
+		l[i].alive = true;
+		idx[i] = (uint8_t)i;
+	}
+	for (;;) {
+		/* the paths still alive, in idx[0..na) */
+		for (k = i = 0; k < na; k++) {
+			struct path_lane *q = &l[idx[k]];
+
+			if (!q->alive)
+				continue;
+			idx[i] = idx[k];
+			rays[i].o = q->pa.o;
+			rays[i].d = q->pa.d;
+			rays[i].tmin = q->pa.tmin;
+			rays[i].tmax = q->pa.tmax;
+			i++;
+		}
+		na = i;
+		if (na == 0)
+			break;
+		pm_accel_intersect_n(ctx->accel, rays, na, hits, hitf);
+		for (k = ns = 0; k < na; k++) {
+			struct path_lane *q = &l[idx[k]];
+			struct pm_rng *rng = &smp[idx[k]].rng;
+			const struct pm_hit *h = &hits[k];
+			const struct pm_bsdf *b;
+			struct pm_bsdf bt;
+			struct pm_bsdf_sample bs;
+			struct pm_frame fr;
+			struct pm_vec3 wi_local;
+
+			if (!(q->depth == 1 && ctx->hide_emitters))
+				q->L = pm_rgb_madd(q->L, q->pa.beta,
+				    pm_lights_emitted(ctx->lights, s,
+				    hitf[k] ? h : NULL, q->pa.d, q->pa.prev_p,
+				    q->pa.prev_pdf, q->pa.prev_delta));
+			if (!hitf[k] ||
+			    (ctx->max_depth >= 0 && q->depth >= ctx->max_depth)) {
+				q->alive = false;
+				continue;
+			}
+			b = pm_bsdf_at(s, h, &bt);
+			fr = pm_frame_from_normal(h->ns);
+			wi_local = pm_to_local(fr, pm_neg(q->pa.d));
+			if (!pm_bsdf_is_delta(b)) {
+				struct pm_light_sample ls;
+				struct pm_vec3 wo_local;
+				struct pm_rgb f, c = pm_rgb1(0.0f);
+				bool pending = false;
+
+				if (light_sample(ctx, b, h, fr, wi_local, rng, &ls,
+				    &wo_local, &f)) {
+					c = light_weighted(b, wi_local, wo_local,
+					    &ls, f);
+					pending = pm_light_shadow_ray(h, &ls,
+					    &srays[ns]);
+				}
+				if (pending) {
+					q->dl = c;
+					q->dl_beta = q->pa.beta;
+					sidx[ns++] = idx[k];
+				} else {
+					q->L = pm_rgb_madd(q->L, q->pa.beta, c);
+				}
+			}
+			{
+				float u1 = pm_rng_float(rng), u2 = pm_rng_float(rng);
+				float u3 = pm_rng_float(rng);
+
+				if (!pm_bsdf_sample(b, wi_local, u1, u2, u3,
+				    PM_RADIANCE, &bs)) {
+					q->alive = false;
+					continue;
+				}
+			}
+			if (!pm_path_continue(&q->pa, h, fr, &bs, q->depth,
+			    ctx->rr_depth, rng)) {
+				q->alive = false;
+				continue;
+			}
+			q->depth++;
+		}
+		pm_accel_occluded_n(ctx->accel, srays, ns, occ);
+		for (k = 0; k < ns; k++) {
+			struct path_lane *q = &l[sidx[k]];
+
+			q->L = pm_rgb_madd(q->L, q->dl_beta,
+			    occ[k] ? pm_rgb1(0.0f) : q->dl);
+		}
+	}
+	for (i = 0; i < n; i++)
+		smp[i].L = l[i].L;
+}
+
+void
+pm_path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
+    size_t n)
+{
+	size_t i, m;
+
+	if (ctx->scene->nmedia > 0) {
+		/* media: one path at a time, as volpath */
+		for (i = 0; i < n; i++)
+			smp[i].L = pm_path_li(ctx, smp[i].o, smp[i].d,
+			    smp[i].tmin, smp[i].tmax, &smp[i].rng);
+		return;
+	}
+	for (i = 0; i < n; i += m) {
+		m = n - i < PATH_BATCH ? n - i : PATH_BATCH;
+		path_li_batch(ctx, smp + i, m);
+	}
+}
+
 void
 pm_path_start(struct pm_path *pa, struct pm_vec3 o, struct pm_vec3 d, float tmin,
     float tmax)
@@ -157,7 +328,7 @@ pm_path_continue(struct pm_path *pa, const struct pm_hit *h, struct pm_frame fr,
 	pa->tmin = 0.0f;
 	pa->tmax = INFINITY;
 	if (depth >= rr_depth) {
-		float q = fminf(pm_rgb_max(pa->beta) * pa->eta_scale, 0.95f);
+		float q = pm_fminf(pm_rgb_max(pa->beta) * pa->eta_scale, 0.95f);
 
 		if (!(pm_rng_float(rng) < q))
 			return false;

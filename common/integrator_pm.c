@@ -14,10 +14,16 @@
  *     with multiple importance sampling; roughplastic's rough coating is
  *     traced the same way, every time, beside the estimates of its
  *     diffuse base (as plastic's smooth coating is followed);
+ *   - the principled BSDFs split as roughplastic does: the diffuse base
+ *     (with sheen) from the maps, every other lobe (GGX reflection,
+ *     clearcoat, GGX transmission, the thin sheet's diffuse
+ *     transmission) traced; those without a base are traced whole,
+ *     as rough conductors (metals) or rough dielectrics (transmitters);
  *   - rough dielectrics hold no photons: pm-shoot passes photons through
  *     them as through glass, into the caustic map, so light through
  *     frosted glass reaches diffuse surfaces as caustics; gather rays
- *     follow them by sampling;
+ *     follow them by sampling (so do principled BSDFs that transmit and
+ *     have no diffuse base);
  *   - at a diffuse surface the path ends with four estimates:
  *       direct light, exactly, from `direct_samples` light samples;
  *       caustics (light, specular+, here) from the caustic map with a cone
@@ -57,8 +63,14 @@
 static bool
 has_nonspecular(const struct pm_bsdf *b)
 {
-	return b->type != PM_BSDF_NULL && b->type != PM_BSDF_ROUGHDIELECTRIC &&
+	return b->type != PM_BSDF_NULL && !pm_bsdf_passes_photons(b) &&
 	    (b->lobes & (PM_LOBE_DIFFUSE | PM_LOBE_GLOSSY | PM_LOBE_GLOSSY_TRANSMISSION));
+}
+
+static bool
+is_principled(const struct pm_bsdf *b)
+{
+	return b->type == PM_BSDF_PRINCIPLED || b->type == PM_BSDF_PRINCIPLEDTHIN;
 }
 
 /* Rough conductors and dielectrics, and measured materials with a peak
@@ -71,18 +83,33 @@ is_glossy(const struct pm_bsdf *b)
 {
 	return b->type == PM_BSDF_ROUGHCONDUCTOR ||
 	    b->type == PM_BSDF_ROUGHDIELECTRIC ||
-	    (b->type == PM_BSDF_MERL && b->merl != NULL && b->merl->glossy);
+	    (b->type == PM_BSDF_MERL && b->merl != NULL && b->merl->glossy) ||
+	    (is_principled(b) && !(b->lobes & PM_LOBE_DIFFUSE));
 }
 
-/* Roughplastic's diffuse base alone, or its rough coating alone, as a
- * BSDF of their own (a copy with `only` set); other types as they are. */
+/* Materials split into a diffuse base, estimated from the maps, and the
+ * rest, traced: roughplastic (its rough coating), and the principled
+ * BSDFs with a base and something else (their GGX and clearcoat lobes,
+ * their transmission, the thin sheet's diffuse transmission too: the
+ * photons on its other side are not on this one). */
+static bool
+is_split(const struct pm_bsdf *b)
+{
+	return b->type == PM_BSDF_ROUGHPLASTIC || (is_principled(b) &&
+	    (b->lobes & PM_LOBE_DIFFUSE) && (b->lobes & ~(unsigned)PM_LOBE_DIFFUSE));
+}
+
+/* A split material's diffuse base alone (lobe PM_LOBE_DIFFUSE), or the
+ * rest alone (any other lobe), as a BSDF of its own (a copy with `only`
+ * set); other materials as they are. */
 static const struct pm_bsdf *
 split_lobe(const struct pm_bsdf *b, unsigned lobe, struct pm_bsdf *tmp)
 {
-	if (b->type != PM_BSDF_ROUGHPLASTIC)
+	if (!is_split(b))
 		return b;
 	*tmp = *b;
-	tmp->only = lobe;
+	tmp->only = lobe == PM_LOBE_DIFFUSE ? lobe :
+	    b->lobes & ~(unsigned)PM_LOBE_DIFFUSE;
 	return tmp;
 }
 
@@ -223,7 +250,7 @@ pm_pppm_radius_scale(long pass, double alpha)
 static struct pm_rgb
 direct_light(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
     const struct pm_hit *h, struct pm_frame fr, struct pm_vec3 wi_local, int n,
-    bool mis, const float *lu, struct pm_rng *rng)
+    bool mis, const float *lu, int medium, struct pm_rng *rng)
 {
 	struct pm_rgb L = pm_rgb1(0.0f);
 	int i;
@@ -246,7 +273,15 @@ direct_light(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 		f = pm_bsdf_eval(b, wi_local, wo, PM_RADIANCE);
 		if (pm_rgb_is_black(f))
 			continue;
-		if (pm_light_occluded(ctx->accel, h, &ls))
+		if (ctx->scene->nmedia > 0) {
+			/* media: the shadow ray's transmittance, through
+			 * index-matched boundaries (integrator_pmvol.c) */
+			f = pm_rgb_mul(f, pm_volume_shadow(ctx,
+			    pm_hit_origin(h, ls.wi), pm_medium_after(ctx->scene,
+			    h, ls.wi, medium), &ls));
+			if (pm_rgb_is_black(f))
+				continue;
+		} else if (pm_light_occluded(ctx->accel, h, &ls))
 			continue;
 		w = ls.delta || !mis ? 1.0f :
 		    pm_power_heuristic(ls.pdf, pm_bsdf_pdf(b, wi_local, wo));
@@ -291,9 +326,15 @@ records_irradiance(const struct pm_photon_maps *m, struct pm_vec3 p,
  * (roughplastic's base still takes E / pi).  Without records, the whole
  * global map is looked up at the first surface that holds photons.
  */
-struct pm_rgb
-pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
-    struct pm_vec3 d, struct pm_rng *rng, float *t)
+/*
+ * pm_photon_gather for a ray leaving in `medium` (-1: none) from a camera
+ * path vertex number depth.  Media: each segment adds its in-scattered
+ * light (integrator_pmvol.c) and weights what lies beyond by its
+ * transmittance; null boundaries switch the medium and are no bounce.
+ */
+static struct pm_rgb
+gather_in(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
+    int medium, int depth, struct pm_rng *rng, float *t)
 {
 	const struct pm_photon_maps *m = ctx->maps;
 	const struct pm_scene *s = ctx->scene;
@@ -302,7 +343,7 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 	struct pm_vec3 prev_p = o;
 	float prev_pdf = 0.0f;
 	bool traced = false, prev_delta = false;
-	int bounce;
+	int bounce, crossings = 0;
 
 	if (t != NULL)
 		*t = INFINITY;
@@ -317,6 +358,17 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 		float u1, u2, u3;
 
 		hit = pm_accel_intersect(ctx->accel, o, d, 0.0f, INFINITY, &h);
+		if (medium >= 0) {
+			/* media: in-scattering along the segment */
+			struct pm_rgb tr;
+
+			L = pm_rgb_madd(L, beta, pm_volume_inscatter(ctx, medium,
+			    o, d, 0.0f, hit ? h.t : INFINITY, depth + bounce,
+			    &tr, rng));
+			beta = pm_rgb_mul(beta, tr);
+			if (pm_rgb_is_black(beta))
+				break;
+		}
 		/* light met after a glossy bounce: the light sample there
 		 * took the rest of it (MIS) */
 		if (traced)
@@ -324,8 +376,18 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			    hit ? &h : NULL, d, prev_p, prev_pdf, prev_delta));
 		if (!hit)
 			break;
-		if (t != NULL && bounce == 0)
+		if (t != NULL && bounce == 0 && crossings == 0)
 			*t = h.t;
+		if (s->nmedia > 0 &&
+		    s->bsdfs[s->shapes[h.shape].bsdf].type == PM_BSDF_NULL) {
+			/* media: an index-matched boundary, no bounce */
+			if (++crossings > 1024)
+				break;
+			medium = pm_medium_after(s, &h, d, medium);
+			o = pm_hit_origin(&h, d);
+			bounce--;
+			continue;
+		}
 		b = pm_bsdf_at(s, &h, &bt);
 		fr = pm_frame_from_normal(h.ns);
 		wi = pm_to_local(fr, pm_neg(d));
@@ -334,12 +396,11 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			return pm_rgb_madd(L, beta, estimate(m->global, m->nglobal,
 			    m->global_scale, m->global_r2, m->lookup_size, m->fixed_radius,
 			    0, 0, false, b, h.p, nrm, m->gather_max_depth, fr, wi));
-		if (has_nonspecular(b) && (is_glossy(b) ||
-		    b->type == PM_BSDF_ROUGHPLASTIC)) {
+		if (has_nonspecular(b) && (is_glossy(b) || is_split(b))) {
 			const struct pm_bsdf *bg = split_lobe(b, PM_LOBE_GLOSSY,
 			    &glossy_tmp);
 
-			if (b->type == PM_BSDF_ROUGHPLASTIC) {
+			if (is_split(b)) {
 				const struct pm_bsdf *bb = split_lobe(b,
 				    PM_LOBE_DIFFUSE, &base_tmp);
 
@@ -353,7 +414,7 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 					    h.p, nrm), 1.0f / PM_PI));
 			}
 			L = pm_rgb_madd(L, beta, direct_light(ctx, bg, &h, fr, wi,
-			    1, true, NULL, rng));
+			    1, true, NULL, medium, rng));
 			b = bg;
 		}
 		u1 = pm_rng_float(rng);
@@ -363,7 +424,7 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			break;
 		beta = pm_rgb_mul(beta, bs.weight);
 		if (!(bs.lobe & PM_LOBE_DELTA) && has_nonspecular(b) &&
-		    !is_glossy(b) && b->type != PM_BSDF_ROUGHPLASTIC)
+		    !is_glossy(b) && !is_split(b))
 			return pm_rgb_madd(L, beta, pm_rgb_scale(records_irradiance(m,
 			    h.p, nrm), 1.0f / PM_PI));
 		if (!(bs.lobe & PM_LOBE_DELTA) && has_nonspecular(b))
@@ -375,8 +436,19 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 		prev_delta = (bs.lobe & PM_LOBE_DELTA) || !has_nonspecular(b);
 		d = pm_normalize(pm_to_world(fr, bs.wo));
 		o = pm_hit_origin(&h, d);
+		if (s->nmedia > 0)
+			medium = pm_medium_after(s, &h, d, medium);
 	}
 	return L;
+}
+
+/* Without media information: the irradiance cache's rays (render.c),
+ * which scenes with media do not use (pm-render turns the cache off). */
+struct pm_rgb
+pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
+    struct pm_vec3 d, struct pm_rng *rng, float *t)
+{
+	return gather_in(ctx, o, d, -1, 1, rng, t);
 }
 
 /* Indirect light at a diffuse hit by final gathering: BSDF-sampled rays;
@@ -384,7 +456,7 @@ pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 static struct pm_rgb
 final_gather(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
     const struct pm_hit *h, struct pm_frame fr, struct pm_vec3 wi_local,
-    struct pm_rng *rng)
+    int medium, int depth, struct pm_rng *rng)
 {
 	int i, n = ctx->maps->final_gather_samples;
 	struct pm_rgb L = pm_rgb1(0.0f);
@@ -399,8 +471,10 @@ final_gather(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 		    (bs.lobe & PM_LOBE_DELTA))
 			continue;
 		d = pm_normalize(pm_to_world(fr, bs.wo));
-		L = pm_rgb_madd(L, bs.weight, pm_photon_gather(ctx,
-		    pm_hit_origin(h, d), d, rng, NULL));
+		L = pm_rgb_madd(L, bs.weight, gather_in(ctx,
+		    pm_hit_origin(h, d), d, ctx->scene->nmedia > 0 ?
+		    pm_medium_after(ctx->scene, h, d, medium) : -1, depth + 1,
+		    rng, NULL));
 	}
 	return pm_rgb_scale(L, 1.0f / (float)n);
 }
@@ -413,7 +487,8 @@ final_gather(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 static struct pm_rgb
 indirect(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
     const struct pm_hit *h, struct pm_frame fr, struct pm_vec3 wi,
-    struct pm_vec3 nrm, int depth, float fx, float fy, struct pm_rng *rng)
+    struct pm_vec3 nrm, int depth, float fx, float fy, int medium,
+    struct pm_rng *rng)
 {
 	struct pm_rgb E;
 
@@ -427,7 +502,7 @@ indirect(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 			return pm_rgb1(0.0f);
 		return pm_rgb_mul(bs.weight, pm_rgb_scale(E, 1.0f / PM_PI));
 	}
-	return final_gather(ctx, b, h, fr, wi, rng);
+	return final_gather(ctx, b, h, fr, wi, medium, depth, rng);
 }
 
 struct pm_rgb
@@ -451,6 +526,8 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 	const float *lu = cs->lu[0] >= 0.0f ? cs->lu : NULL;
 	float fx = cs->fx, fy = cs->fy;
 	int depth;
+	/* media: the ray's medium (-1: none) */
+	int medium = s->camera_medium - 1, crossings = 0;
 
 	pm_path_start(&pa, o, d, tmin, tmax);
 	for (depth = 1;; depth++) {
@@ -464,11 +541,35 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 		float u1, u2, u3;
 
 		hit = pm_accel_intersect(ctx->accel, pa.o, pa.d, pa.tmin, pa.tmax, &h);
+		if (medium >= 0) {
+			/* media: in-scattering along the segment, then what
+			 * lies beyond through its transmittance */
+			struct pm_rgb tr;
+
+			L = pm_rgb_madd(L, pa.beta, pm_volume_inscatter(ctx,
+			    medium, pa.o, pa.d, pa.tmin, hit ? h.t : pa.tmax,
+			    depth, &tr, rng));
+			pa.beta = pm_rgb_mul(pa.beta, tr);
+			if (pm_rgb_is_black(pa.beta))
+				break;
+		}
 		if (!(depth == 1 && ctx->hide_emitters))
 			L = pm_rgb_madd(L, pa.beta, pm_lights_emitted(ctx->lights, s,
 			    hit ? &h : NULL, pa.d, pa.prev_p, pa.prev_pdf, pa.prev_delta));
 		if (!hit)
 			break;
+		if (s->nmedia > 0 &&
+		    s->bsdfs[s->shapes[h.shape].bsdf].type == PM_BSDF_NULL) {
+			/* media: an index-matched boundary, no vertex */
+			if (++crossings > 1024)
+				break;
+			medium = pm_medium_after(s, &h, pa.d, medium);
+			pa.o = pm_hit_origin(&h, pa.d);
+			pa.tmin = 0.0f;
+			pa.tmax = INFINITY;
+			depth--;
+			continue;
+		}
 		if (ctx->max_depth >= 0 && depth >= ctx->max_depth)
 			break;
 		b = pm_bsdf_at(s, &h, &bt);
@@ -478,7 +579,7 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 		if (is_glossy(b)) {
 			/* Path traced: light sampling here, BSDF sampling on. */
 			L = pm_rgb_madd(L, pa.beta, direct_light(ctx, b, &h, fr, wi,
-			    1, true, lu, rng));
+			    1, true, lu, medium, rng));
 			lu = NULL;
 		} else if (has_nonspecular(b)) {
 			/* roughplastic: its diffuse base here, its coating
@@ -487,7 +588,7 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			const struct pm_bsdf *bb = split_lobe(b,
 			    PM_LOBE_DIFFUSE, &base_tmp);
 			struct pm_rgb E = direct_light(ctx, bb, &h, fr, wi,
-			    m->direct_samples, false, lu, rng);
+			    m->direct_samples, false, lu, medium, rng);
 
 			lu = NULL;
 
@@ -509,28 +610,32 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			if (m->final_gather) {
 				if (gather_fits)
 					E = pm_rgb_add(E, indirect(ctx, bb, &h, fr,
-					    wi, nrm, depth, fx, fy, rng));
+					    wi, nrm, depth, fx, fy, medium,
+					    rng));
 			} else
 				E = pm_rgb_add(E, estimate(m->global, m->nglobal,
 				    m->global_scale, m->global_r2, m->lookup_size,
 				    m->fixed_radius, PM_PHOTON_VIA_DIFFUSE, PM_PHOTON_VIA_DIFFUSE, false,
 				    bb, h.p, nrm, dcap, fr, wi));
 			L = pm_rgb_madd(L, pa.beta, E);
-			if (!(b->lobes & (PM_LOBE_DELTA | PM_LOBE_GLOSSY)))
+			if (!(b->lobes & (PM_LOBE_DELTA | PM_LOBE_GLOSSY |
+			    PM_LOBE_GLOSSY_TRANSMISSION |
+			    PM_LOBE_DIFFUSE_TRANSMISSION)))
 				break;
 		}
 
-		if (b->type == PM_BSDF_ROUGHPLASTIC) {
-			/* A diffuse base with a rough coating: the base is
-			 * estimated above, the coating path traced as a rough
+		if (is_split(b)) {
+			/* A diffuse base with a rough coating (or a
+			 * principled BSDF's other lobes): the base is
+			 * estimated above, the rest path traced as a rough
 			 * conductor is (light sampling with MIS here, then
-			 * a sample of the coating alone), every time. */
+			 * a sample of the rest alone), every time. */
 			struct pm_bsdf coat_tmp;
 			const struct pm_bsdf *bc = split_lobe(b,
 			    PM_LOBE_GLOSSY, &coat_tmp);
 
 			L = pm_rgb_madd(L, pa.beta, direct_light(ctx, bc, &h, fr,
-			    wi, 1, true, NULL, rng));
+			    wi, 1, true, NULL, medium, rng));
 			u1 = pm_rng_float(rng);
 			u2 = pm_rng_float(rng);
 			u3 = pm_rng_float(rng);
@@ -551,6 +656,8 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 		}
 		if (!pm_path_continue(&pa, &h, fr, &bs, depth, ctx->rr_depth, rng))
 			break;
+		if (s->nmedia > 0)
+			medium = pm_medium_after(s, &h, pa.d, medium);
 	}
 	return L;
 }

@@ -4,8 +4,10 @@
  */
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "light.h"
+#include "texture.h"
 
 /*
  * The fraction of an environment's power (taken through the disk of the
@@ -33,6 +35,50 @@ env_nee_share(const struct pm_scene *s)
 	return fmin(1.0, 0.5 * area / disk);
 }
 
+/* A projector's bitmap when its photons can be drawn by texel (no
+ * to_uv, so that texels are the image plane's cells), else NULL. */
+static const struct pm_texture *
+projector_image(const struct pm_scene *s, const struct pm_light *l)
+{
+	const struct pm_texture *t;
+	static const float id[6] = {1, 0, 0, 0, 1, 0};
+
+	if (l->type != PM_LIGHT_PROJECTOR || l->tex <= 0)
+		return NULL;
+	t = &s->textures[l->tex - 1];
+	if (t->type != PM_TEXTURE_BITMAP || t->rgb == NULL ||
+	    (size_t)t->width * (size_t)t->height < 2 ||
+	    memcmp(t->to_uv, id, sizeof(id)) != 0)
+		return NULL;
+	return t;
+}
+
+/*
+ * Over a projector image's texels, half by their mean and half uniform:
+ * photons go where the image is bright, and the uniform half keeps the
+ * density positive wherever bilinear filtering spreads light into a
+ * black texel's cell.
+ */
+static enum pm_err
+texel_distrib(struct pm_distrib *d, const struct pm_texture *t, double *w,
+    struct pm_error *err)
+{
+	size_t j, n = (size_t)t->width * (size_t)t->height;
+	double total = 0.0;
+
+	for (j = 0; j < n; j++) {
+		w[j] = fmax(0.0, ((double)t->rgb[3 * j] + t->rgb[3 * j + 1] +
+		    t->rgb[3 * j + 2]) / 3.0);
+		if (!isfinite(w[j]))
+			w[j] = 0.0;
+		total += w[j];
+	}
+	for (j = 0; j < n; j++)
+		w[j] = (total > 0.0 ? 0.5 * w[j] / total : 0.0) +
+		    (total > 0.0 ? 0.5 : 1.0) / (double)n;
+	return pm_distrib_init(d, w, n, err);
+}
+
 enum pm_err
 pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
     struct pm_error *err)
@@ -52,6 +98,12 @@ pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
 	for (i = 0; i < s->nshapes; i++)
 		if (s->shapes[i].light >= 0 && s->shapes[i].mesh.ntris > maxw)
 			maxw = s->shapes[i].mesh.ntris;
+	for (i = 0; i < s->nlights; i++) {
+		const struct pm_texture *img = projector_image(s, &s->lights[i]);
+
+		if (img != NULL && (size_t)img->width * (size_t)img->height > maxw)
+			maxw = (size_t)img->width * (size_t)img->height;
+	}
 	w = calloc(maxw, sizeof(*w));
 	ls->tris = calloc(s->nlights, sizeof(*ls->tris));
 	if (w == NULL || ls->tris == NULL) {
@@ -85,8 +137,15 @@ pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
 		goto out;
 	for (i = 0; i < s->nlights; i++) {
 		const struct pm_light *l = &s->lights[i];
+		const struct pm_texture *img = projector_image(s, l);
 		const struct pm_mesh *m;
 
+		if (img != NULL) {
+			rc = texel_distrib(&ls->tris[i], img, w, err);
+			if (rc != PM_OK)
+				goto out;
+			continue;
+		}
 		if (l->type != PM_LIGHT_AREA ||
 		    s->shapes[l->shape].type != PM_SHAPE_MESH)
 			continue;
@@ -140,6 +199,65 @@ pm_spot_falloff(const struct pm_light *l, struct pm_vec3 w)
 	return (cutoff - theta) / (cutoff - beam);
 }
 
+struct pm_rgb
+pm_light_intensity(const struct pm_scene *s, const struct pm_light *l,
+    struct pm_vec3 w)
+{
+	struct pm_vec3 d;
+	struct pm_rgb I;
+	float x, y, c;
+
+	switch (l->type) {
+	case PM_LIGHT_POINT:
+		return l->intensity;
+	case PM_LIGHT_SPOT:
+		I = pm_rgb_scale(l->intensity, pm_spot_falloff(l, w));
+		if (l->tex == 0 || pm_rgb_is_black(I))
+			return I;
+		/* Mitsuba's projection: the cone's cutoff circle is
+		 * inscribed in the unit square of uv */
+		d = pm_xform_vector(&l->to_local, w);
+		if (!(d.z > 0.0f))
+			return pm_rgb1(0.0f);
+		x = d.x / (d.z * l->tan_fov);
+		y = d.y / (d.z * l->tan_fov);
+		return pm_rgb_mul(I, pm_texture_eval(&s->textures[l->tex - 1],
+		    0.5f + 0.5f * x, 0.5f + 0.5f * y));
+	case PM_LIGHT_PROJECTOR:
+		/* The perspective camera's mapping of its image plane at
+		 * z = 1 (u along -x, v along -y, fov along x); Mitsuba
+		 * scales the texture's value so that it is the irradiance
+		 * (times pi) there: an intensity of pi E / cos^3. */
+		d = pm_xform_vector(&l->to_local, w);
+		if (!(d.z > 0.0f))
+			return pm_rgb1(0.0f);
+		x = 0.5f - 0.5f * d.x / (d.z * l->tan_fov);
+		y = 0.5f - 0.5f * l->aspect * d.y / (d.z * l->tan_fov);
+		if (!(x >= 0.0f && x <= 1.0f && y >= 0.0f && y <= 1.0f))
+			return pm_rgb1(0.0f);
+		c = d.z / pm_length(d);
+		return pm_rgb_scale(pm_rgb_mul(l->intensity,
+		    pm_texture_eval(&s->textures[l->tex - 1], x, y)),
+		    PM_PI / (c * c * c));
+	default:
+		return pm_rgb1(0.0f);
+	}
+}
+
+struct pm_rgb
+pm_area_emitted_at(const struct pm_scene *s, const struct pm_light *l,
+    const struct pm_hit *h, struct pm_vec3 w)
+{
+	float u, v;
+
+	if (!(pm_dot(h->ns, w) > 0.0f))
+		return pm_rgb1(0.0f);
+	if (l->tex == 0)
+		return l->radiance;
+	pm_hit_uv(s, h, &u, &v);
+	return pm_texture_eval_at(s, &s->textures[l->tex - 1], h, u, v);
+}
+
 bool
 pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
     struct pm_vec3 ref, float u0, float u1, float u2, struct pm_light_sample *o)
@@ -159,6 +277,7 @@ pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
 	switch (l->type) {
 	case PM_LIGHT_POINT:
 	case PM_LIGHT_SPOT:
+	case PM_LIGHT_PROJECTOR:
 		d = pm_sub(l->position, ref);
 		d2 = pm_dot(d, d);
 		if (d2 <= 0.0f)
@@ -167,9 +286,8 @@ pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
 		o->wi = pm_scale(d, 1.0f / o->dist);
 		o->p = l->position;
 		o->n = pm_neg(o->wi);
-		o->value = pm_rgb_scale(l->intensity, 1.0f / d2);
-		if (l->type == PM_LIGHT_SPOT)
-			o->value = pm_rgb_scale(o->value, pm_spot_falloff(l, o->n));
+		o->value = pm_rgb_scale(pm_light_intensity(s, l, o->n),
+		    1.0f / d2);
 		o->pdf = psel;
 		o->delta = true;
 		return !pm_rgb_is_black(o->value);
@@ -210,8 +328,12 @@ pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
 	}
 	{
 		const struct pm_shape *sh = &s->shapes[l->shape];
+		struct pm_hit lh;	/* the light point, for its uv */
 		struct pm_vec3 ns;
 
+		lh.shape = l->shape;
+		lh.prim = 0;
+		lh.u = lh.v = 0.0f;
 		if (sh->type == PM_SHAPE_SPHERE) {
 			struct pm_vec3 u = pm_square_to_uniform_sphere(u1, u2);
 
@@ -228,6 +350,9 @@ pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
 			float b1, b2;
 
 			pm_square_to_triangle(u1, u2, &b1, &b2);
+			lh.prim = (uint32_t)t;
+			lh.u = b1;
+			lh.v = b2;
 			o->p = pm_add(pm_add(pm_scale(p0, 1.0f - b1 - b2),
 			    pm_scale(p1, b1)), pm_scale(p2, b2));
 			o->n = pm_normalize(pm_cross(pm_sub(p1, p0), pm_sub(p2, p0)));
@@ -255,7 +380,9 @@ pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
 		 * light shines this way is decided by the shading normal, as
 		 * when a ray hits the light. */
 		cos_l = fabsf(pm_dot(o->n, o->wi));
-		o->value = pm_area_emitted(l, ns, pm_neg(o->wi));
+		lh.p = o->p;
+		lh.ns = ns;
+		o->value = pm_area_emitted_at(s, l, &lh, pm_neg(o->wi));
 		if (cos_l <= 0.0f || pm_rgb_is_black(o->value))
 			return false;
 		o->pdf = psel * d2 / (cos_l * (float)l->area);
@@ -308,17 +435,34 @@ bool
 pm_light_occluded(const struct pm_accel *a, const struct pm_hit *h,
     const struct pm_light_sample *ls)
 {
+	struct pm_ray r;
+
+	if (!pm_light_shadow_ray(h, ls, &r))
+		return false;
+	return pm_accel_occluded(a, r.o, r.d, r.tmin, r.tmax);
+}
+
+bool
+pm_light_shadow_ray(const struct pm_hit *h, const struct pm_light_sample *ls,
+    struct pm_ray *r)
+{
 	struct pm_vec3 o = pm_hit_origin(h, ls->wi), d;
 	float dist;
 
-	if (isinf(ls->dist))
-		return pm_accel_occluded(a, o, ls->wi, 0.0f, INFINITY);
+	r->o = o;
+	r->tmin = 0.0f;
+	if (isinf(ls->dist)) {
+		r->d = ls->wi;
+		r->tmax = INFINITY;
+		return true;
+	}
 	d = pm_sub(ls->p, o);
 	dist = pm_length(d);
 	if (!(dist > 0.0f))
 		return false;
-	return pm_accel_occluded(a, o, pm_scale(d, 1.0f / dist), 0.0f,
-	    dist * (1.0f - 1e-4f));
+	r->d = pm_scale(d, 1.0f / dist);
+	r->tmax = dist * (1.0f - 1e-4f);
+	return true;
 }
 
 struct pm_rgb
@@ -343,7 +487,7 @@ pm_lights_emitted(const struct pm_lights *ls, const struct pm_scene *s,
 	light = s->shapes[h->shape].light;
 	if (light < 0)
 		return pm_rgb1(0.0f);
-	Le = pm_area_emitted(&s->lights[light], h->ns, pm_neg(d));
+	Le = pm_area_emitted_at(s, &s->lights[light], h, pm_neg(d));
 	if (pm_rgb_is_black(Le))
 		return Le;
 	w = prev_delta ? 1.0f : pm_power_heuristic(prev_pdf,

@@ -34,7 +34,10 @@ struct pm_lights {
 					 * as the geometry catches it), half
 					 * uniform: light samples from a
 					 * point */
-	struct pm_distrib *tris;	/* per light: over a mesh's triangles */
+	struct pm_distrib *tris;	/* per light: over a mesh's triangles,
+					 * or a projector image's texels
+					 * (photons; empty when not drawn
+					 * by texel) */
 	size_t n;
 };
 
@@ -67,6 +70,10 @@ bool pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
  */
 bool pm_light_occluded(const struct pm_accel *a, const struct pm_hit *h,
     const struct pm_light_sample *ls);
+/* That shadow ray, for casting in a batch; false when there is none to
+ * cast (the light point is the origin: nothing can block it). */
+bool pm_light_shadow_ray(const struct pm_hit *h, const struct pm_light_sample *ls,
+    struct pm_ray *r);
 
 /* Solid-angle density with which pm_lights_sample picks the point p (normal
  * n) of area light `light` from ref. */
@@ -94,6 +101,18 @@ static inline float pm_power_heuristic(float a, float b)
  * to 0 at cutoff_angle; w is the unit direction leaving the light. */
 float pm_spot_falloff(const struct pm_light *l, struct pm_vec3 w);
 
+/* Radiant intensity a point, spot or projector light sends in direction
+ * w (unit, leaving it): the spot's falloff and texture and the
+ * projector's image included; black for other lights. */
+struct pm_rgb pm_light_intensity(const struct pm_scene *s,
+    const struct pm_light *l, struct pm_vec3 w);
+
+/* Radiance area light l emits from its point h (p, ns, and shape, prim,
+ * u, v for the uv of a textured radiance) towards w (unit): zero behind
+ * the shading normal. */
+struct pm_rgb pm_area_emitted_at(const struct pm_scene *s,
+    const struct pm_light *l, const struct pm_hit *h, struct pm_vec3 w);
+
 /*
  * Emitted radiance a ray finds along direction d: at hit h (an area light
  * seen from its front), or in the environment when h is NULL.  The ray was
@@ -105,8 +124,9 @@ struct pm_rgb pm_lights_emitted(const struct pm_lights *ls,
     const struct pm_scene *s, const struct pm_hit *h, struct pm_vec3 d,
     struct pm_vec3 prev_p, float prev_pdf, bool prev_delta);
 
-/* Radiance an area light emits from a point with shading normal n towards
- * w (unit): its radiance on the front side, zero behind. */
+/* Radiance an untextured area light emits from a point with shading
+ * normal n towards w (unit): its radiance on the front side, zero
+ * behind (pm_area_emitted_at also takes textures). */
 static inline struct pm_rgb pm_area_emitted(const struct pm_light *l,
     struct pm_vec3 n, struct pm_vec3 w)
 {

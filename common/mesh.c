@@ -25,6 +25,8 @@ pm_mesh_free(struct pm_mesh *m)
 	free(m->nrm);
 	free(m->uv);
 	free(m->idx);
+	free(m->vcolor);
+	free(m->fcolor);
 	memset(m, 0, sizeof(*m));
 }
 
@@ -136,8 +138,12 @@ pm_mesh_validate(struct pm_mesh *m, uint32_t *dropped, struct pm_error *err)
 		}
 		if (!ok)
 			continue;
-		if (kept != t)
+		if (kept != t) {
 			memmove(m->idx + 3 * kept, tri, 3 * sizeof(uint32_t));
+			if (m->fcolor != NULL)
+				memmove(m->fcolor + 3 * kept, m->fcolor + 3 * t,
+				    3 * sizeof(float));
+		}
 		kept++;
 	}
 	if (dropped != NULL)

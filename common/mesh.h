@@ -18,6 +18,10 @@ struct pm_mesh {
 	float *nrm;		/* 3 * nverts unit normals, or NULL: flat shading */
 	float *uv;		/* 2 * nverts, or NULL */
 	uint32_t *idx;		/* 3 * ntris, counter-clockwise seen from the front */
+	/* Mitsuba's mesh attributes vertex_color (3 * nverts) and
+	 * face_color (3 * ntris, one per triangle), or NULL: what a PLY
+	 * file gives, for the mesh_attribute texture */
+	float *vcolor, *fcolor;
 };
 
 void pm_mesh_free(struct pm_mesh *m);

@@ -39,6 +39,8 @@ pm_map_kind_name(enum pm_map_kind kind)
 		return "caustic";
 	case PM_MAP_IRRADIANCE:
 		return "irradiance";
+	case PM_MAP_VOLUME:
+		return "volume";
 	}
 	return "unknown";
 }
@@ -576,6 +578,12 @@ pm_photon_maps_from_pmap(const struct pm_pmap *pm,
 			maps->caustic = m->photons;
 			maps->ncaustic = (size_t)m->count;
 			maps->caustic_scale = m->emitted ?
+			    1.0f / (float)m->emitted : 0.0f;
+			break;
+		case PM_MAP_VOLUME:
+			maps->volume = m->photons;
+			maps->nvolume = (size_t)m->count;
+			maps->volume_scale = m->emitted ?
 			    1.0f / (float)m->emitted : 0.0f;
 			break;
 		case PM_MAP_IRRADIANCE:

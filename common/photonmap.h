@@ -29,6 +29,15 @@ enum pm_map_kind {
 	 * surface's, at a fraction of the global photons; made by
 	 * pm-balance.  dir is undefined (0) and depth 0. */
 	PM_MAP_IRRADIANCE = 3,
+	/* The volume photon map (Jensen and Christensen 1998): photons
+	 * stored where they scattered in a participating medium, shot
+	 * with the global map (same paths, same emitted count).  normal
+	 * is undefined (0); power is the flux leaving the scatter before
+	 * Russian roulette, i.e. already times the medium's
+	 * sigma_s / sigma_t for that flight (see shoot.c), so that
+	 * sum(phase * power) / (emitted * volume) estimates the
+	 * in-scattered radiance sigma_s * integral(phase * L). */
+	PM_MAP_VOLUME = 4,
 };
 
 /* Effects a map file simulates (header field `effects`). */
@@ -36,6 +45,7 @@ enum {
 	PM_EFFECT_GLOBAL = 1 << 0,	/* diffuse interreflection: a global map */
 	PM_EFFECT_CAUSTICS = 1 << 1,	/* specular-to-diffuse: a caustic map */
 	PM_EFFECT_REFRACTION = 1 << 2,	/* the scene has dielectrics */
+	PM_EFFECT_MEDIA = 1 << 3,	/* participating media: a volume map */
 };
 
 struct pm_map {
@@ -66,8 +76,8 @@ struct pm_pmap {
 	char *info;			/* provenance: "key=value\n" lines, NUL-
 					 * terminated, each tool appending its
 					 * own; owned */
-	int nmaps;			/* 0 to 3 */
-	struct pm_map maps[3];
+	int nmaps;			/* 0 to 4 */
+	struct pm_map maps[4];
 	/* Set by the reader, ignored by the writer: the file's version and
 	 * its size in bytes (what a pipe gave, to its end). */
 	unsigned version_major, version_minor;
@@ -77,7 +87,7 @@ struct pm_pmap {
 	size_t mapped_len;
 };
 
-/* "global", "caustic", "irradiance" or "unknown"; static. */
+/* "global", "caustic", "irradiance", "volume" or "unknown"; static. */
 const char *pm_map_kind_name(enum pm_map_kind kind);
 
 /* The map of the given kind in m, or NULL. */

@@ -4,6 +4,8 @@
  * idle while another grinds through a fixed half of the image.  Each pixel
  * writes only its own slot, and its random numbers depend only on (seed,
  * pixel, sample), so the result does not depend on the thread count.
+ * The path tracer takes a tile's samples in batches (render_tile_paths),
+ * whose rays go to Embree in packets.
  */
 #include <math.h>
 #include <pthread.h>
@@ -37,6 +39,7 @@ struct job {
 	int tiles_x, ntiles;
 	_Atomic int next;
 	_Atomic uint64_t dropped;
+	bool moments;			/* opts' moment images are filled */
 };
 
 /* Offset from the pixel centre drawn from the reconstruction filter, so
@@ -70,6 +73,187 @@ filter_offset(enum pm_rfilter f, float radius, float u, struct pm_rng *rng)
  * of a pixel); beyond, independent samples are as good. */
 #define LIGHT_STRATA 32
 
+/* CIE XYZ of linear sRGB, the matrix Mitsuba's moment integrator applies
+ * to an RGB render's samples. */
+static const double srgb_to_xyz[3][3] = {
+	{ 0.412453, 0.357580, 0.180423 },
+	{ 0.212671, 0.715160, 0.072169 },
+	{ 0.019334, 0.119193, 0.950227 },
+};
+
+/* Adds sample L to a pixel's sums of XYZ (m[0..2]) and of their squares
+ * (m[3..5]), for the moment integrator. */
+static void
+moment_add(double m[6], struct pm_rgb L)
+{
+	int c;
+
+	for (c = 0; c < 3; c++) {
+		double v = srgb_to_xyz[c][0] * L.r + srgb_to_xyz[c][1] * L.g +
+		    srgb_to_xyz[c][2] * L.b;
+
+		m[c] += v;
+		m[3 + c] += v * v;
+	}
+}
+
+/* Stores pixel pix's moments, the sums m over spp samples. */
+static void
+moment_store(const struct job *j, size_t pix, const double m[6], int spp)
+{
+	float *d1 = &j->opts->moment1->rgb[3 * pix];
+	float *d2 = &j->opts->moment2->rgb[3 * pix];
+	int c;
+
+	for (c = 0; c < 3; c++) {
+		d1[c] = (float)(m[c] / spp);
+		d2[c] = (float)(m[3 + c] / spp);
+	}
+}
+
+/* How a tile's pixels stratify their samples (see render_tile). */
+struct strata {
+	int kx, ky;			/* film cells */
+	int lx, ly;			/* light cells */
+	uint16_t cell[LIGHT_STRATA * LIGHT_STRATA];	/* this pixel's shuffle */
+};
+
+/* The light cells of pixel pix, shuffled. */
+static void
+pixel_cells(const struct job *j, uint64_t pix, struct strata *st)
+{
+	struct pm_rng prng = pm_rng_seed(j->opts->seed, pix, UINT64_MAX);
+	int i;
+
+	for (i = 0; i < st->lx * st->ly; i++) {
+		int r = (int)(pm_rng_u32(&prng) % (uint32_t)(i + 1));
+
+		st->cell[i] = st->cell[r];
+		st->cell[r] = (uint16_t)i;
+	}
+}
+
+/* The camera ray of sample i of pixel (x, y), with its random numbers
+ * (*rng, to go on with along the path) and what the photon render needs
+ * of it (*cs). */
+static void
+camera_sample(const struct job *j, const struct strata *st, int x, int y,
+    int i, struct pm_vec3 *o, struct pm_vec3 *d, float *tmin, float *tmax,
+    struct pm_camera_sample *cs, struct pm_rng *rng)
+{
+	const struct pm_camera *cam = j->cam;
+	uint64_t pix = (uint64_t)y * (uint64_t)cam->width + (uint64_t)x;
+	float ux, uy, fx, fy, lu = 0.5f, lv = 0.5f;
+	int kx = st->kx, ky = st->ky, lx = st->lx, ly = st->ly;
+
+	*rng = pm_rng_seed(j->opts->seed, pix, (uint64_t)i);
+	ux = pm_rng_float(rng);
+	uy = pm_rng_float(rng);
+	cs->lu[0] = cs->lu[1] = -1.0f;
+	if (i < kx * ky) {
+		ux = ((float)(i % kx) + ux) / (float)kx;
+		uy = ((float)(i / kx) + uy) / (float)ky;
+	}
+	if (i < lx * ly) {
+		/* its own stream, so that the path's numbers stay as they
+		 * were */
+		struct pm_rng lr = pm_rng_seed(j->opts->seed, pix,
+		    UINT64_MAX - 1 - (uint64_t)i);
+
+		cs->lu[0] = ((float)(st->cell[i] % lx) + pm_rng_float(&lr)) /
+		    (float)lx;
+		cs->lu[1] = ((float)(st->cell[i] / lx) + pm_rng_float(&lr)) /
+		    (float)ly;
+	}
+	fx = (float)x + 0.5f + filter_offset(cam->rfilter, cam->filter_radius,
+	    ux, rng);
+	fy = (float)y + 0.5f + filter_offset(cam->rfilter, cam->filter_radius,
+	    uy, rng);
+	/* A thin lens's aperture point: two more numbers of the sample's
+	 * own stream, drawn only for such cameras so that other images stay
+	 * as they were. */
+	if (pm_camera_needs_lens(&j->rays)) {
+		lu = pm_rng_float(rng);
+		lv = pm_rng_float(rng);
+	}
+	*d = pm_camera_ray(&j->rays, fx, fy, lu, lv, o, tmin, tmax);
+	cs->fx = fx;
+	cs->fy = fy;
+}
+
+/* Samples path-traced together (pm_path_li_batch): enough that their
+ * rays fill Embree's packets, few enough to stay in the L1 cache. */
+#define PATH_CHUNK 64
+
+/* render_tile for the path tracer: the tile's samples, in the order
+ * render_tile takes them, go to pm_path_li_batch in chunks, and each
+ * pixel sums its own in sample order, so the image is the same bit for
+ * bit. */
+static void
+render_tile_paths(struct job *j, struct strata *st, int x0, int y0, int x1,
+    int y1)
+{
+	const struct pm_camera *cam = j->cam;
+	struct pm_path_sample smp[PATH_CHUNK];
+	uint16_t slot[PATH_CHUNK];
+	double acc[TILE * TILE][3], mom[TILE * TILE][6];
+	int spp = j->opts->spp, x, y, i, n = 0, k;
+	uint64_t dropped = 0;
+
+	memset(acc, 0, sizeof(acc));
+	if (j->moments)
+		memset(mom, 0, sizeof(mom));
+	for (y = y0; y < y1; y++) {
+		for (x = x0; x < x1; x++) {
+			pixel_cells(j, (uint64_t)y * (uint64_t)cam->width +
+			    (uint64_t)x, st);
+			for (i = 0; i < spp; i++) {
+				struct pm_camera_sample cs;
+
+				camera_sample(j, st, x, y, i, &smp[n].o, &smp[n].d,
+				    &smp[n].tmin, &smp[n].tmax, &cs, &smp[n].rng);
+				slot[n] = (uint16_t)((y - y0) * TILE + (x - x0));
+				if (++n < PATH_CHUNK &&
+				    !(y == y1 - 1 && x == x1 - 1 && i == spp - 1))
+					continue;
+				pm_path_li_batch(j->ctx, smp, (size_t)n);
+				for (k = 0; k < n; k++) {
+					struct pm_rgb L = smp[k].L;
+
+					if (!pm_rgb_is_finite(L)) {
+						dropped++;
+						continue;
+					}
+					acc[slot[k]][0] += L.r;
+					acc[slot[k]][1] += L.g;
+					acc[slot[k]][2] += L.b;
+					if (j->moments)
+						moment_add(mom[slot[k]], L);
+				}
+				n = 0;
+			}
+		}
+	}
+	for (y = y0; y < y1; y++) {
+		for (x = x0; x < x1; x++) {
+			float *dst = &j->out->rgb[3 * ((size_t)y *
+			    (size_t)cam->width + (size_t)x)];
+			const double *a = acc[(y - y0) * TILE + (x - x0)];
+
+			/* Dropped samples count as zero, as in render_tile. */
+			dst[0] = (float)(a[0] / spp);
+			dst[1] = (float)(a[1] / spp);
+			dst[2] = (float)(a[2] / spp);
+			if (j->moments)
+				moment_store(j, (size_t)y * (size_t)cam->width +
+				    (size_t)x, mom[(y - y0) * TILE + (x - x0)],
+				    spp);
+		}
+	}
+	if (dropped)
+		atomic_fetch_add(&j->dropped, dropped);
+}
+
 static void
 render_tile(struct job *j, int tile)
 {
@@ -77,8 +261,8 @@ render_tile(struct job *j, int tile)
 	int x0 = (tile % j->tiles_x) * TILE, y0 = (tile / j->tiles_x) * TILE;
 	int x1 = x0 + TILE < cam->width ? x0 + TILE : cam->width;
 	int y1 = y0 + TILE < cam->height ? y0 + TILE : cam->height;
-	int spp = j->opts->spp, x, y, i, kx, ky, lx, ly;
-	uint16_t cell[LIGHT_STRATA * LIGHT_STRATA];
+	int spp = j->opts->spp, x, y, i, kx, ky;
+	struct strata st;
 	uint64_t dropped = 0;
 
 	/* The first kx x ky samples of a pixel are stratified over its
@@ -90,71 +274,37 @@ render_tile(struct job *j, int tile)
 	for (ky = 1; (ky + 1) * (ky + 1) <= spp; ky++)
 		;
 	kx = (ky + 1) * ky <= spp ? ky + 1 : ky;
+	st.kx = kx;
+	st.ky = ky;
 	/* The first light sample of those samples is stratified the same
 	 * way over the light, in cells shuffled per pixel so that the
 	 * light's cell does not follow the film's. */
-	lx = kx < LIGHT_STRATA ? kx : LIGHT_STRATA;
-	ly = ky < LIGHT_STRATA ? ky : LIGHT_STRATA;
+	st.lx = kx < LIGHT_STRATA ? kx : LIGHT_STRATA;
+	st.ly = ky < LIGHT_STRATA ? ky : LIGHT_STRATA;
+	if (j->opts->method == PM_METHOD_PATH) {
+		render_tile_paths(j, &st, x0, y0, x1, y1);
+		return;
+	}
 	for (y = y0; y < y1; y++) {
 		for (x = x0; x < x1; x++) {
 			uint64_t pix = (uint64_t)y * (uint64_t)cam->width + (uint64_t)x;
-			double acc[3] = {0, 0, 0};
+			double acc[3] = {0, 0, 0}, mom[6] = {0, 0, 0, 0, 0, 0};
 			float *dst = &j->out->rgb[3 * pix];
-			struct pm_rng prng = pm_rng_seed(j->opts->seed, pix,
-			    UINT64_MAX);
 
-			for (i = 0; i < lx * ly; i++) {
-				int r = (int)(pm_rng_u32(&prng) % (uint32_t)(i + 1));
-
-				cell[i] = cell[r];
-				cell[r] = (uint16_t)i;
-			}
+			pixel_cells(j, pix, &st);
 			for (i = 0; i < spp; i++) {
-				struct pm_rng rng = pm_rng_seed(j->opts->seed, pix,
-				    (uint64_t)i);
-				float ux = pm_rng_float(&rng), uy = pm_rng_float(&rng);
-				struct pm_camera_sample cs = { 0, 0, { -1.0f, -1.0f } };
-				float fx, fy;
-
-				if (i < kx * ky) {
-					ux = ((float)(i % kx) + ux) / (float)kx;
-					uy = ((float)(i / kx) + uy) / (float)ky;
-				}
-				if (i < lx * ly) {
-					/* its own stream, so that the
-					 * path's numbers stay as they were */
-					struct pm_rng lr = pm_rng_seed(j->opts->seed,
-					    pix, UINT64_MAX - 1 - (uint64_t)i);
-
-					cs.lu[0] = ((float)(cell[i] % lx) +
-					    pm_rng_float(&lr)) / (float)lx;
-					cs.lu[1] = ((float)(cell[i] / lx) +
-					    pm_rng_float(&lr)) / (float)ly;
-				}
-				fx = (float)x + 0.5f + filter_offset(cam->rfilter,
-				    cam->filter_radius, ux, &rng);
-				fy = (float)y + 0.5f + filter_offset(cam->rfilter,
-				    cam->filter_radius, uy, &rng);
-				float tmin, tmax, lu = 0.5f, lv = 0.5f;
+				struct pm_camera_sample cs;
+				struct pm_rng rng;
+				float tmin, tmax;
 				struct pm_vec3 o, d;
 				struct pm_rgb L;
 
-				/* A thin lens's aperture point: two more numbers
-				 * of the sample's own stream, drawn only for such
-				 * cameras so that other images stay as they were. */
-				if (pm_camera_needs_lens(&j->rays)) {
-					lu = pm_rng_float(&rng);
-					lv = pm_rng_float(&rng);
-				}
-				d = pm_camera_ray(&j->rays, fx, fy, lu, lv, &o, &tmin,
-				    &tmax);
-
-				cs.fx = fx;
-				cs.fy = fy;
+				camera_sample(j, &st, x, y, i, &o, &d, &tmin, &tmax,
+				    &cs, &rng);
 				L = j->opts->method == PM_METHOD_PHOTON ?
-				    pm_photon_li_px(j->ctx, o, d, tmin, tmax, &cs, &rng) :
+				    pm_photon_li_px(j->ctx, o, d, tmin, tmax, &cs,
+				    &rng) :
 				    pm_path_li(j->ctx, o, d, tmin, tmax, &rng);
-
 				if (!pm_rgb_is_finite(L)) {
 					dropped++;
 					continue;
@@ -162,12 +312,16 @@ render_tile(struct job *j, int tile)
 				acc[0] += L.r;
 				acc[1] += L.g;
 				acc[2] += L.b;
+				if (j->moments)
+					moment_add(mom, L);
 			}
 			/* Dropped samples count as zero: dividing by the kept
 			 * count instead would bias the pixel upwards. */
 			dst[0] = (float)(acc[0] / spp);
 			dst[1] = (float)(acc[1] / spp);
 			dst[2] = (float)(acc[2] / spp);
+			if (j->moments)
+				moment_store(j, (size_t)pix, mom, spp);
 		}
 	}
 	if (dropped)
@@ -271,6 +425,17 @@ out:
 	return ok;
 }
 
+/* Frees what pm_render allocated for a render that failed. */
+static void
+free_outputs(struct pm_image *out, const struct pm_render_opts *opts)
+{
+	pm_image_free(out);
+	if (opts->moment1 != NULL && opts->moment2 != NULL) {
+		pm_image_free(opts->moment1);
+		pm_image_free(opts->moment2);
+	}
+}
+
 static void *
 worker(void *arg)
 {
@@ -300,13 +465,29 @@ pm_render(const struct pm_render_ctx *ctx, const struct pm_camera *cam,
 	int i, nthreads = opts->threads < 1 ? 1 : opts->threads, started = 0;
 	enum pm_err rc;
 
+	if (opts->method == PM_METHOD_PTRACER)
+		return pm_ptracer_render(ctx, cam, opts, out, stats, err);
 	if (cam->width < 1 || cam->height < 1 || opts->spp < 1)
 		return pm_fail(err, PM_ERR_INVALID,
 		    "image size and samples per pixel must be positive");
 	rc = pm_image_alloc(out, cam->width, cam->height, err);
 	if (rc != PM_OK)
 		return rc;
+	if (opts->moment1 != NULL && opts->moment2 != NULL) {
+		if ((rc = pm_image_alloc(opts->moment1, cam->width, cam->height,
+		    err)) != PM_OK) {
+			pm_image_free(out);
+			return rc;
+		}
+		if ((rc = pm_image_alloc(opts->moment2, cam->width, cam->height,
+		    err)) != PM_OK) {
+			pm_image_free(opts->moment1);
+			pm_image_free(out);
+			return rc;
+		}
+	}
 	j.ctx = &cctx;
+	j.moments = opts->moment1 != NULL && opts->moment2 != NULL;
 	j.cam = cam;
 	j.opts = opts;
 	j.out = out;
@@ -328,7 +509,7 @@ pm_render(const struct pm_render_ctx *ctx, const struct pm_camera *cam,
 		rc = pm_icache_build(&cache, ctx, &j.rays, step,
 		    rays, ctx->maps->icache_a, opts->seed, nthreads, err);
 		if (rc != PM_OK) {
-			pm_image_free(out);
+			free_outputs(out, opts);
 			return rc;
 		}
 		cctx.icache = &cache;
@@ -339,13 +520,13 @@ pm_render(const struct pm_render_ctx *ctx, const struct pm_camera *cam,
 	tid = calloc((size_t)nthreads, sizeof(*tid));
 	if (tid == NULL) {
 		pm_icache_free(&cache);
-		pm_image_free(out);
+		free_outputs(out, opts);
 		return pm_fail(err, PM_ERR_NOMEM, "no memory for threads");
 	}
 	if (opts->watch != NULL && !watch_begin(opts->watch, out, j.tiles_x,
 	    j.ntiles)) {
 		free(tid);
-		pm_image_free(out);
+		free_outputs(out, opts);
 		return pm_fail(err, PM_ERR_NOMEM, "no memory for the watch");
 	}
 	/* The calling thread works too; if a thread cannot be started the

@@ -17,6 +17,7 @@
 enum pm_method {
 	PM_METHOD_PATH,
 	PM_METHOD_PHOTON,
+	PM_METHOD_PTRACER,	/* Mitsuba's particle tracer */
 };
 
 struct pm_render_opts {
@@ -32,6 +33,12 @@ struct pm_render_opts {
 	/* Optional: lets another thread copy the finished tiles while the
 	 * render runs (pm_render_snapshot). */
 	struct pm_render_watch *watch;
+	/* Optional (Mitsuba's moment integrator): when both are set, each
+	 * gets (allocated here, owned by the caller) per pixel the mean of
+	 * the samples' CIE XYZ values and the mean of their squares, as
+	 * Mitsuba's moment integrator writes them; m2 - m1^2 is the
+	 * variance of one sample, dropped samples counting as zero. */
+	struct pm_image *moment1, *moment2;
 };
 
 /*
@@ -63,5 +70,16 @@ struct pm_render_stats {
 enum pm_err pm_render(const struct pm_render_ctx *ctx, const struct pm_camera *cam,
     const struct pm_render_opts *opts, struct pm_image *out,
     struct pm_render_stats *stats, struct pm_error *err);
+
+/*
+ * pm_render for PM_METHOD_PTRACER (integrator_ptracer.c): width x height x
+ * spp light paths, each connected to the camera at every vertex and
+ * splatted; bit-identical whatever the thread count.  The watch and the
+ * moments are not served; tiles count chunks of light paths.
+ */
+enum pm_err pm_ptracer_render(const struct pm_render_ctx *ctx,
+    const struct pm_camera *cam, const struct pm_render_opts *opts,
+    struct pm_image *out, struct pm_render_stats *stats,
+    struct pm_error *err);
 
 #endif

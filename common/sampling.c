@@ -213,7 +213,7 @@ pm_distrib_sample(const struct pm_distrib *d, float u, float *u_reuse)
 	if (u_reuse != NULL) {
 		float r = (float)((x - d->cdf[lo]) /
 		    (d->cdf[lo + 1] - d->cdf[lo]));
-		*u_reuse = fminf(fmaxf(r, 0.0f), ONE_MINUS_EPS);
+		*u_reuse = pm_fminf(pm_fmaxf(r, 0.0f), ONE_MINUS_EPS);
 	}
 	return lo;
 }

@@ -41,6 +41,7 @@ pm_scene_init(struct pm_scene *s)
 	s->integrator.max_depth = -1;
 	s->integrator.rr_depth = 5;
 	s->integrator.hide_emitters = false;
+	s->integrator.samples_per_pass = -1;
 	s->integrator.photon.global_photons = -1;	/* pm-shoot decides */
 	s->integrator.photon.caustic_photons = -1;
 	s->integrator.photon.global_lookup_radius = 0.05f;
@@ -220,6 +221,53 @@ scene_bsphere(struct pm_scene *s)
 	    pm_v3(lo[0], lo[1], lo[2])));
 }
 
+/* The mesh attributes the textures of shape i look up (its BSDF's, its
+ * area light's): a set of enum pm_mesh_attr bits. */
+static unsigned
+shape_needs(const struct pm_scene *s, size_t i)
+{
+	const struct pm_shape *sh = &s->shapes[i];
+	const struct pm_bsdf *b = &s->bsdfs[sh->bsdf];
+	int tex[5] = {b->tex_diffuse, b->tex_specular, b->tex_alpha,
+	    b->tex_transmittance, sh->light >= 0 ? s->lights[sh->light].tex : 0};
+	unsigned n = 0;
+	int k;
+
+	for (k = 0; k < 5; k++)
+		if (tex[k] > 0)
+			n |= pm_texture_needs(&s->textures[tex[k] - 1]);
+	return n;
+}
+
+/* An error if a shape's textures look up a mesh attribute the shape
+ * lacks (Mitsuba fails there too); called once indices are checked. */
+static enum pm_err
+mesh_attributes_present(const struct pm_scene *s, struct pm_error *err)
+{
+	size_t i;
+
+	for (i = 0; i < s->nshapes; i++) {
+		const struct pm_shape *sh = &s->shapes[i];
+		unsigned n;
+
+		if (s->ntextures == 0 || (n = shape_needs(s, i)) == 0)
+			continue;
+		if (sh->type == PM_SHAPE_MESH) {
+			if (sh->mesh.vcolor != NULL)
+				n &= ~(unsigned)PM_ATTR_VERTEX_COLOR;
+			if (sh->mesh.fcolor != NULL)
+				n &= ~(unsigned)PM_ATTR_FACE_COLOR;
+		}
+		if (n != 0)
+			return pm_fail(err, PM_ERR_INVALID, "shape %s: a "
+			    "mesh_attribute texture looks up %s, which the "
+			    "shape lacks (a PLY file's r g b or red green blue "
+			    "properties)", sh->name, (n & PM_ATTR_VERTEX_COLOR) ?
+			    "vertex_color" : "face_color");
+	}
+	return PM_OK;
+}
+
 /* Prepares BSDFs, computes the bounding sphere, light areas and powers,
  * checks indices. */
 enum pm_err
@@ -234,7 +282,9 @@ pm_scene_prepare(struct pm_scene *s, struct pm_error *err)
 
 		if (b->tex_diffuse < 0 || (size_t)b->tex_diffuse > nt ||
 		    b->tex_specular < 0 || (size_t)b->tex_specular > nt ||
-		    b->tex_alpha < 0 || (size_t)b->tex_alpha > nt)
+		    b->tex_alpha < 0 || (size_t)b->tex_alpha > nt ||
+		    b->tex_transmittance < 0 ||
+		    (size_t)b->tex_transmittance > nt)
 			return pm_fail(err, PM_ERR_INVALID, "BSDF %zu: texture "
 			    "index out of range (%zu textures)", i, nt);
 		pm_bsdf_prepare(&s->bsdfs[i]);
@@ -283,7 +333,16 @@ pm_scene_prepare(struct pm_scene *s, struct pm_error *err)
 		struct pm_light *l = &s->lights[i];
 		const struct pm_shape *sh;
 		double mean, theta;
+		struct pm_rgb tmean = pm_rgb1(1.0f);
 
+		if (l->tex < 0 || (size_t)l->tex > s->ntextures ||
+		    (l->type == PM_LIGHT_PROJECTOR && l->tex == 0))
+			return pm_fail(err, PM_ERR_INVALID, "light %zu: texture "
+			    "index %d out of range (%zu textures)", i, l->tex,
+			    s->ntextures);
+		/* a textured light's power counts the texture's mean */
+		if (l->tex > 0)
+			tmean = pm_texture_mean(&s->textures[l->tex - 1]);
 		switch (l->type) {
 		case PM_LIGHT_AREA:
 			if (l->shape < 0 || (size_t)l->shape >= s->nshapes ||
@@ -297,7 +356,7 @@ pm_scene_prepare(struct pm_scene *s, struct pm_error *err)
 				    (double)sh->radius;
 			else
 				l->area = pm_mesh_area(&sh->mesh);
-			mean = pm_rgb_mean(l->radiance);
+			mean = pm_rgb_mean(l->tex > 0 ? tmean : l->radiance);
 			/* One-sided Lambertian emitter: M = pi L. */
 			l->power = pi * l->area * mean;
 			break;
@@ -312,7 +371,16 @@ pm_scene_prepare(struct pm_scene *s, struct pm_error *err)
 			theta = 0.5 * ((double)l->cutoff_angle +
 			    (double)l->beam_width) * pi / 180.0;
 			l->power = 2.0 * pi * (1.0 - cos(theta)) *
-			    pm_rgb_mean(l->intensity);
+			    pm_rgb_mean(pm_rgb_mul(l->intensity, tmean));
+			break;
+		case PM_LIGHT_PROJECTOR:
+			/* Mitsuba's scale pi E on the image plane at z = 1,
+			 * whose area is (2 tan_fov)^2 / aspect: all of it
+			 * leaves the pinhole. */
+			l->area = 0.0;
+			l->power = pi * pm_rgb_mean(pm_rgb_mul(l->intensity,
+			    tmean)) * 4.0 * (double)l->tan_fov *
+			    (double)l->tan_fov / (double)l->aspect;
 			break;
 		case PM_LIGHT_CONSTANT:
 			if (s->env_light != (int)i)
@@ -351,5 +419,5 @@ pm_scene_prepare(struct pm_scene *s, struct pm_error *err)
 			    "light %zu: power %g is not a finite non-negative "
 			    "number", i, l->power);
 	}
-	return PM_OK;
+	return mesh_attributes_present(s, err);
 }

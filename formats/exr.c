@@ -36,6 +36,88 @@ static const char *const exr_names[3] = { "B", "G", "R" };
 /* Where each of those lands within an interleaved RGB pixel. */
 static const int exr_offset[3] = { 2, 1, 0 };
 
+/*
+ * Where channel `name` lives: the image holding it (im for R, G and B, or
+ * a layer's) in *img and its component within a pixel in *k; false for a
+ * channel neither has.
+ */
+static bool
+exr_find(const char *name, struct pm_image *im,
+    const struct pm_exr_layers *layers, struct pm_image **img, int *k)
+{
+	size_t i;
+	int j;
+
+	for (j = 0; j < 3; j++)
+		if (strcmp(name, exr_names[j]) == 0) {
+			*img = im;
+			*k = exr_offset[j];
+			return true;
+		}
+	for (i = 0; layers != NULL && i < layers->n; i++)
+		for (j = 0; j < 3; j++)
+			if (layers->v[i].name[j] != NULL &&
+			    strcmp(name, layers->v[i].name[j]) == 0) {
+				*img = &layers->v[i].im;
+				*k = j;
+				return true;
+			}
+	return false;
+}
+
+void
+pm_exr_layers_free(struct pm_exr_layers *l)
+{
+	size_t i;
+	int k;
+
+	for (i = 0; i < l->n; i++) {
+		for (k = 0; k < 3; k++)
+			free(l->v[i].name[k]);
+		pm_image_free(&l->v[i].im);
+	}
+	free(l->v);
+	l->v = NULL;
+	l->n = 0;
+}
+
+enum pm_err
+pm_exr_layers_add(struct pm_exr_layers *l, const char *n0, const char *n1,
+    const char *n2, int width, int height, struct pm_exr_layer **out,
+    struct pm_error *err)
+{
+	const char *names[3] = { n0, n1, n2 };
+	struct pm_exr_layer *v, *ly;
+	enum pm_err e;
+	int k;
+
+	v = realloc(l->v, (l->n + 1) * sizeof(*v));
+	if (v == NULL)
+		return pm_fail(err, PM_ERR_NOMEM, "no memory for a layer");
+	l->v = v;
+	ly = &v[l->n];
+	memset(ly, 0, sizeof(*ly));
+	for (k = 0; k < 3; k++)
+		if (names[k] != NULL && (ly->name[k] = strdup(names[k])) ==
+		    NULL) {
+			while (k-- > 0)
+				free(ly->name[k]);
+			return pm_fail(err, PM_ERR_NOMEM, "no memory for a "
+			    "layer");
+		}
+	if ((e = pm_image_alloc(&ly->im, width, height, err)) != PM_OK) {
+		for (k = 0; k < 3; k++)
+			free(ly->name[k]);
+		return e;
+	}
+	memset(ly->im.rgb, 0, 3 * sizeof(float) * (size_t)width *
+	    (size_t)height);
+	l->n++;
+	if (out != NULL)
+		*out = ly;
+	return PM_OK;
+}
+
 static void
 exr_on_error(exr_const_context_t ctxt, exr_result_t code, const char *msg)
 {
@@ -234,7 +316,8 @@ pm_exr_attrs_set(struct pm_exr_attrs *a, const char *name, const char *value,
 
 /* Encodes every scanline chunk of im into the open part 0 of ctxt. */
 static exr_result_t
-exr_write_pixels(exr_context_t ctxt, const struct pm_image *im)
+exr_write_pixels(exr_context_t ctxt, const struct pm_image *im,
+    const struct pm_exr_layers *layers)
 {
 	exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
 	exr_chunk_info_t cinfo;
@@ -257,12 +340,13 @@ exr_write_pixels(exr_context_t ctxt, const struct pm_image *im)
 			break;
 		for (c = 0; c < enc.channel_count; c++) {
 			exr_coding_channel_info_t *ch = &enc.channels[c];
+			struct pm_image *img;
 			int k;
 
-			for (k = 0; k < 3; k++)
-				if (strcmp(ch->channel_name, exr_names[k]) == 0)
-					break;
-			if (k == 3) {
+			/* Only read through img: exr_find serves the
+			 * reader too. */
+			if (!exr_find(ch->channel_name, (struct pm_image *)im,
+			    layers, &img, &k)) {
 				rv = EXR_ERR_INVALID_ARGUMENT;
 				goto out;
 			}
@@ -270,9 +354,8 @@ exr_write_pixels(exr_context_t ctxt, const struct pm_image *im)
 			ch->user_line_stride = 3 * sizeof(float) * im->width;
 			ch->user_data_type = EXR_PIXEL_FLOAT;
 			ch->user_bytes_per_element = sizeof(float);
-			ch->encode_from_ptr = (const uint8_t *)(im->rgb +
-			    (size_t)cinfo.start_y * im->width * 3 +
-			    exr_offset[k]);
+			ch->encode_from_ptr = (const uint8_t *)(img->rgb +
+			    (size_t)cinfo.start_y * im->width * 3 + k);
 		}
 		if (!started) {
 			rv = exr_encoding_choose_default_routines(ctxt, 0, &enc);
@@ -312,6 +395,15 @@ enum pm_err
 pm_exr_write_attrs(const char *path, const struct pm_image *im, bool half,
     const struct pm_exr_attrs *attrs, struct pm_error *err)
 {
+	return pm_exr_write_layers(path, im, half, attrs, NULL, err);
+}
+
+/* pm_exr_write_attrs with the layers' channels too. */
+enum pm_err
+pm_exr_write_layers(const char *path, const struct pm_image *im, bool half,
+    const struct pm_exr_attrs *attrs, const struct pm_exr_layers *layers,
+    struct pm_error *err)
+{
 	exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
 	exr_context_t ctxt = NULL;
 	exr_pixel_type_t type = half ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT;
@@ -325,6 +417,36 @@ pm_exr_write_attrs(const char *path, const struct pm_image *im, bool half,
 
 	if (im == NULL || im->rgb == NULL || im->width < 1 || im->height < 1)
 		return pm_fail(err, PM_ERR_INVALID, "%s: empty image", path);
+	for (i = 0; layers != NULL && i < layers->n; i++)
+		if (layers->v[i].im.width != im->width ||
+		    layers->v[i].im.height != im->height ||
+		    layers->v[i].im.rgb == NULL)
+			return pm_fail(err, PM_ERR_INVALID, "%s: a layer's size "
+			    "differs from the image's", path);
+	/* Checked here: OpenEXRCore 3.1 deadlocks reporting a duplicate
+	 * channel (its error callback takes the lock it holds). */
+	for (i = 0; layers != NULL && i < layers->n; i++)
+		for (k = 0; k < 3; k++) {
+			const char *nm = layers->v[i].name[k];
+			struct pm_image *img;
+			size_t i2;
+			int k2;
+
+			if (nm == NULL)
+				continue;
+			if (nm[0] == '\0' || exr_find(nm, (struct pm_image *)im,
+			    NULL, &img, &k2))
+				return pm_fail(err, PM_ERR_INVALID, "%s: bad "
+				    "channel name '%s'", path, nm);
+			for (i2 = 0; i2 <= i; i2++)
+				for (k2 = 0; k2 < (i2 == i ? k : 3); k2++)
+					if (layers->v[i2].name[k2] != NULL &&
+					    strcmp(layers->v[i2].name[k2], nm)
+					    == 0)
+						return pm_fail(err,
+						    PM_ERR_INVALID, "%s: channel "
+						    "'%s' given twice", path, nm);
+		}
 	memset(&io, 0, sizeof(io));
 	if ((e = pm_out_open(&out, path, err)) != PM_OK)
 		return e;
@@ -347,6 +469,15 @@ pm_exr_write_attrs(const char *path, const struct pm_image *im, bool half,
 	for (k = 0; k < 3 && rv == EXR_ERR_SUCCESS; k++)
 		rv = exr_add_channel(ctxt, part, exr_names[k], type,
 		    EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
+	/* OpenEXR keeps the channel list sorted whatever the order added;
+	 * a name given twice is refused there. */
+	for (i = 0; layers != NULL && i < layers->n && rv == EXR_ERR_SUCCESS;
+	    i++)
+		for (k = 0; k < 3 && rv == EXR_ERR_SUCCESS; k++)
+			if (layers->v[i].name[k] != NULL)
+				rv = exr_add_channel(ctxt, part,
+				    layers->v[i].name[k], type,
+				    EXR_PERCEPTUALLY_LINEAR, 1, 1);
 	if (rv != EXR_ERR_SUCCESS)
 		goto fail;
 	what = "cannot set a string attribute";
@@ -358,7 +489,7 @@ pm_exr_write_attrs(const char *path, const struct pm_image *im, bool half,
 	if ((rv = exr_write_header(ctxt)) != EXR_ERR_SUCCESS)
 		goto fail;
 	what = "cannot write the pixels";
-	if ((rv = exr_write_pixels(ctxt, im)) != EXR_ERR_SUCCESS)
+	if ((rv = exr_write_pixels(ctxt, im, layers)) != EXR_ERR_SUCCESS)
 		goto fail;
 	/* exr_finish writes the chunk offset table: the file is only
 	 * complete once it succeeds. */
@@ -379,29 +510,29 @@ fail:
 
 /*
  * Points the decoder's R, G and B outputs at the pixel (x0, y0) of im,
- * as float, interleaved; other channels are left NULL, which OpenEXR
- * skips.  Returns how many of R, G, B were found.
+ * and those of the layers' channels at their images, as float,
+ * interleaved; other channels are left NULL, which OpenEXR skips.
+ * Returns how many channels were bound.
  */
 static int
-exr_bind(exr_decode_pipeline_t *dec, struct pm_image *im, int x0, int y0)
+exr_bind(exr_decode_pipeline_t *dec, struct pm_image *im,
+    const struct pm_exr_layers *layers, int x0, int y0)
 {
 	int c, k, found = 0;
 
 	for (c = 0; c < dec->channel_count; c++) {
 		exr_coding_channel_info_t *ch = &dec->channels[c];
+		struct pm_image *img;
 
 		ch->decode_to_ptr = NULL;
-		for (k = 0; k < 3; k++)
-			if (strcmp(ch->channel_name, exr_names[k]) == 0)
-				break;
-		if (k == 3)
+		if (!exr_find(ch->channel_name, im, layers, &img, &k))
 			continue;
 		ch->user_pixel_stride = 3 * sizeof(float);
 		ch->user_line_stride = 3 * sizeof(float) * im->width;
 		ch->user_data_type = EXR_PIXEL_FLOAT;
 		ch->user_bytes_per_element = sizeof(float);
-		ch->decode_to_ptr = (uint8_t *)(im->rgb +
-		    ((size_t)y0 * im->width + x0) * 3 + exr_offset[k]);
+		ch->decode_to_ptr = (uint8_t *)(img->rgb +
+		    ((size_t)y0 * im->width + x0) * 3 + k);
 		found++;
 	}
 	return found;
@@ -413,7 +544,8 @@ exr_bind(exr_decode_pipeline_t *dec, struct pm_image *im, int x0, int y0)
  */
 static exr_result_t
 exr_decode_chunk(exr_context_t ctxt, exr_decode_pipeline_t *dec, int *started,
-    const exr_chunk_info_t *cinfo, struct pm_image *im, int x0, int y0)
+    const exr_chunk_info_t *cinfo, struct pm_image *im,
+    const struct pm_exr_layers *layers, int nbind, int x0, int y0)
 {
 	exr_result_t rv;
 
@@ -425,7 +557,7 @@ exr_decode_chunk(exr_context_t ctxt, exr_decode_pipeline_t *dec, int *started,
 	if (rv != EXR_ERR_SUCCESS)
 		return rv;
 	*started = 1;
-	if (exr_bind(dec, im, x0, y0) != 3)
+	if (exr_bind(dec, im, layers, x0, y0) != nbind)
 		return EXR_ERR_INVALID_ARGUMENT;
 	/* Choosing again each chunk is cheap and follows any change of
 	 * chunk shape, such as a short last block. */
@@ -438,7 +570,7 @@ exr_decode_chunk(exr_context_t ctxt, exr_decode_pipeline_t *dec, int *started,
 /* Reads every scanline chunk of part 0; dw is its data window. */
 static exr_result_t
 exr_read_scanlines(exr_context_t ctxt, const exr_attr_box2i_t *dw,
-    struct pm_image *im)
+    struct pm_image *im, const struct pm_exr_layers *layers, int nbind)
 {
 	exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
 	exr_chunk_info_t cinfo;
@@ -456,7 +588,8 @@ exr_read_scanlines(exr_context_t ctxt, const exr_attr_box2i_t *dw,
 		if (rv != EXR_ERR_SUCCESS)
 			break;
 		rv = exr_decode_chunk(ctxt, &dec, &started, &cinfo, im,
-		    cinfo.start_x - dw->min.x, cinfo.start_y - dw->min.y);
+		    layers, nbind, cinfo.start_x - dw->min.x,
+		    cinfo.start_y - dw->min.y);
 		if (rv != EXR_ERR_SUCCESS)
 			break;
 		/* Guards against a loop that cannot advance. */
@@ -470,7 +603,8 @@ exr_read_scanlines(exr_context_t ctxt, const exr_attr_box2i_t *dw,
 
 /* Reads the tiles of level 0 of part 0. */
 static exr_result_t
-exr_read_tiles(exr_context_t ctxt, struct pm_image *im)
+exr_read_tiles(exr_context_t ctxt, struct pm_image *im,
+    const struct pm_exr_layers *layers, int nbind)
 {
 	exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
 	exr_chunk_info_t cinfo;
@@ -494,7 +628,7 @@ exr_read_tiles(exr_context_t ctxt, struct pm_image *im)
 			if (rv != EXR_ERR_SUCCESS)
 				break;
 			rv = exr_decode_chunk(ctxt, &dec, &started, &cinfo, im,
-			    tx * tw, ty * th);
+			    layers, nbind, tx * tw, ty * th);
 			if (rv != EXR_ERR_SUCCESS)
 				break;
 		}
@@ -549,6 +683,23 @@ enum pm_err
 pm_exr_read_attrs(const char *path, struct pm_image *im,
     struct pm_exr_attrs *attrs, struct pm_error *err)
 {
+	return pm_exr_read_layers(path, im, attrs, NULL, err);
+}
+
+/* True for R, G and B, which the image itself holds. */
+static bool
+exr_is_rgb(const char *name)
+{
+	return strcmp(name, "R") == 0 || strcmp(name, "G") == 0 ||
+	    strcmp(name, "B") == 0;
+}
+
+/* pm_exr_read_attrs that also reads the other channels into layers. */
+enum pm_err
+pm_exr_read_layers(const char *path, struct pm_image *im,
+    struct pm_exr_attrs *attrs, struct pm_exr_layers *layers,
+    struct pm_error *err)
+{
 	exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
 	exr_context_t ctxt = NULL;
 	const exr_attr_chlist_t *chl;
@@ -557,7 +708,7 @@ pm_exr_read_attrs(const char *path, struct pm_image *im,
 	struct exr_io io;
 	exr_result_t rv;
 	int64_t w, h;
-	int k, c;
+	int k, c, nbind = 3;
 	enum pm_err e;
 
 	if (im != NULL) {
@@ -566,6 +717,8 @@ pm_exr_read_attrs(const char *path, struct pm_image *im,
 	}
 	if (attrs != NULL)
 		pm_exr_attrs_free(attrs);
+	if (layers != NULL)
+		pm_exr_layers_free(layers);
 	memset(&io, 0, sizeof(io));
 	io.fd = open(path, O_RDONLY | O_CLOEXEC);
 	if (io.fd < 0)
@@ -636,7 +789,62 @@ pm_exr_read_attrs(const char *path, struct pm_image *im,
 		e = PM_OK;
 		goto out;
 	}
-	if ((e = pm_image_alloc(im, (int)w, (int)h, err)) != PM_OK) {
+	if ((e = pm_image_alloc(im, (int)w, (int)h, err)) == PM_OK &&
+	    layers != NULL) {
+		/* The other channels, three to a layer in list order, all of
+		 * them within the pixels one image may have. */
+		const char *nm[3];
+		int m = 0;
+		size_t extra = 0;
+
+		for (c = 0; c < chl->num_channels; c++)
+			if (chl->entries[c].name.str != NULL &&
+			    !exr_is_rgb(chl->entries[c].name.str))
+				extra++;
+		if ((extra + 2) / 3 + 1 > PM_IMAGE_MAX_PIXELS / ((size_t)w *
+		    (size_t)h)) {
+			e = pm_fail(err, PM_ERR_LIMIT, "%s: %zu channels of "
+			    "%lldx%lld pixels: more than %zu pixels of film "
+			    "in all", path, extra + 3, (long long)w,
+			    (long long)h, (size_t)PM_IMAGE_MAX_PIXELS);
+			pm_image_free(im);
+			goto out;
+		}
+		for (c = 0; c <= chl->num_channels && e == PM_OK; c++) {
+			const exr_attr_chlist_entry_t *ent = c <
+			    chl->num_channels ? &chl->entries[c] : NULL;
+
+			if (ent != NULL && (ent->name.str == NULL ||
+			    exr_is_rgb(ent->name.str)))
+				continue;
+			if (ent != NULL && (ent->x_sampling != 1 ||
+			    ent->y_sampling != 1)) {
+				e = pm_fail(err, PM_ERR_UNSUPPORTED, "%s: "
+				    "channel %s is subsampled (%d, %d); "
+				    "expected full resolution", path,
+				    ent->name.str, ent->x_sampling,
+				    ent->y_sampling);
+				break;
+			}
+			if (ent != NULL)
+				nm[m++] = ent->name.str;
+			if (m == 3 || (ent == NULL && m > 0)) {
+				while (m < 3)
+					nm[m++] = NULL;
+				e = pm_exr_layers_add(layers, nm[0], nm[1],
+				    nm[2], (int)w, (int)h, NULL, err);
+				nbind += (nm[0] != NULL) + (nm[1] != NULL) +
+				    (nm[2] != NULL);
+				m = 0;
+			}
+		}
+		if (e != PM_OK) {
+			pm_image_free(im);
+			pm_exr_layers_free(layers);
+			goto out;
+		}
+	}
+	if (e != PM_OK) {
 		/* Put the file name in front of the allocator's message. */
 		char msg[sizeof(err->msg)];
 
@@ -647,9 +855,9 @@ pm_exr_read_attrs(const char *path, struct pm_image *im,
 		goto out;
 	}
 	if (storage == EXR_STORAGE_SCANLINE)
-		rv = exr_read_scanlines(ctxt, &dw, im);
+		rv = exr_read_scanlines(ctxt, &dw, im, layers, nbind);
 	else
-		rv = exr_read_tiles(ctxt, im);
+		rv = exr_read_tiles(ctxt, im, layers, nbind);
 	if (rv == EXR_ERR_READ_IO && io.read_errno == 0) {
 		e = pm_fail(err, PM_ERR_TRUNCATED, "%s: truncated: the file "
 		    "ends inside its pixel data", path);
@@ -666,6 +874,8 @@ pm_exr_read_attrs(const char *path, struct pm_image *im,
 out:
 	if (e != PM_OK && attrs != NULL)
 		pm_exr_attrs_free(attrs);
+	if (e != PM_OK && layers != NULL)
+		pm_exr_layers_free(layers);
 	exr_finish(&ctxt);
 	close(io.fd);
 	return e;

@@ -10,7 +10,8 @@
  * that follow the header (each element needs at least its scalar sizes and
  * list counts in binary, one character per value in ASCII), so that a
  * corrupt count fails cleanly instead of asking for gigabytes.  Texture
- * coordinates are stored as the file gives them.
+ * coordinates are stored as the file gives them, and so are the colours
+ * of vertices and faces (Mitsuba's vertex_color and face_color).
  */
 #include <errno.h>
 #include <limits.h>
@@ -33,8 +34,8 @@ enum ply_type {
 	PT_NONE, PT_I8, PT_U8, PT_I16, PT_U16, PT_I32, PT_U32, PT_F32, PT_F64
 };
 
-/* Where a vertex property goes: x y z, nx ny nz, u v. */
-enum { S_X, S_Y, S_Z, S_NX, S_NY, S_NZ, S_U, S_V, S_COUNT };
+/* Where a vertex property goes: x y z, nx ny nz, u v, the colour r g b. */
+enum { S_X, S_Y, S_Z, S_NX, S_NY, S_NZ, S_U, S_V, S_R, S_G, S_B, S_COUNT };
 
 struct ply_prop {
 	char name[PLY_NAME_MAX];
@@ -57,6 +58,8 @@ struct ply_header {
 	int vertex, face;	/* element numbers, -1 if absent */
 	int index_prop;		/* the face element's index list */
 	int has_nrm, has_uv;
+	int has_vcolor;		/* vertex r g b (or red green blue) */
+	int fcolor[3];		/* the face element's r g b, or -1 */
 };
 
 /* The data section: a cursor with an end, and where we are for messages. */
@@ -149,6 +152,32 @@ parse_count(const char *s, unsigned long long *out)
 	return 1;
 }
 
+/* The scalar properties r g b, or else red green blue, of an element
+ * (Mitsuba's vertex_color and face_color): their numbers in rgb[], all
+ * -1 unless all three are there. */
+static void
+find_color(const struct ply_elem *e, int rgb[3])
+{
+	static const char *const names[2][3] = {{"r", "g", "b"},
+	    {"red", "green", "blue"}};
+	int set, c, i;
+
+	for (set = 0; set < 2; set++) {
+		for (c = 0; c < 3; c++) {
+			rgb[c] = -1;
+			for (i = 0; i < e->nprops && rgb[c] < 0; i++)
+				if (e->props[i].count == PT_NONE &&
+				    strcmp(e->props[i].name, names[set][c]) == 0)
+					rgb[c] = i;
+			if (rgb[c] < 0)
+				break;
+		}
+		if (c == 3)
+			return;
+	}
+	rgb[0] = rgb[1] = rgb[2] = -1;
+}
+
 /* Gives vertex properties their slots once the whole header is known. */
 static void
 assign_slots(struct ply_header *h)
@@ -187,8 +216,10 @@ assign_slots(struct ply_header *h)
 			found[S_V] = iv;
 		}
 	}
+	find_color(e, &found[S_R]);
 	h->has_nrm = found[S_NX] >= 0 && found[S_NY] >= 0 && found[S_NZ] >= 0;
 	h->has_uv = found[S_U] >= 0;
+	h->has_vcolor = found[S_R] >= 0;
 	for (k = 0; k < S_COUNT; k++) {
 		if (found[k] < 0)
 			continue;
@@ -196,6 +227,9 @@ assign_slots(struct ply_header *h)
 			continue;
 		e->props[found[k]].slot = k;
 	}
+	h->fcolor[0] = h->fcolor[1] = h->fcolor[2] = -1;
+	if (h->face >= 0)
+		find_color(&h->elems[h->face], h->fcolor);
 }
 
 /*
@@ -643,6 +677,13 @@ read_vertices(struct ply_in *in, const struct ply_header *h,
 			m->uv[2 * i] = (float)s[S_U];
 			m->uv[2 * i + 1] = (float)s[S_V];
 		}
+		/* as the file gives them, 8-bit ones too (Mitsuba 3 does
+		 * not scale those to [0, 1] either) */
+		if (m->vcolor != NULL) {
+			m->vcolor[3 * i] = (float)s[S_R];
+			m->vcolor[3 * i + 1] = (float)s[S_G];
+			m->vcolor[3 * i + 2] = (float)s[S_B];
+		}
 	}
 	return PM_OK;
 }
@@ -662,6 +703,15 @@ push_tri(struct ply_in *in, struct pm_mesh *m, size_t *cap, uint32_t a,
 			return pm_fail(in->err, PM_ERR_NOMEM, "%s: out of memory "
 			    "for %zu triangles", in->name, ncap);
 		m->idx = ni;
+		if (m->fcolor != NULL) {
+			float *nc = realloc(m->fcolor, ncap * 3 * sizeof(float));
+
+			if (nc == NULL)
+				return pm_fail(in->err, PM_ERR_NOMEM, "%s: out "
+				    "of memory for %zu triangles", in->name,
+				    ncap);
+			m->fcolor = nc;
+		}
 		*cap = ncap;
 	}
 	m->idx[3 * (size_t)m->ntris] = a;
@@ -681,11 +731,24 @@ read_faces(struct ply_in *in, const struct ply_header *h, struct pm_mesh *m,
 	int k;
 
 	for (in->item = 0; in->item < el->count; in->item++) {
+		uint32_t t0 = m->ntris, t;
+		double col[3] = {0, 0, 0};
+
 		for (k = 0; k < el->nprops; k++) {
 			const struct ply_prop *p = &el->props[k];
 			uint32_t n, j, first = 0, prev = 0, cur;
 			double v;
+			int c;
 
+			for (c = 0; c < 3 && m->fcolor != NULL; c++)
+				if (k == h->fcolor[c])
+					break;
+			if (m->fcolor != NULL && c < 3) {
+				if ((e = read_value(in, p->type, &col[c]))
+				    != PM_OK)
+					return e;
+				continue;
+			}
 			if (k != h->index_prop) {
 				if ((e = skip_prop(in, p)) != PM_OK)
 					return e;
@@ -713,6 +776,12 @@ read_faces(struct ply_in *in, const struct ply_header *h, struct pm_mesh *m,
 					return e;
 				prev = cur;
 			}
+		}
+		/* the face's colour on each of its triangles */
+		for (t = t0; m->fcolor != NULL && t < m->ntris; t++) {
+			m->fcolor[3 * (size_t)t] = (float)col[0];
+			m->fcolor[3 * (size_t)t + 1] = (float)col[1];
+			m->fcolor[3 * (size_t)t + 2] = (float)col[2];
 		}
 	}
 	return PM_OK;
@@ -765,8 +834,13 @@ pm_ply_parse(const char *name, const unsigned char *buf, size_t len,
 	m->nrm = h.has_nrm ? malloc(nv * 3 * sizeof(float) + 1) : NULL;
 	m->uv = h.has_uv ? malloc(nv * 2 * sizeof(float) + 1) : NULL;
 	m->idx = malloc(cap * 3 * sizeof(uint32_t) + 1);
+	m->vcolor = h.has_vcolor ? malloc(nv * 3 * sizeof(float) + 1) : NULL;
+	m->fcolor = h.fcolor[0] >= 0 ? malloc(cap * 3 * sizeof(float) + 1) :
+	    NULL;
 	if (m->pos == NULL || m->idx == NULL || (h.has_nrm && m->nrm == NULL) ||
-	    (h.has_uv && m->uv == NULL)) {
+	    (h.has_uv && m->uv == NULL) ||
+	    (h.has_vcolor && m->vcolor == NULL) ||
+	    (h.fcolor[0] >= 0 && m->fcolor == NULL)) {
 		pm_mesh_free(m);
 		return pm_fail(err, PM_ERR_NOMEM, "%s: out of memory for %zu "
 		    "vertices", name, nv);

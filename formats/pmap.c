@@ -36,7 +36,7 @@
 #define PMAP_ENTRY	96		/* a map-table entry, version 2.0 */
 #define PMAP_REC	24		/* one photon record */
 #define PMAP_ALIGN	64		/* payload alignment */
-#define PMAP_MAXMAPS	3		/* one of each kind */
+#define PMAP_MAXMAPS	4		/* one of each kind */
 /* Records per crc32 and reserved-byte check of a payload in place: 96 KiB,
  * so that the check reads what the crc32 has just brought into cache. */
 #define PMAP_CHECK_RECS	4096
@@ -57,7 +57,8 @@
 #define PMAP_STORE_ZLIB		1u
 
 #define PMAP_EFFECTS_KNOWN \
-	(PM_EFFECT_GLOBAL | PM_EFFECT_CAUSTICS | PM_EFFECT_REFRACTION)
+	(PM_EFFECT_GLOBAL | PM_EFFECT_CAUSTICS | PM_EFFECT_REFRACTION | \
+	PM_EFFECT_MEDIA)
 
 #if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
 #define PMAP_HOST_LE	1
@@ -175,6 +176,7 @@ kind_name(uint32_t kind)
 	case PM_MAP_GLOBAL:	return "global";
 	case PM_MAP_CAUSTIC:	return "caustic";
 	case PM_MAP_IRRADIANCE:	return "irradiance";
+	case PM_MAP_VOLUME:	return "volume";
 	}
 	return "unknown";
 }
@@ -183,7 +185,7 @@ static bool
 kind_known(uint32_t kind)
 {
 	return kind == PM_MAP_GLOBAL || kind == PM_MAP_CAUSTIC ||
-	    kind == PM_MAP_IRRADIANCE;
+	    kind == PM_MAP_IRRADIANCE || kind == PM_MAP_VOLUME;
 }
 
 /* Index of the first of n records whose reserved bytes are not zero, or
@@ -582,11 +584,15 @@ check_entry(struct pmap_in *in, const struct pmap_entry *me, uint32_t hs)
 	uint64_t raw, end;
 	int k;
 
+	if (me->kind == PM_MAP_VOLUME && in->minor < 1)
+		return pm_fail(in->err, PM_ERR_FORMAT, "%s: a volume map "
+		    "(kind 4, byte %" PRIu64 ") in a version 2.0 file; "
+		    "volume maps are version 2.1's", in->name, me->at);
 	if (!kind_known(me->kind))
 		return pm_fail(in->err, in->strict ? PM_ERR_FORMAT :
 		    PM_ERR_UNSUPPORTED, "%s: unknown map kind %lu (byte "
 		    "%" PRIu64 "; this reader knows 1, global, 2, caustic, "
-		    "and 3, irradiance)", in->name, (unsigned long)me->kind,
+		    "3, irradiance, and 4, volume)", in->name, (unsigned long)me->kind,
 		    me->at);
 	if (in->strict && (me->flags & ~PMAP_MAP_BALANCED) != 0)
 		return pm_fail(in->err, PM_ERR_FORMAT, "%s: unknown flags "
@@ -699,13 +705,14 @@ parse_header(struct pmap_in *in, const unsigned char *h, uint32_t hs,
 	if (in->strict && flags != 0)
 		return pm_fail(in->err, PM_ERR_FORMAT, "%s: unknown file "
 		    "flags 0x%lx (byte 16)", in->name, (unsigned long)flags);
-	if (in->strict && (effects & ~(uint32_t)PMAP_EFFECTS_KNOWN) != 0)
+	if (in->strict && ((effects & ~(uint32_t)PMAP_EFFECTS_KNOWN) != 0 ||
+	    ((effects & PM_EFFECT_MEDIA) && in->minor < 1)))
 		return pm_fail(in->err, PM_ERR_FORMAT, "%s: unknown effects "
 		    "0x%lx (byte 20)", in->name, (unsigned long)effects);
 	if (nmaps > PMAP_MAXMAPS)
 		return pm_fail(in->err, in->strict ? PM_ERR_FORMAT :
 		    PM_ERR_UNSUPPORTED, "%s: %lu maps (byte 44; at most %d, "
-		    "global, caustic and irradiance)", in->name,
+		    "global, caustic, irradiance and volume)", in->name,
 		    (unsigned long)nmaps, PMAP_MAXMAPS);
 	if (esize < PMAP_ENTRY || (in->strict && esize != PMAP_ENTRY))
 		return pm_fail(in->err, PM_ERR_FORMAT, "%s: map entries of "
@@ -1412,6 +1419,19 @@ write_all(int fd, const void *buf, uint64_t n, const char *name,
 }
 
 /* The header, laid out as man/pmap.5 says; hs bytes. */
+static bool
+needs_2_1(const struct pm_pmap *m)
+{
+	int i;
+
+	if (m->effects & PM_EFFECT_MEDIA)
+		return true;
+	for (i = 0; i < m->nmaps; i++)
+		if (m->maps[i].kind == PM_MAP_VOLUME)
+			return true;
+	return false;
+}
+
 static void
 build_header(unsigned char *h, uint32_t hs, const struct pm_pmap *m,
     const struct pmap_out *o, size_t isize)
@@ -1423,7 +1443,11 @@ build_header(unsigned char *h, uint32_t hs, const struct pm_pmap *m,
 	memset(h, 0, hs);
 	memcpy(h, pmap_magic, sizeof(pmap_magic));
 	put16(h + 8, PM_PMAP_VERSION_MAJOR);
-	put16(h + 10, PM_PMAP_VERSION_MINOR);
+	/* The oldest version that describes the file: 2.1 only for what
+	 * 2.1 added (a volume map, the media effect), so that files
+	 * without media stay 2.0, byte for byte, and 2.0 readers read
+	 * them as strictly as before. */
+	put16(h + 10, needs_2_1(m) ? 1 : 0);
 	put32(h + 12, hs);
 	put32(h + 16, 0);
 	put32(h + 20, m->effects);

@@ -15,7 +15,7 @@
 #include "../common/photonmap.h"
 
 #define PM_PMAP_VERSION_MAJOR 2
-#define PM_PMAP_VERSION_MINOR 0
+#define PM_PMAP_VERSION_MINOR 1
 
 /*
  * Writes m to path ("-": standard output) through a temporary file renamed

@@ -1,8 +1,8 @@
 /*
  * texture.c (formats): image files into bitmap textures' texels.  The
- * decoders are png.c, jpeg.c and exr.c; this file tells the formats apart
- * and turns 8-bit samples into linear floats once, at load, so that a
- * lookup never converts.
+ * decoders are png.c, jpeg.c, exr.c and rgbe.c; this file tells the
+ * formats apart and turns 8-bit samples into linear floats once, at load,
+ * so that a lookup never converts.
  */
 #include <errno.h>
 #include <stdint.h>
@@ -14,6 +14,7 @@
 #include "exr.h"
 #include "jpeg.h"
 #include "png.h"
+#include "rgbe.h"
 #include "texture.h"
 
 /* 8-bit samples (stride bytes a pixel, RGB first) into linear floats. */
@@ -75,9 +76,14 @@ pm_bitmap_read(const char *path, bool raw, struct pm_texture *t,
 		return pm_fail(err, PM_ERR_IO, "%s: %s", path, strerror(errno));
 	got = fread(head, 1, sizeof(head), fp);
 	fclose(fp);
-	if (got == sizeof(head) && memcmp(head, exr_magic, 4) == 0) {
+	if ((got == sizeof(head) && memcmp(head, exr_magic, 4) == 0) ||
+	    (got >= 2 && head[0] == '#' && head[1] == '?')) {
+		/* OpenEXR, or Radiance's RGBE ("#?RADIANCE"): linear
+		 * already, whatever raw says, as in Mitsuba */
 		memset(&im, 0, sizeof(im));
-		if ((e = pm_exr_read(path, &im, err)) != PM_OK)
+		e = head[0] == '#' ? pm_rgbe_read(path, &im, err) :
+		    pm_exr_read(path, &im, err);
+		if (e != PM_OK)
 			return e;
 		pm_texture_free(t);
 		t->rgb = im.rgb;	/* linear RGB, top row first: as is */
@@ -102,8 +108,8 @@ pm_bitmap_read(const char *path, bool raw, struct pm_texture *t,
 		e = pm_jpeg_read(path, &px, &w, &h, err);
 		stride = 3;
 	} else {
-		return pm_fail(err, PM_ERR_UNSUPPORTED, "%s: not a PNG, JPEG "
-		    "or OpenEXR file (the bitmap formats pm reads)", path);
+		return pm_fail(err, PM_ERR_UNSUPPORTED, "%s: not a PNG, JPEG, "
+		    "OpenEXR or Radiance HDR file (the bitmap formats pm reads)", path);
 	}
 	if (e != PM_OK)
 		return e;

@@ -8,7 +8,11 @@
  * Radiance's pfilt.  Passes are summed pairwise (each sum adds two images
  * holding the same number of passes), so the rounding error grows with
  * the logarithm of the number of passes rather than with the number, while
- * only a logarithmic number of images is held at once.
+ * only a logarithmic number of images is held at once.  Channels beside
+ * R, G and B (Mitsuba's AOVs, such as the moment integrator's first and
+ * second moments) are averaged and filtered the same way when the output
+ * is OpenEXR: the mean of the passes' second moments is the second moment
+ * of all their samples.
  */
 #include <errno.h>
 #include <getopt.h>
@@ -161,20 +165,68 @@ clipped_fraction(const uint8_t *rgb, const struct pm_image *im, float ev)
 	return n > 0 ? (double)hi / n : 0.0;
 }
 
+/* A pass or a sum of passes: the image and its other channels. */
+struct frame {
+	struct pm_image im;
+	struct pm_exr_layers ly;
+};
+
+static void
+frame_free(struct frame *f)
+{
+	pm_image_free(&f->im);
+	pm_exr_layers_free(&f->ly);
+}
+
+/* acc += f, image and layers; the layers were checked to match. */
+static enum pm_err
+frame_accumulate(struct frame *acc, const struct frame *f,
+    struct pm_error *err)
+{
+	enum pm_err e = pm_image_accumulate(&acc->im, &f->im, err);
+	size_t i;
+
+	for (i = 0; i < acc->ly.n && e == PM_OK; i++)
+		e = pm_image_accumulate(&acc->ly.v[i].im, &f->ly.v[i].im, err);
+	return e;
+}
+
+/* True if a and b have the same channels beside R, G and B. */
+static bool
+same_layers(const struct pm_exr_layers *a, const struct pm_exr_layers *b)
+{
+	size_t i;
+	int k;
+
+	if (a->n != b->n)
+		return false;
+	for (i = 0; i < a->n; i++)
+		for (k = 0; k < 3; k++) {
+			const char *x = a->v[i].name[k], *y = b->v[i].name[k];
+
+			if ((x == NULL) != (y == NULL) ||
+			    (x != NULL && strcmp(x, y) != 0))
+				return false;
+		}
+	return true;
+}
+
 /* Releases every partial sum. */
 static void
-free_levels(struct pm_image *level)
+free_levels(struct frame *level)
 {
 	int k;
 
 	for (k = 0; k < MAX_LEVELS; k++)
-		pm_image_free(&level[k]);
+		frame_free(&level[k]);
 }
 
 int
 main(int argc, char *argv[])
 {
-	struct pm_image level[MAX_LEVELS], sum, out;
+	struct frame level[MAX_LEVELS], sum;
+	struct pm_image out;
+	struct pm_exr_layers out_ly = { NULL, 0 }, first_ly = { NULL, 0 };
 	struct pm_exr_attrs attrs = { 0 };
 	struct pm_error err;
 	enum out_kind kind = OUT_EXR;
@@ -184,6 +236,7 @@ main(int argc, char *argv[])
 	bool half = false, exposure_set = false, force;
 	int filter = PM_FILTER_BOX, factor = 1;
 	int ch, i, k, ninputs, width = 0, height = 0;
+	size_t j;
 	uint8_t *srgb = NULL;
 
 	memset(level, 0, sizeof(level));
@@ -246,75 +299,115 @@ main(int argc, char *argv[])
 	/* Sum the passes pairwise: level[k] holds 2^k of them. */
 	ninputs = argc;
 	for (i = 0; i < ninputs; i++) {
-		struct pm_image carry;
+		struct frame carry;
 		size_t bad;
 
-		/* The first input's provenance is carried through. */
-		if (pm_exr_read_attrs(argv[i], &carry, i == 0 ? &attrs : NULL,
-		    &err) != PM_OK) {
+		/* The first input's provenance is carried through; the
+		 * other channels only into OpenEXR. */
+		memset(&carry, 0, sizeof(carry));
+		if (pm_exr_read_layers(argv[i], &carry.im, i == 0 ? &attrs :
+		    NULL, kind == OUT_EXR ? &carry.ly : NULL, &err) != PM_OK) {
 			fprintf(stderr, "%s: %s\n", PROG, err.msg);
 			goto fail;
 		}
 		if (i == 0) {
 			first = argv[i];
-			width = carry.width;
-			height = carry.height;
+			width = carry.im.width;
+			height = carry.im.height;
 			if (width % factor != 0 || height % factor != 0) {
 				fprintf(stderr, "%s: %s: size %dx%d is not "
 				    "divisible by factor %d\n", PROG, argv[i],
 				    width, height, factor);
-				pm_image_free(&carry);
+				frame_free(&carry);
 				goto fail;
 			}
-		} else if (carry.width != width || carry.height != height) {
+			/* Only the names: the pixels are summed below. */
+			for (j = 0; j < carry.ly.n; j++)
+				if (pm_exr_layers_add(&first_ly,
+				    carry.ly.v[j].name[0], carry.ly.v[j].name[1],
+				    carry.ly.v[j].name[2], 1, 1, NULL, &err) !=
+				    PM_OK) {
+					fprintf(stderr, "%s: %s\n", PROG,
+					    err.msg);
+					frame_free(&carry);
+					goto fail;
+				}
+		} else if (carry.im.width != width ||
+		    carry.im.height != height) {
 			fprintf(stderr, "%s: %s: size %dx%d differs from %s "
-			    "(%dx%d)\n", PROG, argv[i], carry.width,
-			    carry.height, first, width, height);
-			pm_image_free(&carry);
+			    "(%dx%d)\n", PROG, argv[i], carry.im.width,
+			    carry.im.height, first, width, height);
+			frame_free(&carry);
+			goto fail;
+		} else if (!same_layers(&carry.ly, &first_ly)) {
+			fprintf(stderr, "%s: %s: its channels differ from "
+			    "those of %s\n", PROG, argv[i], first);
+			frame_free(&carry);
 			goto fail;
 		}
 		if (verbosity >= 2)
-			fprintf(stderr, "%s: %s: %dx%d\n", PROG, argv[i],
-			    carry.width, carry.height);
-		if (verbosity >= 1 && (bad = count_nonfinite(&carry)) > 0)
+			fprintf(stderr, "%s: %s: %dx%d, %zu channels beside "
+			    "R, G and B\n", PROG, argv[i], carry.im.width,
+			    carry.im.height, 3 * carry.ly.n);
+		if (verbosity >= 1 && (bad = count_nonfinite(&carry.im)) > 0)
 			fprintf(stderr, "%s: %s: warning: %zu channel values "
 			    "are infinite or NaN\n", PROG, argv[i], bad);
-		for (k = 0; k < MAX_LEVELS - 1 && level[k].rgb != NULL; k++) {
+		for (k = 0; k < MAX_LEVELS - 1 && level[k].im.rgb != NULL;
+		    k++) {
 			/* Sizes were checked above; this cannot fail. */
-			if (pm_image_accumulate(&carry, &level[k], &err) !=
+			if (frame_accumulate(&carry, &level[k], &err) !=
 			    PM_OK) {
 				fprintf(stderr, "%s: %s\n", PROG, err.msg);
-				pm_image_free(&carry);
+				frame_free(&carry);
 				goto fail;
 			}
-			pm_image_free(&level[k]);
+			frame_free(&level[k]);
 		}
 		level[k] = carry;
 	}
 	/* Add the partial sums, smallest first. */
 	for (k = 0; k < MAX_LEVELS; k++) {
-		if (level[k].rgb == NULL)
+		if (level[k].im.rgb == NULL)
 			continue;
-		if (sum.rgb == NULL) {
+		if (sum.im.rgb == NULL) {
 			sum = level[k];
 			memset(&level[k], 0, sizeof(level[k]));
 			continue;
 		}
-		if (pm_image_accumulate(&sum, &level[k], &err) != PM_OK) {
+		if (frame_accumulate(&sum, &level[k], &err) != PM_OK) {
 			fprintf(stderr, "%s: %s\n", PROG, err.msg);
 			goto fail;
 		}
-		pm_image_free(&level[k]);
+		frame_free(&level[k]);
 	}
-	if (ninputs > 1)
-		pm_image_scale(&sum, (float)(1.0 / ninputs));
+	if (ninputs > 1) {
+		pm_image_scale(&sum.im, (float)(1.0 / ninputs));
+		for (j = 0; j < sum.ly.n; j++)
+			pm_image_scale(&sum.ly.v[j].im,
+			    (float)(1.0 / ninputs));
+	}
 
-	if (pm_image_downsample(&sum, factor, (enum pm_filter)filter, &out,
+	if (pm_image_downsample(&sum.im, factor, (enum pm_filter)filter, &out,
 	    &err) != PM_OK) {
 		fprintf(stderr, "%s: %s: %s\n", PROG, first, err.msg);
 		goto fail;
 	}
-	pm_image_free(&sum);
+	for (j = 0; j < sum.ly.n; j++) {
+		struct pm_exr_layer *ly, *in = &sum.ly.v[j];
+
+		if (pm_exr_layers_add(&out_ly, in->name[0], in->name[1],
+		    in->name[2], 1, 1, &ly, &err) != PM_OK) {
+			fprintf(stderr, "%s: %s\n", PROG, err.msg);
+			goto fail;
+		}
+		pm_image_free(&ly->im);
+		if (pm_image_downsample(&in->im, factor,
+		    (enum pm_filter)filter, &ly->im, &err) != PM_OK) {
+			fprintf(stderr, "%s: %s: %s\n", PROG, first, err.msg);
+			goto fail;
+		}
+	}
+	frame_free(&sum);
 	if (verbosity >= 2)
 		fprintf(stderr, "%s: averaged %d input%s; %s filter, factor "
 		    "%d: %dx%d -> %dx%d\n", PROG, ninputs,
@@ -325,8 +418,8 @@ main(int argc, char *argv[])
 		if (pm_exr_attrs_set(&attrs, PROG ".version", PM_VERSION,
 		    &err) != PM_OK || pm_exr_attrs_set(&attrs, PROG
 		    ".command", pm_cli_command(), &err) != PM_OK ||
-		    pm_exr_write_attrs(output, &out, half, &attrs, &err) !=
-		    PM_OK) {
+		    pm_exr_write_layers(output, &out, half, &attrs, &out_ly,
+		    &err) != PM_OK) {
 			fprintf(stderr, "%s: %s\n", PROG, err.msg);
 			goto fail;
 		}
@@ -356,6 +449,8 @@ main(int argc, char *argv[])
 		free(srgb);
 	}
 	pm_image_free(&out);
+	pm_exr_layers_free(&out_ly);
+	pm_exr_layers_free(&first_ly);
 	pm_exr_attrs_free(&attrs);
 
 	/* A full disk or a closed pipe shows up only here. */
@@ -369,8 +464,10 @@ main(int argc, char *argv[])
 
 fail:
 	free_levels(level);
-	pm_image_free(&sum);
+	frame_free(&sum);
 	pm_image_free(&out);
+	pm_exr_layers_free(&out_ly);
+	pm_exr_layers_free(&first_ly);
 	pm_exr_attrs_free(&attrs);
 	free(srgb);
 	return 1;

@@ -40,7 +40,7 @@
 
 static const char usage_line[] =
     "usage: pm-inspect [-qv] [--json] [--verify] [--dump xyz|ply|csv] "
-    "[--map global|caustic|irradiance] [--knn-check N [-k K]] [--seed S] "
+    "[--map global|caustic|irradiance|volume] [--knn-check N [-k K]] [--seed S] "
     "MAP.pmap\n";
 
 enum {
@@ -80,7 +80,7 @@ struct report {
 	const struct pm_pmap *pm;
 	uint64_t photons;
 	int n;
-	struct map_report maps[3];
+	struct map_report maps[4];
 	bool verify;
 	size_t knn_queries, knn_k;
 	uint64_t seed;
@@ -99,8 +99,8 @@ static const char help_text[] =
     "  -k K                  neighbours per --knn-check query"
     " (default 50)\n"
     "      --knn-check N     compare N k-nearest queries with FLANN\n"
-    "      --map kind        only the global, caustic or irradiance"
-    " map\n"
+    "      --map kind        only the global, caustic, irradiance or"
+    " volume map\n"
     "  -q, --quiet           no warnings\n"
     "      --seed S          seed of the --knn-check queries"
     " (default 1)\n"
@@ -118,16 +118,16 @@ static void
 effects_names(uint32_t e, char *buf, size_t len)
 {
 	static const char *const names[] = { "global", "caustics",
-	    "refraction" };
+	    "refraction", "media" };
 	size_t at = 0;
 	int i;
 
 	buf[0] = '\0';
-	for (i = 0; i < 3; i++)
+	for (i = 0; i < 4; i++)
 		if (e & (1u << i))
 			at += (size_t)snprintf(buf + at, len - at, "%s%s",
 			    at > 0 ? "," : "", names[i]);
-	if (e & ~7u)
+	if (e & ~15u)
 		snprintf(buf + at, len - at, "%s0x%x", at > 0 ? "," : "",
 		    (unsigned)(e & ~7u));
 	else if (at == 0)
@@ -404,7 +404,7 @@ print_json(const struct report *r)
 	const char *line;
 	int i, d, e, ne = 0;
 	static const char *const effect_names[] = { "global", "caustics",
-	    "refraction" };
+	    "refraction", "media" };
 
 	printf("{\n  \"file\": ");
 	json_str(r->name);
@@ -416,7 +416,7 @@ print_json(const struct report *r)
 	    (unsigned long long)pm->scene_hash);
 	printf("  \"seed\": %llu,\n", (unsigned long long)pm->seed);
 	printf("  \"effects\": [");
-	for (e = 0; e < 3; e++)
+	for (e = 0; e < 4; e++)
 		if (pm->effects & (1u << e))
 			printf("%s\"%s\"", ne++ > 0 ? ", " : "",
 			    effect_names[e]);
@@ -644,10 +644,16 @@ dump(const struct report *r, enum dump_kind kind)
 				else
 					printf("%.6g,%.6g,%.6g,", (double)d.x,
 					    (double)d.y, (double)d.z);
+				/* A volume photon has no normal. */
 				d = pm_dir_unpack(p->normal);
-				printf("%u,%u,%.6g,%.6g,%.6g\n",
-				    (unsigned)p->depth, (unsigned)p->flags,
-				    (double)d.x, (double)d.y, (double)d.z);
+				if (m->kind == PM_MAP_VOLUME)
+					printf("%u,%u,,,\n", (unsigned)p->depth,
+					    (unsigned)p->flags);
+				else
+					printf("%u,%u,%.6g,%.6g,%.6g\n",
+					    (unsigned)p->depth,
+					    (unsigned)p->flags, (double)d.x,
+					    (double)d.y, (double)d.z);
 				break;
 			case DUMP_NONE:
 				break;
@@ -715,9 +721,12 @@ main(int argc, char *argv[])
 				only = PM_MAP_CAUSTIC;
 			else if (strcmp(optarg, "irradiance") == 0)
 				only = PM_MAP_IRRADIANCE;
+			else if (strcmp(optarg, "volume") == 0)
+				only = PM_MAP_VOLUME;
 			else
 				usage_error("--map: unknown map '%s'; expected "
-				    "global, caustic or irradiance", optarg);
+				    "global, caustic, irradiance or volume",
+				    optarg);
 			break;
 		case OPT_SEED:
 			if (!pm_parse_u64(optarg, &seed))

@@ -32,15 +32,17 @@
 #define MAX_CAMERAS 100000
 
 static const char usage_line[] =
-    "usage: pm-render [-fqv] [--method path | photon] [--spp N] [--size WxH]\n"
-    "                 [--eye X,Y,Z] [--target X,Y,Z] [--up X,Y,Z] [--fov DEG]\n"
-    "                 [--cameras FILE] [-D NAME=VALUE] [--seed N] [-t THREADS]\n"
-    "                 [--half] [--global-radius R] [--caustic-radius R]\n"
-    "                 [--lookup-size K] [--direct-samples N] [--final-gather]\n"
-    "                 [--no-final-gather] [--final-gather-samples N]\n"
+    "usage: pm-render [-fqv] [--method path | photon | ptracer] [--spp N]\n"
+    "                 [--size WxH] [--eye X,Y,Z] [--target X,Y,Z] [--up X,Y,Z]\n"
+    "                 [--fov DEG] [--cameras FILE] [-D NAME=VALUE] [--seed N]\n"
+    "                 [-t THREADS] [--half] [--global-radius R]\n"
+    "                 [--caustic-radius R] [--lookup-size K] [--direct-samples N]\n"
+    "                 [--final-gather]"
+    " [--no-final-gather] [--final-gather-samples N]\n"
     "                 [--cache-step PIXELS] [--cache-rays N]\n"
     "                 [--cache-accuracy A] [--pass I] [--radius R] [--alpha A]\n"
     "                 [--preview FILE] [--preview-every SECONDS]\n"
+    "                 [--volume-estimate point|beam]\n"
     "                 -o OUT.exr SCENE.xml [MAP.pmap]\n";
 
 static const char help_text[] =
@@ -49,7 +51,10 @@ static const char help_text[] =
     "  -o, --output OUT.exr        the image; with several cameras a %d\n"
     "                              pattern or a number before the extension\n"
     "  -f, --force                 overwrite existing outputs\n"
-    "      --method path|photon    path tracing, or photon mapping (needs MAP)\n"
+    "      --method path|photon|ptracer\n"
+    "                              path tracing, photon mapping (needs MAP)\n"
+    "                              or particle tracing (default: the\n"
+    "                              scene's integrator)\n"
     "      --spp N                 samples per pixel (default: the scene's)\n"
     "      --size WxH              image size (default: the scene's film)\n"
     "      --eye X,Y,Z, --target X,Y,Z, --up X,Y,Z\n"
@@ -67,6 +72,10 @@ static const char help_text[] =
     "      --final-gather, --no-final-gather\n"
     "                              gather indirect light (default), or show\n"
     "                              the global map's photons directly\n"
+    "      --volume-estimate point|beam\n"
+    "                              media: the volume map at a point of each\n"
+    "                              camera segment (default), or the beam\n"
+    "                              radiance estimate along it\n"
     "      --final-gather-samples N  gather rays of a camera sample that the\n"
     "                              irradiance cache does not serve (default 1)\n"
     "      --cache-step PIXELS     pixels between irradiance cache points\n"
@@ -272,6 +281,10 @@ struct pppm {
 
 /* Loads a balanced map for this scene into maps, with the lookup radii;
  * prints and returns 0 on failure. */
+/* --volume-estimate beam (integrator_pmvol.c; docs/media.md measures
+ * both). */
+static bool volume_beam;
+
 static int
 load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
     const struct pppm *pg, struct pm_pmap *pm, struct pm_photon_maps *maps,
@@ -321,6 +334,11 @@ load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
 	    scene_radius, pg->pass, pg->alpha, pg->radius);
 	maps->global_r2 = r.global_r2;
 	maps->caustic_r2 = r.caustic_r2;
+	/* The volume map is looked up with the global map's radius, and
+	 * shrinks with it over progressive passes. */
+	maps->volume_r2 = r.global_r2;
+	maps->volume_samples = 1;
+	maps->volume_beam = volume_beam;	/* 4 cost 2.6x for no visible gain (docs/media.md) */
 	maps->fixed_radius = r.fixed;
 	if (pg->pass > 0 && verbose >= 2)
 		fprintf(stderr, PROG ": %s: progressive pass %ld, alpha %g: "
@@ -332,14 +350,18 @@ load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
 	maps->direct_samples = pp->direct_samples;
 	maps->final_gather = pp->final_gather;
 	maps->final_gather_samples = pp->final_gather_samples;
-	maps->icache_step = -1;		/* by the samples per pixel */
+	/* by the samples per pixel; none in scenes with media, whose
+	 * cache rays (render.c) would not follow the media: there every
+	 * camera sample gathers, through media, itself */
+	maps->icache_step = scene->nmedia > 0 ? 0 : -1;
 	maps->icache_rays = 0;		/* by the samples per pixel */
 	maps->icache_a = PM_ICACHE_ACCURACY;
 	if (verbose >= 2)
 		fprintf(stderr, PROG ": %s: %zu global photons, %zu caustic photons, "
-		    "%zu irradiance records, radii %g and %g, %s%d, %d direct "
+		    "%zu volume photons, %zu irradiance records, radii %g and %g, %s%d, %d direct "
 		    "samples, final gathering %s\n", path, maps->nglobal,
-		    maps->ncaustic, maps->nirradiance, sqrt(maps->global_r2),
+		    maps->ncaustic, maps->nvolume, maps->nirradiance,
+		    sqrt(maps->global_r2),
 		    sqrt(maps->caustic_r2), maps->fixed_radius ?
 		    "every photon within them (k unused: " : "k = ",
 		    maps->lookup_size, maps->direct_samples,
@@ -355,7 +377,8 @@ load_maps(const char *path, const struct pm_scene *scene, float scene_radius,
 static enum pm_err
 write_exr(const char *path, const struct pm_image *img, bool half,
     const char *scene_path, const struct pm_scene *scene,
-    const char *map_path, struct pm_error *err)
+    const char *map_path, const struct pm_exr_layers *layers,
+    struct pm_error *err)
 {
 	struct pm_exr_attrs at = { 0 };
 	char hash[17];
@@ -376,9 +399,39 @@ write_exr(const char *path, const struct pm_image *img, bool half,
 	    e == PM_OK; i++)
 		e = pm_exr_attrs_set(&at, kv[i][0], kv[i][1], err);
 	if (e == PM_OK)
-		e = pm_exr_write_attrs(path, img, half, &at, err);
+		e = pm_exr_write_layers(path, img, half, &at, layers, err);
 	pm_exr_attrs_free(&at);
 	return e;
+}
+
+/*
+ * The moments as Mitsuba's moment integrator names its channels: the
+ * nested integrator's name with .X, .Y, .Z (first moment) and the same
+ * with m2_ in front (second), taken over from m1 and m2 into layers.
+ */
+static enum pm_err
+moment_layers(const char *name, struct pm_image *m1, struct pm_image *m2,
+    struct pm_exr_layers *layers, struct pm_error *err)
+{
+	char n[2][3][80];
+	struct pm_image *src[2] = { m1, m2 };
+	struct pm_exr_layer *ly;
+	enum pm_err e;
+	int i, k;
+
+	for (i = 0; i < 2; i++) {
+		for (k = 0; k < 3; k++)
+			snprintf(n[i][k], sizeof(n[i][k]), "%s%s.%c",
+			    i ? "m2_" : "", name, "XYZ"[k]);
+		/* Allocated 1x1, then given the render's pixels. */
+		if ((e = pm_exr_layers_add(layers, n[i][0], n[i][1], n[i][2],
+		    1, 1, &ly, err)) != PM_OK)
+			return e;
+		pm_image_free(&ly->im);
+		ly->im = *src[i];
+		memset(src[i], 0, sizeof(*src[i]));
+	}
+	return PM_OK;
 }
 
 int
@@ -389,7 +442,7 @@ main(int argc, char **argv)
 		OPT_FOV, OPT_SEED, OPT_HALF, OPT_CAMERAS,
 		OPT_GRADIUS, OPT_CRADIUS, OPT_LOOKUP, OPT_DIRECT, OPT_FG, OPT_NOFG,
 		OPT_FGSAMPLES, OPT_PASS, OPT_RADIUS, OPT_ALPHA, OPT_CSTEP,
-		OPT_CRAYS, OPT_CACC, OPT_PREVIEW, OPT_PREVIEW_EVERY,
+		OPT_CRAYS, OPT_CACC, OPT_PREVIEW, OPT_PREVIEW_EVERY, OPT_VOLEST,
 	};
 	static const struct option longopts[] = {
 		{"method", required_argument, NULL, OPT_METHOD},
@@ -420,6 +473,7 @@ main(int argc, char **argv)
 		{"alpha", required_argument, NULL, OPT_ALPHA},
 		{"preview", required_argument, NULL, OPT_PREVIEW},
 		{"preview-every", required_argument, NULL, OPT_PREVIEW_EVERY},
+		{"volume-estimate", required_argument, NULL, OPT_VOLEST},
 		{"force", no_argument, NULL, 'f'},
 		{"quiet", no_argument, NULL, 'q'},
 		{"verbose", no_argument, NULL, 'v'},
@@ -463,8 +517,11 @@ main(int argc, char **argv)
 			continue;
 		switch (c) {
 		case OPT_METHOD:
-			if (strcmp(optarg, "path") != 0 && strcmp(optarg, "photon") != 0)
-				usage_error("unknown method '%s' (path or photon)", optarg);
+			if (strcmp(optarg, "path") != 0 &&
+			    strcmp(optarg, "photon") != 0 &&
+			    strcmp(optarg, "ptracer") != 0)
+				usage_error("unknown method '%s' (path, photon or "
+				    "ptracer)", optarg);
 			method = optarg;
 			break;
 		case OPT_SPP:
@@ -533,6 +590,15 @@ main(int argc, char **argv)
 		case OPT_NOFG:
 			fg = 0;
 			break;
+		case OPT_VOLEST:
+			if (strcmp(optarg, "point") == 0)
+				volume_beam = false;
+			else if (strcmp(optarg, "beam") == 0)
+				volume_beam = true;
+			else
+				usage_error("--volume-estimate wants point or "
+				    "beam, not '%s'", optarg);
+			break;
 		case OPT_CSTEP:
 			if (!pm_parse_long(optarg, 0, 1 << 16, &cache_step))
 				usage_error("--cache-step wants 0 to 65536 pixels, not '%s'",
@@ -598,6 +664,8 @@ main(int argc, char **argv)
 		usage_error("%s", "--method photon needs a photon map (SCENE.xml MAP.pmap)");
 	if (method != NULL && strcmp(method, "path") == 0 && map_path != NULL)
 		usage_error("%s", "--method path takes no photon map");
+	if (method != NULL && strcmp(method, "ptracer") == 0 && map_path != NULL)
+		usage_error("%s", "--method ptracer takes no photon map");
 	if (out_path == NULL)
 		usage_error("%s", "no output given (-o OUT.exr)");
 	if ((pg.pass > 0 || pg.radius > 0.0f) && map_path == NULL)
@@ -715,7 +783,7 @@ main(int argc, char **argv)
 	ctx.icache = NULL;
 	maps.gather_max_depth = ctx.max_depth < 0 ? -1 : ctx.max_depth - 3;
 	if (map_path != NULL) {
-		if (cache_step >= 0)
+		if (cache_step >= 0 && scene.nmedia == 0)	/* media: none */
 			maps.icache_step = (int)cache_step;
 		if (cache_rays > 0)
 			maps.icache_rays = (int)cache_rays;
@@ -725,19 +793,26 @@ main(int argc, char **argv)
 	ctx.maps = map_path != NULL ? &maps : NULL;
 	memset(&opts, 0, sizeof(opts));
 	opts.method = map_path != NULL ? PM_METHOD_PHOTON : PM_METHOD_PATH;
+	/* The scene's ptracer, unless the command line chose otherwise. */
+	if (map_path == NULL && (method != NULL ? strcmp(method, "ptracer") == 0 :
+	    scene.integrator.type == PM_INTEGRATOR_PTRACER))
+		opts.method = PM_METHOD_PTRACER;
+	if (opts.method == PM_METHOD_PTRACER && scene.integrator.moment &&
+	    verbose)
+		fprintf(stderr, PROG ": %s: note: --method ptracer writes no "
+		    "moments (Mitsuba's moment wraps sampling integrators "
+		    "only)\n", scene_path);
 	opts.seed = seed;
 	opts.threads = (int)threads;
 	if (scene.nlights == 0 && verbose)
 		fprintf(stderr, PROG ": %s: warning: the scene has no lights\n",
 		    scene_path);
-	if (scene.integrator.moment && verbose)
-		fprintf(stderr, PROG ": %s: note: integrator \"moment\": its "
-		    "nested integrator's image only, the moments are not "
-		    "written\n", scene_path);
 	if (scene.nmedia > 0 && verbose)
-		fprintf(stderr, PROG ": %s: note: %zu participating medi%s, path "
-		    "traced as Mitsuba's volpath; the camera is in %s%s%s\n",
+		fprintf(stderr, PROG ": %s: note: %zu participating medi%s, %s; "
+		    "the camera is in %s%s%s\n",
 		    scene_path, scene.nmedia, scene.nmedia == 1 ? "um" : "a",
+		    map_path != NULL ? "in-scattering from light samples and "
+		    "the volume map" : "path traced as Mitsuba's volpath",
 		    scene.camera_medium > 0 ? "\"" : "vacuum",
 		    scene.camera_medium > 0 ?
 		    scene.media[scene.camera_medium - 1].name : "",
@@ -750,6 +825,9 @@ main(int argc, char **argv)
 	for (ci = 0; ci < ncams && status == 0; ci++) {
 		struct pm_camera cam = scene.camera;
 		struct pm_image img = {0, 0, NULL};
+		struct pm_image m1 = {0, 0, NULL}, m2 = {0, 0, NULL};
+		struct pm_exr_layers layers = {NULL, 0};
+		bool moments;
 		_Atomic long done, total;
 		struct pm_cli_progress *prog;
 		char name[4096];
@@ -779,7 +857,9 @@ main(int argc, char **argv)
 			fprintf(stderr, PROG ": %s: %zu shapes, %zu lights, %dx%d, %d spp, "
 			    "%s, max_depth %d, %ld threads, loaded in %.3f s\n", name,
 			    scene.nshapes, scene.nlights, cam.width, cam.height, cam.spp,
-			    map_path ? "photon map" : "path tracing", ctx.max_depth,
+			    map_path ? "photon map" : opts.method ==
+			    PM_METHOD_PTRACER ? "particle tracing" : "path tracing",
+			    ctx.max_depth,
 			    threads, t_load);
 
 		atomic_init(&done, 0);
@@ -787,6 +867,10 @@ main(int argc, char **argv)
 		opts.tiles_done = &done;
 		opts.tiles_total = &total;
 		opts.watch = pv.watch;
+		moments = scene.integrator.moment &&
+		    opts.method != PM_METHOD_PTRACER;
+		opts.moment1 = moments ? &m1 : NULL;
+		opts.moment2 = moments ? &m2 : NULL;
 		pv.done = &done;
 		pv.written = 0;
 		prog = pm_cli_progress_start(PROG, ncams > 1 ? name : "",
@@ -802,8 +886,14 @@ main(int argc, char **argv)
 		/* The last preview is the finished image. */
 		if (status == 0 && pv.path != NULL)
 			preview_write(&pv, &img);
+		if (status == 0 && moments &&
+		    moment_layers(scene.integrator.moment_name, &m1, &m2,
+		    &layers, &err) != PM_OK) {
+			fprintf(stderr, PROG ": %s\n", err.msg);
+			status = 1;
+		}
 		if (status == 0 && write_exr(name, &img, half, scene_path,
-		    &scene, map_path, &err) != PM_OK) {
+		    &scene, map_path, &layers, &err) != PM_OK) {
 			fprintf(stderr, PROG ": %s\n", err.msg);
 			status = 1;
 		}
@@ -817,6 +907,9 @@ main(int argc, char **argv)
 			fprintf(stderr, PROG ": %s: warning: %llu non-finite samples "
 			    "dropped\n", name, (unsigned long long)stats.dropped);
 		pm_image_free(&img);
+		pm_image_free(&m1);
+		pm_image_free(&m2);
+		pm_exr_layers_free(&layers);
 	}
 out:
 	pm_irr_grid_free(&irr_grid);

@@ -84,6 +84,7 @@ shoot_pass(const struct pm_shooter *sh, const struct pm_shoot_opts *so,
 		st->stored += ps.stored;
 		st->dropped += ps.dropped;
 		st->paths_specular += ps.paths_specular;
+		st->volume_stored += ps.volume_stored;
 		atomic_fetch_add(done, (long)piece.count);
 	}
 	return PM_OK;
@@ -117,7 +118,8 @@ estimate_stored(const struct pm_shooter *sh, const struct pm_shoot_opts *so,
 	pilot.count = PILOT_PATHS;
 	e = pm_shoot(sh, &pilot, &b, &st, err);
 	pm_photon_buf_free(&b);
-	*stored = (double)st.stored / PILOT_PATHS * (double)so->count;
+	*stored = (double)(st.stored + st.volume_stored) / PILOT_PATHS *
+	    (double)so->count;
 	return e;
 }
 
@@ -182,6 +184,7 @@ main(int argc, char **argv)
 	struct pm_error err = {PM_OK, ""};
 	struct pm_pmap out;
 	struct pm_photon_buf bufs[2] = {{NULL, 0, 0}, {NULL, 0, 0}};
+	struct pm_photon_buf vbuf = {NULL, 0, 0};	/* the volume map */
 	char tmp[128];
 	double t0;
 	int pass, i;
@@ -243,7 +246,7 @@ main(int argc, char **argv)
 		fprintf(stderr, PROG ": %s\n", err.msg);
 		return 1;
 	}
-	if (pm_scene_refuse_media(&scene, &err) != PM_OK) {
+	if (pm_scene_refuse_media(&scene, &err) != PM_OK) {	/* not homogeneous */
 		fprintf(stderr, PROG ": %s: %s\n", scene_path, err.msg);
 		pm_scene_free(&scene);
 		return 1;
@@ -306,9 +309,11 @@ main(int argc, char **argv)
 			struct pm_shoot_opts so;
 			long long n = pass == 0 ? nglobal : ncaustic;
 
-			if (!(pass == 0 ? fx.global : fx.caustic) || n <= (1LL << 20))
+			if (!(pass == 0 ? fx.global || fx.media : fx.caustic) ||
+			    n <= (1LL << 20))
 				continue;
 			memset(&so, 0, sizeof(so));
+			so.volume = pass == 0 && fx.media ? &vbuf : NULL;
 			so.pass = pass == 0 ? PM_PASS_GLOBAL : PM_PASS_CAUSTIC;
 			so.seed = seed;
 			so.first = first;
@@ -344,7 +349,8 @@ main(int argc, char **argv)
 	out.max_depth = max_depth < 0 ? 0 : (uint32_t)max_depth;
 	out.effects = (fx.global ? PM_EFFECT_GLOBAL : 0) |
 	    (fx.caustic ? PM_EFFECT_CAUSTICS : 0) |
-	    (fx.refraction ? PM_EFFECT_REFRACTION : 0);
+	    (fx.refraction ? PM_EFFECT_REFRACTION : 0) |
+	    (fx.media ? PM_EFFECT_MEDIA : 0);
 	pm_pmap_info_add(&out, "tool", PROG " " PM_VERSION, NULL);
 	pm_pmap_info_add(&out, "command", pm_cli_command(), NULL);
 	pm_pmap_info_add(&out, "scene", scene_path, NULL);
@@ -361,11 +367,13 @@ main(int argc, char **argv)
 		struct pm_shoot_opts so;
 		struct pm_shoot_stats st;
 		struct pm_map *m;
-		bool want = pass == 0 ? fx.global : fx.caustic;
+		/* The global pass also shoots the volume map. */
+		bool want = pass == 0 ? fx.global || fx.media : fx.caustic;
 		long long n = pass == 0 ? nglobal : ncaustic;
 
 		if (!want || n == 0)
 			continue;
+		so.volume = pass == 0 && fx.media ? &vbuf : NULL;
 		so.pass = pass == 0 ? PM_PASS_GLOBAL : PM_PASS_CAUSTIC;
 		so.seed = seed;
 		so.first = first;
@@ -397,6 +405,25 @@ main(int argc, char **argv)
 		else if (st.dropped > 0 && verbose)
 			fprintf(stderr, PROG ": warning: %llu non-finite photons dropped\n",
 			    (unsigned long long)st.dropped);
+		if (verbose >= 2 && so.volume != NULL)
+			fprintf(stderr, PROG ": volume map: %llu photons stored "
+			    "at scatters in media\n",
+			    (unsigned long long)st.volume_stored);
+		if (so.volume != NULL) {
+			m = &out.maps[out.nmaps++];
+			m->kind = PM_MAP_VOLUME;
+			m->count = vbuf.n;
+			m->emitted = (uint64_t)n;
+			m->first_index = first;
+			m->balanced = false;
+			bounds_of(&vbuf, m->lo, m->hi);
+			m->photons = vbuf.p;
+		}
+		if (pass == 0 && !fx.global) {
+			/* shot for the volume map alone */
+			pm_photon_buf_free(&bufs[0]);
+			continue;
+		}
 		m = &out.maps[out.nmaps++];
 		m->kind = pass == 0 ? PM_MAP_GLOBAL : PM_MAP_CAUSTIC;
 		m->count = bufs[pass].n;
@@ -411,11 +438,13 @@ main(int argc, char **argv)
 		status = 1;
 	}
 	/* The records belong to the buffers, not to the file structure. */
-	out.maps[0].photons = out.maps[1].photons = NULL;
+	for (i = 0; i < out.nmaps; i++)
+		out.maps[i].photons = NULL;
 	out.nmaps = 0;
 	pm_pmap_free(&out);
 	pm_photon_buf_free(&bufs[0]);
 	pm_photon_buf_free(&bufs[1]);
+	pm_photon_buf_free(&vbuf);
 	pm_shooter_free(&shooter);
 	pm_world_free(&world);
 	pm_scene_free(&scene);

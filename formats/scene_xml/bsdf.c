@@ -163,6 +163,131 @@ microfacet_params(struct ld *ld, struct xnode *n, struct plist *pl,
 	return PM_OK;
 }
 
+/*
+ * One scalar parameter of the principled BSDFs: a float in [lo, hi] or a
+ * texture (its mean luminance until a hit looks it up); *has, when not
+ * NULL, is Mitsuba's flag: given, and not the float 0.
+ */
+static enum pm_err
+pr_param(struct ld *ld, struct plist *pl, struct pm_principled *p, int i,
+    const char *name, double def, double lo, double hi, bool *has)
+{
+	struct pm_rgb m;
+	double d;
+	enum pm_err e;
+
+	if ((e = sx_get_texture(ld, pl, name, &p->tex[i])) != PM_OK)
+		return e;
+	if (p->tex[i] > 0) {
+		m = pm_texture_mean(&ld->s->textures[p->tex[i] - 1]);
+		p->v[i] = 0.212671f * m.r + 0.715160f * m.g + 0.072169f * m.b;
+		p->textured = true;
+		if (has != NULL)
+			*has = true;
+		return PM_OK;
+	}
+	if ((e = sx_get_float(ld, pl, name, def, lo, hi, &d)) != PM_OK)
+		return e;
+	p->v[i] = (float)d;
+	if (has != NULL)
+		*has = sx_has(pl, name) && d != 0.0;
+	return PM_OK;
+}
+
+/* A sampling rate: a non-negative float. */
+static enum pm_err
+pr_rate(struct ld *ld, struct plist *pl, struct pm_principled *p, int i,
+    const char *name)
+{
+	double d;
+	enum pm_err e;
+
+	if ((e = sx_get_float(ld, pl, name, 1.0, 0.0, 1e30, &d)) != PM_OK)
+		return e;
+	p->rate[i] = (float)d;
+	return PM_OK;
+}
+
+/*
+ * principled and principledthin, with Mitsuba's names and defaults.
+ * principled takes eta or specular (eta = 2 / (1 - sqrt(0.08 specular))
+ * - 1), not both; with transmission, eta 1 becomes 1.001 and specular 0
+ * becomes 0.001, as in Mitsuba.
+ */
+static enum pm_err
+build_principled(struct ld *ld, struct xnode *n, struct plist *pl,
+    struct pm_bsdf *b, bool thin)
+{
+	struct pm_principled *p = &b->pr;
+	double spec, eta;
+	enum pm_err e;
+
+	pm_principled_defaults(p, thin);
+	if ((e = sx_get_color_tex(ld, pl, "base_color", 0.5f, &b->diffuse,
+	    &b->tex_diffuse)) != PM_OK ||
+	    (e = pr_param(ld, pl, p, PM_PR_ROUGHNESS, "roughness", 0.5, 0.0,
+	    1e3, NULL)) != PM_OK ||
+	    (e = pr_param(ld, pl, p, PM_PR_ANISOTROPIC, "anisotropic", 0.0,
+	    0.0, 1.0, NULL)) != PM_OK ||
+	    (e = pr_param(ld, pl, p, PM_PR_SPEC_TRANS, "spec_trans", 0.0, 0.0,
+	    1.0, &p->has_spec_trans)) != PM_OK ||
+	    (e = pr_param(ld, pl, p, PM_PR_SPEC_TINT, "spec_tint", 0.0, 0.0,
+	    1.0, NULL)) != PM_OK ||
+	    (e = pr_param(ld, pl, p, PM_PR_SHEEN, "sheen", 0.0, 0.0, 1e3,
+	    NULL)) != PM_OK ||
+	    (e = pr_param(ld, pl, p, PM_PR_SHEEN_TINT, "sheen_tint", 0.0, 0.0,
+	    1.0, NULL)) != PM_OK ||
+	    (e = pr_param(ld, pl, p, PM_PR_FLATNESS, "flatness", 0.0, 0.0,
+	    1.0, NULL)) != PM_OK ||
+	    (e = pr_rate(ld, pl, p, PM_PR_RATE_DIFFUSE,
+	    "diffuse_reflectance_sampling_rate")) != PM_OK)
+		return e;
+	if (thin) {
+		if ((e = pr_param(ld, pl, p, PM_PR_ETA, "eta", 1.5, 1e-3, 1e3,
+		    NULL)) != PM_OK ||
+		    (e = pr_param(ld, pl, p, PM_PR_DIFF_TRANS, "diff_trans",
+		    0.0, 0.0, 2.0, &p->has_diff_trans)) != PM_OK ||
+		    (e = pr_rate(ld, pl, p, PM_PR_RATE_SPECULAR,
+		    "specular_reflectance_sampling_rate")) != PM_OK ||
+		    (e = pr_rate(ld, pl, p, PM_PR_RATE_OTHER,
+		    "specular_transmittance_sampling_rate")) != PM_OK ||
+		    (e = pr_rate(ld, pl, p, PM_PR_RATE_DIFF_TRANS,
+		    "diffuse_transmittance_sampling_rate")) != PM_OK)
+			return e;
+		return PM_OK;
+	}
+	if ((e = pr_param(ld, pl, p, PM_PR_METALLIC, "metallic", 0.0, 0.0, 1.0,
+	    NULL)) != PM_OK ||
+	    (e = pr_param(ld, pl, p, PM_PR_CLEARCOAT, "clearcoat", 0.0, 0.0,
+	    1e3, &p->has_clearcoat)) != PM_OK ||
+	    (e = pr_param(ld, pl, p, PM_PR_CLEARCOAT_GLOSS, "clearcoat_gloss",
+	    0.0, 0.0, 1.0, NULL)) != PM_OK ||
+	    (e = pr_rate(ld, pl, p, PM_PR_RATE_SPECULAR,
+	    "main_specular_sampling_rate")) != PM_OK ||
+	    (e = pr_rate(ld, pl, p, PM_PR_RATE_OTHER,
+	    "clearcoat_sampling_rate")) != PM_OK)
+		return e;
+	if (sx_has(pl, "eta") && sx_has(pl, "specular"))
+		return sx_fail(ld, n, PM_ERR_INVALID, "%s: give either eta or "
+		    "specular, not both", pl->what);
+	if (sx_has(pl, "eta")) {
+		if ((e = sx_get_float(ld, pl, "eta", 1.5, 1e-3, 1e3, &eta))
+		    != PM_OK)
+			return e;
+		if (p->has_spec_trans && eta == 1.0)
+			eta = 1.001;
+	} else {
+		if ((e = sx_get_float(ld, pl, "specular", 0.5, 0.0, 12.4,
+		    &spec)) != PM_OK)
+			return e;
+		if (p->has_spec_trans && spec == 0.0)
+			spec = 1e-3;
+		eta = 2.0 / (1.0 - sqrt(0.08 * spec)) - 1.0;
+	}
+	p->v[PM_PR_ETA] = (float)eta;
+	return PM_OK;
+}
+
 static enum pm_err
 build_twosided(struct ld *ld, struct plist *pl, struct pm_bsdf *b)
 {
@@ -224,10 +349,10 @@ sx_build_bsdf(struct ld *ld, struct xnode *n, struct pm_bsdf *b)
 		b->type = PM_BSDF_ROUGHDIELECTRIC;
 		if ((e = get_ior(ld, &pl, "int_ior", IOR_BK7, &iint)) != PM_OK ||
 		    (e = get_ior(ld, &pl, "ext_ior", IOR_AIR, &iext)) != PM_OK ||
-		    (e = sx_get_color(ld, &pl, "specular_reflectance", 1.0f,
-		    &b->specular)) != PM_OK ||
-		    (e = sx_get_color(ld, &pl, "specular_transmittance", 1.0f,
-		    &b->transmittance)) != PM_OK ||
+		    (e = sx_get_color_tex(ld, &pl, "specular_reflectance", 1.0f,
+		    &b->specular, &b->tex_specular)) != PM_OK ||
+		    (e = sx_get_color_tex(ld, &pl, "specular_transmittance",
+		    1.0f, &b->transmittance, &b->tex_transmittance)) != PM_OK ||
 		    (e = microfacet_params(ld, n, &pl, b, false)) != PM_OK)
 			goto out;
 		b->ior = iint / iext;
@@ -237,10 +362,10 @@ sx_build_bsdf(struct ld *ld, struct xnode *n, struct pm_bsdf *b)
 		    PM_BSDF_THINDIELECTRIC;
 		if ((e = get_ior(ld, &pl, "int_ior", IOR_BK7, &iint)) != PM_OK ||
 		    (e = get_ior(ld, &pl, "ext_ior", IOR_AIR, &iext)) != PM_OK ||
-		    (e = sx_get_color(ld, &pl, "specular_reflectance", 1.0f,
-		    &b->specular)) != PM_OK ||
-		    (e = sx_get_color(ld, &pl, "specular_transmittance", 1.0f,
-		    &b->transmittance)) != PM_OK)
+		    (e = sx_get_color_tex(ld, &pl, "specular_reflectance", 1.0f,
+		    &b->specular, &b->tex_specular)) != PM_OK ||
+		    (e = sx_get_color_tex(ld, &pl, "specular_transmittance",
+		    1.0f, &b->transmittance, &b->tex_transmittance)) != PM_OK)
 			goto out;
 		b->ior = iint / iext;
 	} else if (strcmp(type, "plastic") == 0 ||
@@ -261,6 +386,12 @@ sx_build_bsdf(struct ld *ld, struct xnode *n, struct pm_bsdf *b)
 		    != PM_OK)
 			goto out;
 		b->ior = iint / iext;
+	} else if (strcmp(type, "principled") == 0 ||
+	    strcmp(type, "principledthin") == 0) {
+		b->type = type[10] == '\0' ? PM_BSDF_PRINCIPLED :
+		    PM_BSDF_PRINCIPLEDTHIN;
+		e = build_principled(ld, n, &pl, b,
+		    b->type == PM_BSDF_PRINCIPLEDTHIN);
 	} else if (strcmp(type, "twosided") == 0) {
 		if ((e = sx_finish(ld, &pl)) != PM_OK ||
 		    (e = build_twosided(ld, &pl, b)) != PM_OK)
@@ -275,8 +406,8 @@ sx_build_bsdf(struct ld *ld, struct xnode *n, struct pm_bsdf *b)
 	} else {
 		e = sx_unknown_plugin(ld, n, type, "diffuse, conductor, "
 		    "roughconductor, dielectric, thindielectric, "
-		    "roughdielectric, plastic, roughplastic, merl, twosided "
-		    "and null");
+		    "roughdielectric, plastic, roughplastic, principled, "
+		    "principledthin, merl, twosided and null");
 		goto out;
 	}
 	if (e == PM_OK && (e = sx_finish(ld, &pl)) == PM_OK)

@@ -1,10 +1,31 @@
 /*
- * emitter.c: <emitter> elements: area emitters carried by shapes, and
- * the point, spot, directional, constant and envmap lights.
+ * emitter.c: <emitter> elements: area emitters carried by shapes (their
+ * radiance may be a texture), and the point, spot (with its texture),
+ * projector, directional, constant and envmap lights.
  */
 #include "private.h"
+#include "../../common/camera.h"
 #include "../rgbe.h"
 #include "../texture.h"
+
+/* True if parameter name is given as a texture, nested or by <ref>. */
+static bool
+has_texture(const struct plist *pl, const char *name)
+{
+	const char *nm;
+	size_t i;
+
+	for (i = 0; i < pl->ntex; i++)
+		if ((nm = sx_attr(pl->tex[i], "name")) != NULL &&
+		    strcmp(nm, name) == 0)
+			return true;
+	for (i = 0; i < pl->nobj; i++)
+		if (strcmp(pl->obj[i]->tag, "ref") == 0 &&
+		    (nm = sx_attr(pl->obj[i], "name")) != NULL &&
+		    strcmp(nm, name) == 0)
+			return true;
+	return false;
+}
 
 /* The environment: at most one constant or envmap, as in Mitsuba. */
 static enum pm_err
@@ -118,8 +139,71 @@ load_directional(struct ld *ld, struct xnode *n, struct plist *pl,
 	return PM_OK;
 }
 
+/*
+ * projector: Mitsuba's pinhole casting its irradiance texture (or a
+ * colour, made a constant texture here) through the image plane at
+ * z = 1 of a perspective camera whose film is the texture's resolution.
+ */
+static enum pm_err
+load_projector(struct ld *ld, struct xnode *n, struct plist *pl,
+    struct pm_light *l)
+{
+	struct pm_camera cam;
+	struct pm_mat4 M;
+	struct pm_rgb c;
+	double scale;
+	float sc, tan_x, tan_y;
+	int w = 1, h = 1, idx = (int)(l - ld->s->lights), tex;
+	enum pm_err e;
+
+	if ((e = sx_get_color_tex(ld, pl, "irradiance", 1.0f, &c, &tex))
+	    != PM_OK ||
+	    (e = sx_get_float(ld, pl, "scale", 1.0, 0.0, 3.4e38, &scale))
+	    != PM_OK ||
+	    (e = sx_get_transform(ld, pl, "to_world", &M)) != PM_OK)
+		return e;
+	if (tex == 0) {
+		struct pm_texture t;
+		int i;
+
+		pm_texture_init(&t, PM_TEXTURE_CONSTANT);
+		t.color0 = c;
+		snprintf(t.name, sizeof(t.name), "projector#%d", idx);
+		if ((i = pm_scene_add_texture(ld->s, &t)) < 0)
+			return sx_nomem(ld);
+		tex = i + 1;
+	} else if (ld->s->textures[tex - 1].type == PM_TEXTURE_BITMAP) {
+		/* the film's size; any other texture has 1 x 1, as in
+		 * Mitsuba */
+		w = ld->s->textures[tex - 1].width;
+		h = ld->s->textures[tex - 1].height;
+	}
+	l->tex = tex;
+	memset(&cam, 0, sizeof(cam));
+	if ((e = sx_load_fov(ld, pl, n, &cam)) != PM_OK)
+		return e;
+	if (!sx_similarity_scale(&M, &sc) ||
+	    !pm_mat4_inverse(M, &l->to_local))
+		return sx_fail(ld, sx_has(pl, "to_world") ?
+		    sx_prop_find(pl, "to_world")->n : n, PM_ERR_UNSUPPORTED,
+		    "%s: to_world must be a rotation, uniform scale and "
+		    "translation", pl->what);
+	pm_camera_tangents(cam.fov, cam.fov_axis, w, h, &tan_x, &tan_y);
+	l->tan_fov = tan_x;
+	l->aspect = (float)w / (float)h;
+	/* Mitsuba measures the distance to the image plane in the
+	 * projector's own units: a scale of sc brightens by sc^2 */
+	l->intensity = pm_rgb1((float)scale * sc * sc);
+	l->position = pm_xform_point(&M, pm_v3(0, 0, 0));
+	l->frame.s = pm_normalize(pm_xform_vector(&M, pm_v3(1, 0, 0)));
+	l->frame.t = pm_normalize(pm_xform_vector(&M, pm_v3(0, 1, 0)));
+	l->frame.n = pm_normalize(pm_xform_vector(&M, pm_v3(0, 0, 1)));
+	return PM_OK;
+}
+
 enum pm_err
-sx_build_area(struct ld *ld, struct xnode *n, struct pm_rgb *radiance)
+sx_build_area(struct ld *ld, struct xnode *n, struct pm_rgb *radiance,
+    int *tex)
 {
 	struct plist pl;
 	const char *type;
@@ -132,9 +216,11 @@ sx_build_area(struct ld *ld, struct xnode *n, struct pm_rgb *radiance)
 		    "\"area\" emitter, not \"%s\"", type);
 	if ((e = sx_collect(ld, n, "emitter", type, &pl)) != PM_OK)
 		return e;
-	if (!sx_has(&pl, "radiance"))
-		return sx_missing(ld, &pl, "radiance", "an <rgb>");
-	if ((e = sx_get_color(ld, &pl, "radiance", 0.0f, radiance)) != PM_OK ||
+	if (!sx_has(&pl, "radiance") && !has_texture(&pl, "radiance"))
+		return sx_missing(ld, &pl, "radiance", "an <rgb> or a "
+		    "<texture>");
+	if ((e = sx_get_color_tex(ld, &pl, "radiance", 0.0f, radiance, tex))
+	    != PM_OK ||
 	    (e = sx_finish(ld, &pl)) != PM_OK)
 		return e;
 	return sx_no_objects(ld, &pl);
@@ -149,7 +235,7 @@ sx_load_emitter(struct ld *ld, struct xnode *n)
 	struct pm_vec3 pos;
 	const char *type;
 	double cutoff, beam;
-	int i;
+	int i, tex;
 	enum pm_err e;
 
 	if ((e = sx_object_type(ld, n, &type)) != PM_OK)
@@ -160,9 +246,10 @@ sx_load_emitter(struct ld *ld, struct xnode *n)
 		return e;
 	if (strcmp(type, "point") != 0 && strcmp(type, "spot") != 0 &&
 	    strcmp(type, "constant") != 0 && strcmp(type, "envmap") != 0 &&
-	    strcmp(type, "directional") != 0)
+	    strcmp(type, "directional") != 0 &&
+	    strcmp(type, "projector") != 0)
 		return sx_unknown_plugin(ld, n, type, "area, point, spot, "
-		    "directional, constant and envmap");
+		    "projector, directional, constant and envmap");
 	if ((i = pm_scene_add_light(ld->s)) < 0)
 		return sx_nomem(ld);
 	l = &ld->s->lights[i];
@@ -187,8 +274,16 @@ sx_load_emitter(struct ld *ld, struct xnode *n)
 		    &cutoff)) != PM_OK ||
 		    (e = sx_get_float(ld, &pl, "beam_width", cutoff * 0.75, 0.0,
 		    cutoff, &beam)) != PM_OK ||
-		    (e = sx_get_transform(ld, &pl, "to_world", &M)) != PM_OK)
+		    (e = sx_get_transform(ld, &pl, "to_world", &M)) != PM_OK ||
+		    (e = sx_get_texture(ld, &pl, "texture", &tex)) != PM_OK)
 			return e;
+		/* texture: Mitsuba's uv maps the cutoff cone onto the unit
+		 * square, measured in to_world's own frame */
+		l->tex = tex;
+		l->tan_fov = tanf((float)cutoff * (PM_PI / 180.0f));
+		if (tex > 0 && !pm_mat4_inverse(M, &l->to_local))
+			return sx_fail(ld, n, PM_ERR_INVALID, "%s: to_world is "
+			    "singular", pl.what);
 		l->cutoff_angle = (float)cutoff;
 		l->beam_width = (float)beam;
 		l->position = pm_xform_point(&M, pm_v3(0, 0, 0));
@@ -197,6 +292,10 @@ sx_load_emitter(struct ld *ld, struct xnode *n)
 			return sx_fail(ld, n, PM_ERR_INVALID, "%s: to_world maps "
 			    "the axis to zero", pl.what);
 		l->frame = pm_frame_from_normal(pm_normalize(pos));
+	} else if (strcmp(type, "projector") == 0) {
+		l->type = PM_LIGHT_PROJECTOR;
+		if ((e = load_projector(ld, n, &pl, l)) != PM_OK)
+			return e;
 	} else if (strcmp(type, "directional") == 0) {
 		l->type = PM_LIGHT_DIRECTIONAL;
 		if ((e = load_directional(ld, n, &pl, l)) != PM_OK)

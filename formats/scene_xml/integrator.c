@@ -5,8 +5,8 @@
  * them: integrator_volume.c), direct
  * (path tracing to depth 2: light seen directly or after one bounce, with
  * light and BSDF sampling, as Mitsuba's direct integrator computes it)
- * and the moment wrapper (its nested integrator; the moments themselves
- * are not written, which the scene records so that pm-render can say so).
+ * the particle tracer ptracer, and the moment wrapper (its nested
+ * integrator, whose name the scene records for the moments' channels).
  */
 #include "private.h"
 
@@ -17,6 +17,7 @@ static enum pm_err load_type(struct ld *ld, struct xnode *n, int depth);
 static enum pm_err
 load_moment(struct ld *ld, struct xnode *n, struct plist *pl, int depth)
 {
+	const char *name;
 	enum pm_err e;
 
 	if ((e = sx_finish(ld, pl)) != PM_OK)
@@ -28,8 +29,26 @@ load_moment(struct ld *ld, struct xnode *n, struct plist *pl, int depth)
 	if (depth > 0)
 		return sx_fail(ld, pl->obj[0], PM_ERR_UNSUPPORTED,
 		    "%s: a moment integrator inside another", pl->what);
+	name = sx_attr(pl->obj[0], "name");
+	if (name == NULL)
+		name = "_arg_0";
+	if (name[0] == '\0' || strlen(name) >= sizeof(ld->s->integrator.
+	    moment_name) - 3)
+		return sx_fail(ld, pl->obj[0], PM_ERR_UNSUPPORTED, "%s: the "
+		    "nested integrator's name must have 1 to %zu characters",
+		    pl->what, sizeof(ld->s->integrator.moment_name) - 4);
 	ld->s->integrator.moment = true;
-	return load_type(ld, pl->obj[0], depth + 1);
+	snprintf(ld->s->integrator.moment_name,
+	    sizeof(ld->s->integrator.moment_name), "%s", name);
+	if ((e = load_type(ld, pl->obj[0], depth + 1)) != PM_OK)
+		return e;
+	/* Mitsuba's moment wraps sampling integrators, which a particle
+	 * tracer is not. */
+	if (ld->s->integrator.type == PM_INTEGRATOR_PTRACER)
+		return sx_fail(ld, pl->obj[0], PM_ERR_UNSUPPORTED, "%s: "
+		    "moment cannot wrap ptracer, which splats from the "
+		    "lights", pl->what);
+	return PM_OK;
 }
 
 /* The path tracer's parameters, shared by path, volpath and volpathmis. */
@@ -79,6 +98,16 @@ load_type(struct ld *ld, struct xnode *n, int depth)
 		it->type = PM_INTEGRATOR_PATH;
 		if ((e = path_params(ld, &pl, &md, &rr)) != PM_OK)
 			return e;
+	} else if (strcmp(type, "ptracer") == 0) {
+		it->type = PM_INTEGRATOR_PTRACER;
+		if ((e = path_params(ld, &pl, &md, &rr)) != PM_OK ||
+		    (e = sx_get_int(ld, &pl, "samples_per_pass", -1, -1,
+		    INT_MAX, &it->samples_per_pass)) != PM_OK)
+			return e;
+		if (it->samples_per_pass == 0)
+			return sx_fail(ld, n, PM_ERR_INVALID, "%s: "
+			    "samples_per_pass must be -1 or positive",
+			    pl.what);
 	} else if (strcmp(type, "direct") == 0) {
 		/* The sample counts change the noise, not the image. */
 		it->type = PM_INTEGRATOR_PATH;
@@ -140,7 +169,7 @@ load_type(struct ld *ld, struct xnode *n, int depth)
 		ph->final_gather_samples = (int)v;
 	} else {
 		return sx_unknown_plugin(ld, n, type, "path, volpath, volpathmis, "
-		    "direct, photonmapper and moment");
+		    "direct, ptracer, photonmapper and moment");
 	}
 	it->max_depth = (int)md;
 	it->rr_depth = (int)rr;

@@ -256,13 +256,15 @@ int sx_default_bsdf(struct ld *ld);
 
 /* emitter.c */
 enum pm_err sx_build_area(struct ld *ld, struct xnode *n,
-    struct pm_rgb *radiance);
+    struct pm_rgb *radiance, int *tex);
 enum pm_err sx_load_emitter(struct ld *ld, struct xnode *n);
 
 /* shape.c */
 enum pm_err sx_load_shape(struct ld *ld, struct xnode *n,
     const char *naming_dir);
 bool sx_similarity_scale(const struct pm_mat4 *M, float *scale);
+enum pm_err sx_load_fov(struct ld *ld, struct plist *pl, const struct xnode *n,
+    struct pm_camera *c);
 enum pm_err sx_wrap(struct ld *ld, const struct xnode *n, const char *what,
     enum pm_err e);
 

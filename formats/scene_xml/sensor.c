@@ -157,9 +157,10 @@ sensor_medium(struct ld *ld, struct plist *pl, struct xnode *o)
 	return PM_OK;
 }
 
-/* perspective and thinlens: fov and fov_axis, or focal_length. */
-static enum pm_err
-load_fov(struct ld *ld, struct plist *pl, const struct xnode *n,
+/* perspective and thinlens (and the projector emitter): fov and
+ * fov_axis, or focal_length, into c's fov and fov_axis. */
+enum pm_err
+sx_load_fov(struct ld *ld, struct plist *pl, const struct xnode *n,
     struct pm_camera *c)
 {
 	static const char *const axes[] = {"x", "y", "diagonal", "smaller",
@@ -280,7 +281,7 @@ sx_load_sensor(struct ld *ld, struct xnode *n)
 		    PM_ERR_INVALID, "%s: focus_distance must be positive",
 		    pl.what);
 	if (c->type != PM_SENSOR_ORTHOGRAPHIC &&
-	    (e = load_fov(ld, &pl, n, c)) != PM_OK)
+	    (e = sx_load_fov(ld, &pl, n, c)) != PM_OK)
 		return e;
 	if ((e = sx_finish(ld, &pl)) != PM_OK)
 		return e;

@@ -264,6 +264,7 @@ sx_load_shape(struct ld *ld, struct xnode *n, const char *naming_dir)
 	struct pm_mat4 M;
 	struct pm_vec3 center;
 	struct pm_rgb radiance;
+	int tex;
 	struct xnode *em;
 	const char *type, *fname = NULL, *path, *id;
 	double radius = 1.0;
@@ -413,12 +414,13 @@ sx_load_shape(struct ld *ld, struct xnode *n, const char *naming_dir)
 			return sx_fail(ld, n, PM_ERR_INVALID, "%s: emitter at "
 			    "line %d is already attached to shape %s", pl.what,
 			    em->line, ld->s->shapes[em->inst].name);
-		if ((e = sx_build_area(ld, em, &radiance)) != PM_OK)
+		if ((e = sx_build_area(ld, em, &radiance, &tex)) != PM_OK)
 			return e;
 		if ((li = pm_scene_add_light(ld->s)) < 0)
 			return sx_nomem(ld);
 		ld->s->lights[li].type = PM_LIGHT_AREA;
 		ld->s->lights[li].radiance = radiance;
+		ld->s->lights[li].tex = tex;
 		ld->s->lights[li].shape = idx;
 		ld->s->shapes[idx].light = li;
 		em->inst = idx;

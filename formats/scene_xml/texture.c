@@ -1,8 +1,8 @@
 /*
- * texture.c: <texture> elements (checkerboard, bitmap), nested in a
- * plugin under a parameter's name or defined at the top level and named
- * by <ref name="..." id="..."/>, into the scene's texture table; each is
- * built once however often it is used.
+ * texture.c: <texture> elements (checkerboard, bitmap, rawconstant,
+ * mesh_attribute), nested in a plugin under a parameter's name or defined
+ * at the top level and named by <ref name="..." id="..."/>, into the
+ * scene's texture table; each is built once however often it is used.
  */
 #include "private.h"
 
@@ -41,6 +41,28 @@ get_choice(struct ld *ld, struct plist *pl, const char *name,
 	    s, words[0]);
 }
 
+/* A checkerboard's colour: a colour, or a texture of the scene's table,
+ * whose copy *sub then owns. */
+static enum pm_err
+checker_color(struct ld *ld, struct plist *pl, const char *name, float def,
+    struct pm_rgb *out, struct pm_texture **sub)
+{
+	enum pm_err e;
+	int tex;
+
+	if ((e = sx_get_color_tex(ld, pl, name, def, out, &tex)) != PM_OK ||
+	    tex == 0)
+		return e;
+	if ((*sub = calloc(1, sizeof(**sub))) == NULL)
+		return sx_nomem(ld);
+	if (!pm_texture_copy(*sub, &ld->s->textures[tex - 1])) {
+		free(*sub);
+		*sub = NULL;
+		return sx_nomem(ld);
+	}
+	return PM_OK;
+}
+
 static enum pm_err
 build_texture(struct ld *ld, struct xnode *n, struct pm_texture *t)
 {
@@ -59,11 +81,49 @@ build_texture(struct ld *ld, struct xnode *n, struct pm_texture *t)
 		return e;
 	if (strcmp(type, "checkerboard") == 0) {
 		pm_texture_init(t, PM_TEXTURE_CHECKERBOARD);
-		if ((e = sx_get_color(ld, &pl, "color0", 0.4f, &t->color0))
-		    != PM_OK ||
-		    (e = sx_get_color(ld, &pl, "color1", 0.2f, &t->color1))
-		    != PM_OK)
+		if ((e = checker_color(ld, &pl, "color0", 0.4f, &t->color0,
+		    &t->sub[0])) != PM_OK ||
+		    (e = checker_color(ld, &pl, "color1", 0.2f, &t->color1,
+		    &t->sub[1])) != PM_OK)
 			return e;
+	} else if (strcmp(type, "mesh_attribute") == 0) {
+		/* the colours a PLY file gives its vertices or faces */
+		static const char *const attrs[] = {"vertex_color",
+		    "face_color", NULL};
+		int which;
+		double scale;
+
+		pm_texture_init(t, PM_TEXTURE_MESH_ATTRIBUTE);
+		if (!sx_has(&pl, "name"))
+			return sx_missing(ld, &pl, "name", "a <string>, "
+			    "vertex_color or face_color");
+		if ((e = get_choice(ld, &pl, "name", attrs, &which)) != PM_OK ||
+		    (e = sx_get_float(ld, &pl, "scale", 1.0, 0.0, 3.4e38,
+		    &scale)) != PM_OK)
+			return e;
+		t->attr = which == 0 ? PM_ATTR_VERTEX_COLOR : PM_ATTR_FACE_COLOR;
+		t->scale = (float)scale;
+		t->color0 = pm_rgb1(0.5f * t->scale);
+	} else if (strcmp(type, "rawconstant") == 0) {
+		/* a float or a <vector> (Mitsuba's), or an <rgb>, taken as
+		 * it is */
+		struct prop *vp = sx_prop_find(&pl, "value");
+
+		pm_texture_init(t, PM_TEXTURE_CONSTANT);
+		if (vp == NULL)
+			return sx_missing(ld, &pl, "value", "a <float> or "
+			    "<vector>");
+		if (vp->type == P_VECTOR) {
+			vp->used = true;
+			t->color0 = pm_rgb(vp->v.x, vp->v.y, vp->v.z);
+			if (!(t->color0.r >= 0.0f && t->color0.g >= 0.0f &&
+			    t->color0.b >= 0.0f))
+				return sx_fail(ld, vp->n, PM_ERR_INVALID, "%s: "
+				    "value must not be negative", pl.what);
+		} else if ((e = sx_get_color(ld, &pl, "value", 0.0f,
+		    &t->color0)) != PM_OK) {
+			return e;
+		}
 	} else if (strcmp(type, "bitmap") == 0) {
 		pm_texture_init(t, PM_TEXTURE_BITMAP);
 		if (!sx_has(&pl, "filename"))
@@ -83,10 +143,17 @@ build_texture(struct ld *ld, struct xnode *n, struct pm_texture *t)
 		t->wrap = wrap == 1 ? PM_WRAP_MIRROR : wrap == 2 ? PM_WRAP_CLAMP :
 		    PM_WRAP_REPEAT;
 	} else {
-		return sx_unknown_plugin(ld, n, type, "checkerboard and bitmap");
+		return sx_unknown_plugin(ld, n, type, "checkerboard, bitmap, "
+		    "rawconstant and mesh_attribute");
 	}
-	if ((e = sx_get_transform(ld, &pl, "to_uv", &M)) != PM_OK ||
-	    (e = sx_finish(ld, &pl)) != PM_OK ||
+	/* to_uv: the checkerboard's and the bitmap's only, as in Mitsuba
+	 * (elsewhere sx_finish reports it unused) */
+	M = pm_mat4_identity();
+	if ((t->type == PM_TEXTURE_CHECKERBOARD ||
+	    t->type == PM_TEXTURE_BITMAP) &&
+	    (e = sx_get_transform(ld, &pl, "to_uv", &M)) != PM_OK)
+		return e;
+	if ((e = sx_finish(ld, &pl)) != PM_OK ||
 	    (e = sx_no_objects(ld, &pl)) != PM_OK)
 		return e;
 	to_uv_of(&M, t->to_uv);

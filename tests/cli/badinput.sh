@@ -80,18 +80,26 @@ xml_refused "an include cycle" "cycle.*(cycle|includ)" cycle-a.xml
 scene neg.xml "<shape type=\"sphere\"><float name=\"radius\" value=\"-1\"/></shape>$light"
 xml_refused "a negative radius" "neg.xml:2.*radius" neg.xml
 
-# --- participating media: photon mode refuses them, naming the medium --
+# --- participating media: photon mode shoots a volume map (pmap 2.1) ---
 scene bad-medium.xml "<shape type=\"sphere\"><bsdf type=\"null\"/>
 <medium type=\"nebula\" name=\"interior\"/></shape>$light"
 xml_refused "an unknown medium type" "bad-medium.xml:3.*nebula" bad-medium.xml
-check "pm-shoot: a scene with a medium" refused 1 \
-    'medium "fog" \(the sensor.s\).*pm-render --method path' \
-    $S -q --photons 100 -o "$tmp/o.pmap" data/fog-box.xml
-check "pm-render: a scene with a medium, photon mode" refused 1 \
-    'fog-box.xml: medium "fog".*--method path' \
-    $R -q --spp 1 --size 8x8 -o "$tmp/o.exr" data/fog-box.xml "$tmp/none.pmap"
-check "pm-render: ...which path mode renders, exit 0" status 0 \
+check "pm-shoot: a scene with a medium, exit 0" status 0 \
+    $S -q --photons 2000 -o "$tmp/fog.pmap" data/fog-box.xml
+check "pm-balance: its volume map, exit 0" status 0 \
+    bin/pm-balance -q -o "$tmp/fogb.pmap" "$tmp/fog.pmap"
+check "pm-inspect: version 2.1, a balanced volume map of 2000 paths" \
+    status 0 bin/pm-inspect --map volume "$tmp/fogb.pmap"
+check "...whose report says so" sh -c "grep -q '^version	2.1$' $tmp/out &&
+    grep -q '^volume.emitted	2000$' $tmp/out &&
+    grep -q '^volume.balanced	true$' $tmp/out &&
+    grep -q '^effects	.*media' $tmp/out"
+check "pm-render: a scene with a medium, photon mode, exit 0" status 0 \
+    $R -q --spp 1 --size 8x8 -o "$tmp/fogp.exr" data/fog-box.xml "$tmp/fogb.pmap"
+check "pm-render: ...and path mode, exit 0" status 0 \
     $R -q --spp 1 --size 8x8 -o "$tmp/fog.exr" data/fog-box.xml
+check "pm-render: --volume-estimate other than point or beam refused" \
+    status 2 $R --volume-estimate cone -o "$tmp/x.exr" data/fog-box.xml
 if [ -f data/smoke.vol ]; then
 	check "pm-shoot: a heterogeneous medium" refused 1 \
 	    'medium "smoke": .*heterogeneous media.*--method path' \

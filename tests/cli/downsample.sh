@@ -116,4 +116,33 @@ else
 	skip "...saying so in one line: no /dev/full"
 fi
 
+# Channels beside R, G and B (the moment integrator's) are averaged and
+# filtered with the image: the means of two passes' moments, halved in
+# size, are the mean of their means.
+R=$BIN/pm-render
+if [ -x "$R" ]; then
+	sed 's|<integrator type="path">|<integrator type="moment"><integrator type="path" name="nested">|; s|</integrator>|</integrator></integrator>|' \
+	    data/cornell-box.xml >"$tmp/moment.xml"
+	"$R" -q --seed 1 --spp 2 --size 16x12 -o "$tmp/m1.exr" "$tmp/moment.xml" &&
+	"$R" -q --seed 2 --spp 2 --size 16x12 -o "$tmp/m2.exr" "$tmp/moment.xml" &&
+	"$R" -q --seed 1 --spp 2 --size 16x12 -o "$tmp/plain.exr" data/cornell-box.xml ||
+	    echo "# pm-render failed"
+	check "passes with moments average" status 0 $D --factor 2 -o "$tmp/o/mo.exr" "$tmp/m1.exr" "$tmp/m2.exr"
+	check "...keeping every channel" same "$("$U" channels "$tmp/o/mo.exr" | cut -f1 | tr '\n' ' ')" \
+	    "m2_nested.X m2_nested.Y m2_nested.Z nested.X nested.Y nested.Z var(nested.X) var(nested.Y) var(nested.Z) "
+	check "...each the mean of the passes'" sh -c "\"$U\" channels '$tmp/m1.exr' >'$tmp/c1' &&
+	    \"$U\" channels '$tmp/m2.exr' >'$tmp/c2' && \"$U\" channels '$tmp/o/mo.exr' >'$tmp/co' &&
+	    paste '$tmp/c1' '$tmp/c2' '$tmp/co' | awk -F'\t' '
+		\$1 !~ /^var/ { m = (\$2 + \$4) / 2; d = \$6 - m; if (d < 0) d = -d;
+		    if (d > 1e-5 * (m < 0 ? -m : m) + 1e-9) bad = 1; n++ }
+		END { exit bad || n != 6 }'"
+	check "...and the second moment stays at least the first's square" sh -c \
+	    "\"$U\" channels '$tmp/o/mo.exr' | awk -F'\t' '/^var/ { if (\$2 < -1e-4) bad = 1 } END { exit bad }'"
+	check "passes with different channels are refused" status 1 $D -o "$tmp/o/mix.exr" "$tmp/m1.exr" "$tmp/plain.exr"
+	check "...in one line naming both" one_line pm-downsample 'plain.exr: its channels differ from .*m1.exr'
+	check "PNG from passes with moments" status 0 $D -o "$tmp/o/mo.png" "$tmp/m1.exr" "$tmp/m2.exr"
+else
+	skip "moments through pm-downsample: $R is not built"
+fi
+
 finish downsample

@@ -17,6 +17,10 @@
  *	mean r: "relmse dR dG dB".
  *   exrutil attrs IN.exr
  *	prints the string attributes, "NAME<TAB>VALUE" in file order.
+ *   exrutil channels IN.exr
+ *	prints "NAME<TAB>MEAN" (%.9g) for every channel beside R, G and B,
+ *	in the file's order, and for a NAME with an m2_NAME beside it the
+ *	smallest m2_NAME - NAME^2 over the pixels as "var(NAME)<TAB>MIN".
  *   exrutil same A.exr B.exr
  *	succeeds if both decode to the same size and the same float pixels,
  *	bit for bit; otherwise names the first difference.
@@ -91,6 +95,53 @@ main(int argc, char **argv)
 		for (i = 0; i < at.n; i++)
 			printf("%s\t%s\n", at.v[i].name, at.v[i].value);
 		pm_exr_attrs_free(&at);
+		return 0;
+	}
+	if (argc == 3 && strcmp(argv[1], "channels") == 0) {
+		struct pm_exr_layers ly = { NULL, 0 };
+		struct pm_image im;
+		size_t i, j, p, n;
+		int k, l;
+
+		if (pm_exr_read_layers(argv[2], &im, NULL, &ly, &err) !=
+		    PM_OK) {
+			fprintf(stderr, "exrutil: %s\n", err.msg);
+			return 1;
+		}
+		n = (size_t)im.width * (size_t)im.height;
+		for (i = 0; i < ly.n; i++)
+			for (k = 0; k < 3; k++) {
+				double s = 0.0;
+
+				if (ly.v[i].name[k] == NULL)
+					continue;
+				for (p = 0; p < n; p++)
+					s += ly.v[i].im.rgb[3 * p + k];
+				printf("%s\t%.9g\n", ly.v[i].name[k], s / n);
+			}
+		for (i = 0; i < ly.n; i++)
+			for (k = 0; k < 3; k++)
+				for (j = 0; j < ly.n; j++)
+					for (l = 0; l < 3; l++) {
+						const char *a = ly.v[i].name[k];
+						const char *b = ly.v[j].name[l];
+						double lo = INFINITY;
+
+						if (a == NULL || b == NULL ||
+						    strncmp(b, "m2_", 3) != 0 ||
+						    strcmp(b + 3, a) != 0)
+							continue;
+						for (p = 0; p < n; p++) {
+							double m1 = ly.v[i].im.rgb[3 * p + k];
+							double m2 = ly.v[j].im.rgb[3 * p + l];
+
+							if (m2 - m1 * m1 < lo)
+								lo = m2 - m1 * m1;
+						}
+						printf("var(%s)\t%.9g\n", a, lo);
+					}
+		pm_exr_layers_free(&ly);
+		pm_image_free(&im);
 		return 0;
 	}
 	if (argc == 4 && strcmp(argv[1], "same") == 0) {

@@ -112,7 +112,8 @@ check "...in one line" one_line
 check "pm-inspect: no map exits 2" status 2 $INS
 check "pm-inspect: two maps exit 2" status 2 $INS "$tmp/a.pmap" "$tmp/b.pmap"
 check "pm-inspect: unknown dump format exits 2" status 2 $INS --dump obj "$tmp/a.pmap"
-check "pm-inspect: unknown map kind exits 2" status 2 $INS --map volume "$tmp/a.pmap"
+check "pm-inspect: unknown map kind exits 2" status 2 $INS --map smoke "$tmp/a.pmap"
+check "pm-inspect: --map volume of a file without one exits 1" status 1 $INS --map volume "$tmp/a.pmap"
 check "pm-inspect: -k without --knn-check exits 2" status 2 $INS -k 5 "$tmp/a.pmap"
 check "pm-inspect: --knn-check 0 exits 2" status 2 $INS --knn-check 0 "$tmp/a.pmap"
 check "pm-inspect: --knn-check with junk exits 2" status 2 $INS --knn-check 10x "$tmp/a.pmap"

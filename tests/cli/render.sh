@@ -30,14 +30,35 @@ check "-D overrides a default" status 0 $R -q -D spp=1 -D res=8 -o "$tmp/b.exr" 
 check "1 and 4 threads give identical pixels" sh -c "$R -q -t 1 --spp 2 --size 20x20 -o $tmp/t1.exr data/cornell-box.xml && $R -q -t 4 --spp 2 --size 20x20 -o $tmp/t4.exr data/cornell-box.xml && $EXRUTIL same $tmp/t1.exr $tmp/t4.exr >/dev/null"
 check "different seeds give different images" sh -c "$R -q --seed 1 --spp 2 --size 20x20 -o $tmp/s1.exr data/cornell-box.xml && ! $EXRUTIL same $tmp/s1.exr $tmp/t1.exr 2>/dev/null"
 
-# Mitsuba's moment wrapper renders its nested integrator, and says that the
-# moments are not written, in one line.
+# Mitsuba's moment wrapper renders its nested integrator and writes its
+# moments as Mitsuba names them: _arg_0.X.. and m2__arg_0.X.. for a nested
+# integrator without a name, NAME.X.. with one.
 sed 's|<integrator type="path">|<integrator type="moment"><integrator type="path">|; s|</integrator>|</integrator></integrator>|' \
     data/cornell-box.xml >"$tmp/moment.xml"
-check "a scene under the moment integrator renders" status 0 $R --seed 1 --spp 2 --size 20x20 -o "$tmp/mo.exr" "$tmp/moment.xml"
+check "a scene under the moment integrator renders" status 0 $R -q --seed 1 --spp 2 --size 20x20 -o "$tmp/mo.exr" "$tmp/moment.xml"
 check "...the nested integrator's image" sh -c "$EXRUTIL same $tmp/mo.exr $tmp/s1.exr >/dev/null"
-check "...with one line saying the moments are not written" sh -c \
-    "test \"\$(wc -l <$tmp/err)\" -eq 1 && grep -q 'moments are not written' $tmp/err"
+check "...with its moments as Mitsuba's channels" sh -c \
+    "$EXRUTIL channels $tmp/mo.exr | cut -f1 | tr '\n' ' ' | grep -qx '_arg_0.X _arg_0.Y _arg_0.Z m2__arg_0.X m2__arg_0.Y m2__arg_0.Z var(_arg_0.X) var(_arg_0.Y) var(_arg_0.Z) '"
+check "...whose second moment is at least the first's square" sh -c \
+    "$EXRUTIL channels $tmp/mo.exr | awk -F'\t' '/^var/ { if (\$2 < -1e-4) bad = 1 } END { exit bad }'"
+sed 's|<integrator type="path">|<integrator type="moment"><integrator type="path" name="nested">|; s|</integrator>|</integrator></integrator>|' \
+    data/cornell-box.xml >"$tmp/moment-named.xml"
+check "a named nested integrator names the channels" sh -c \
+    "$R -q --seed 1 --spp 2 --size 20x20 -o $tmp/mon.exr $tmp/moment-named.xml && $EXRUTIL channels $tmp/mon.exr | grep -q '^m2_nested.Y'"
+sed 's|<integrator type="path">|<integrator type="moment"><integrator type="ptracer">|; s|</integrator>|</integrator></integrator>|' \
+    data/cornell-box.xml >"$tmp/moment-pt.xml"
+check "moment around ptracer is refused" status 1 $R -q --spp 1 --size 8x8 -o "$tmp/x.exr" "$tmp/moment-pt.xml"
+check "...in one line" one_line
+
+# Mitsuba's particle tracer: from the scene or --method ptracer; the same
+# pixels whatever the thread count.
+sed 's|<integrator type="path">|<integrator type="ptracer">|' data/cornell-box.xml >"$tmp/pt.xml"
+check "a ptracer scene renders" status 0 $R -q -t 1 --seed 2 --spp 2 --size 20x16 -o "$tmp/pt1.exr" "$tmp/pt.xml"
+check "...the same pixels with 3 threads" sh -c "$R -q -t 3 --seed 2 --spp 2 --size 20x16 -o $tmp/pt3.exr $tmp/pt.xml && $EXRUTIL same $tmp/pt1.exr $tmp/pt3.exr >/dev/null"
+check "...as --method ptracer on the path scene" sh -c "$R -q -t 2 --method ptracer --seed 2 --spp 2 --size 20x16 -o $tmp/ptm.exr data/cornell-box.xml && $EXRUTIL same $tmp/pt1.exr $tmp/ptm.exr >/dev/null"
+check "--method path overrides the scene's ptracer" sh -c "$R -q --method path --seed 1 --spp 2 --size 20x20 -o $tmp/ptp.exr $tmp/pt.xml && $EXRUTIL same $tmp/ptp.exr $tmp/s1.exr >/dev/null"
+check "--method ptracer with a map exits 2" status 2 $R --method ptracer -o "$tmp/x.exr" data/cornell-box.xml "$tmp/x.pmap"
+check "an unknown method exits 2" status 2 $R --method bdpt -o "$tmp/x.exr" data/cornell-box.xml
 
 # Photon maps: the map must come from the scene; several cameras, one load.
 B=$BIN
@@ -49,6 +70,7 @@ if $B/pm-shoot -q -f --photons 2000 --caustic-photons 0 -o "$tmp/cb-shot.pmap" d
 	check "an unbalanced map is refused" status 1 $R -q --spp 1 --size 8x8 -o "$tmp/x.exr" data/cornell-box.xml "$tmp/cb-shot.pmap"
 	check "...naming pm-balance" grep -q "pm-balance" "$tmp/err"
 	check "--method path with a map is a usage error" status 2 $R --method path -o "$tmp/x.exr" data/cornell-box.xml "$tmp/cb.pmap"
+	check "photon mode writes the moments too" sh -c "$R -q --spp 2 --size 16x16 -o $tmp/pmo.exr $tmp/moment.xml $tmp/cb.pmap && $EXRUTIL channels $tmp/pmo.exr | grep -q '^m2__arg_0.Y'"
 	printf '# two cameras\n0,1,3.8 0,1,0 0,1,0\n\n0.5,1,3.8 0,1,0 0,1,0 50\n' >"$tmp/cams.txt"
 	check "--cameras renders every camera" status 0 $R -q --spp 1 --size 8x8 --cameras "$tmp/cams.txt" -o "$tmp/cam.exr" data/cornell-box.xml "$tmp/cb.pmap"
 	check "...numbering the outputs" test -s "$tmp/cam-0001.exr" -a -s "$tmp/cam-0002.exr" -a ! -e "$tmp/cam-0003.exr"

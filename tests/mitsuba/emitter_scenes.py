@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
-"""emitter_scenes.py: write the scenes that check pm's envmap and
-directional emitters against Mitsuba 3.
+"""emitter_scenes.py: write the scenes that check pm's envmap,
+directional, textured and projector emitters against Mitsuba 3, and the
+textures they use (see textured() below).
 
     emitter_scenes.py DIR
 
@@ -52,6 +53,19 @@ def sky(w=64, h=32):
     # the sun: rows around 50 degrees from the zenith, columns 44..47
     y0 = int(round(50.0 / 180.0 * h))
     img[y0:y0 + 3, 44:48] = (120.0, 100.0, 70.0)
+    return img
+
+
+def pattern(w=8, h=6):
+    """An image whose orientation shows: red grows along u (columns),
+    green along v (rows, top first), and a blue block in the first row's
+    first two texels."""
+    img = np.zeros((h, w, 3), dtype=np.float32)
+    for y in range(h):
+        for x in range(w):
+            img[y, x] = (0.1 + 0.9 * x / (w - 1), 0.1 + 0.8 * y / (h - 1),
+                         0.1)
+    img[0, 0:2] = (0.05, 0.1, 1.0)
     return img
 
 
@@ -193,7 +207,298 @@ def main():
 		<rgb name="radiance" value="0.15, 0.2, 0.3"/>
 	</emitter>
 """ + OBJECTS)
+    textured(d, mi)
     return 0
+
+
+# Textured emitters and the textures pm reads besides checkerboard and
+# bitmap; pattern.* is pattern() in the formats these read.
+SPOT_TEX = """	<emitter type="spot">
+		<rgb name="intensity" value="60"/>
+		<float name="cutoff_angle" value="30"/>
+		<texture type="bitmap" name="texture">
+			<string name="filename" value="pattern.exr"/>
+			<string name="filter_type" value="nearest"/>
+		</texture>
+		<transform name="to_world">
+			<lookat origin="0.3, 5, 0.2" target="0, 0, 0" up="1, 0, 0"/>
+		</transform>
+	</emitter>
+"""
+
+# The image's edge lies beyond the view, and a dim sky lights the
+# shadows, as in directional.xml: where only indirect light arrives
+# beside a delta light's hard edge, photon mode's estimate is a few
+# percent off almost nothing (10 of 768 blocks beyond 4 sigma of an
+# otherwise noiseless image, in the spheres' umbra), a matter of the
+# photon estimate, not of the projector.
+PROJECTOR = """	<emitter type="constant">
+		<rgb name="radiance" value="0.15, 0.2, 0.3"/>
+	</emitter>
+	<emitter type="projector">
+		<texture type="bitmap" name="irradiance">
+			<string name="filename" value="pattern.exr"/>
+		</texture>
+		<float name="scale" value="8"/>
+		<float name="fov" value="70"/>
+		<transform name="to_world">
+			<lookat origin="1, 6, 1.5" target="0, 0, 0" up="0, 0, -1"/>
+		</transform>
+	</emitter>
+"""
+
+AREA_TEX = """	<shape type="rectangle">
+		<transform name="to_world">
+			<scale x="1.2" y="0.8"/>
+			<rotate x="1" angle="20"/>
+			<translate y="2.2" z="-2.5"/>
+		</transform>
+		<emitter type="area">
+			<texture type="bitmap" name="radiance">
+				<string name="filename" value="bright.exr"/>
+			</texture>
+		</emitter>
+	</shape>
+	<shape type="sphere">
+		<point name="center" x="2.2" y="2.4" z="-1"/>
+		<float name="radius" value="0.35"/>
+		<emitter type="area">
+			<texture type="checkerboard" name="radiance">
+				<texture type="rawconstant" name="color0">
+					<vector name="value" x="6" y="5" z="2"/>
+				</texture>
+				<rgb name="color1" value="0.5, 0.8, 1"/>
+				<transform name="to_uv">
+					<scale x="4" y="2"/>
+				</transform>
+			</texture>
+		</emitter>
+	</shape>
+	<shape type="rectangle">
+		<transform name="to_world">
+			<scale value="6"/>
+			<rotate x="1" angle="-90"/>
+		</transform>
+		<bsdf type="diffuse">
+			<rgb name="reflectance" value="0.5, 0.5, 0.45"/>
+		</bsdf>
+	</shape>
+	<shape type="sphere">
+		<point name="center" x="-0.8" y="1.0" z="0"/>
+		<float name="radius" value="0.7"/>
+		<bsdf type="diffuse">
+			<rgb name="reflectance" value="0.7, 0.4, 0.3"/>
+		</bsdf>
+	</shape>
+	<shape type="sphere">
+		<point name="center" x="0.9" y="0.9" z="0.3"/>
+		<float name="radius" value="0.6"/>
+		<bsdf type="diffuse">
+			<rgb name="reflectance" value="0.3, 0.5, 0.7"/>
+		</bsdf>
+	</shape>
+</scene>
+"""
+
+# A rectangle, not OBJECTS' disk, under the checkerboard: pm's disk is a
+# fan of triangles whose uv, interpolated over each, bends the circles of
+# constant radius into polygons (the squares' edges moved by a pixel or
+# two at 256 x 256, 71 of 768 blocks beyond 4 sigma).
+TEX_MORE = """	<emitter type="constant">
+		<rgb name="radiance" value="1, 0.95, 0.9"/>
+	</emitter>
+	<shape type="rectangle">
+		<transform name="to_world">
+			<scale value="4"/>
+			<rotate x="1" angle="-90"/>
+		</transform>
+		<bsdf type="diffuse">
+			<texture type="checkerboard" name="reflectance">
+				<texture type="bitmap" name="color0">
+					<string name="filename" value="pattern.hdr"/>
+					<string name="filter_type" value="nearest"/>
+				</texture>
+				<texture type="rawconstant" name="color1">
+					<float name="value" value="0.15"/>
+				</texture>
+				<transform name="to_uv">
+					<scale x="3" y="5"/>
+				</transform>
+			</texture>
+		</bsdf>
+	</shape>
+	<shape type="sphere">
+		<point name="center" x="-0.8" y="1.0" z="0"/>
+		<float name="radius" value="0.7"/>
+		<bsdf type="diffuse">
+			<texture type="rawconstant" name="reflectance">
+				<vector name="value" x="0.7" y="0.4" z="0.3"/>
+			</texture>
+		</bsdf>
+	</shape>
+	<shape type="sphere">
+		<point name="center" x="0.9" y="0.9" z="0.3"/>
+		<float name="radius" value="0.6"/>
+		<bsdf type="dielectric">
+			<texture type="bitmap" name="specular_transmittance">
+				<string name="filename" value="pattern.png"/>
+			</texture>
+			<texture type="checkerboard" name="specular_reflectance">
+				<rgb name="color0" value="1"/>
+				<rgb name="color1" value="0.2"/>
+				<transform name="to_uv">
+					<scale x="6" y="3"/>
+				</transform>
+			</texture>
+		</bsdf>
+	</shape>
+</scene>
+"""
+
+
+def ply_grid(path, n, half, vcol=None, fcol=None):
+    """An n x n grid of squares, two triangles each, over [-half,
+    half]^2 at z = 0 facing +z, as ASCII PLY; vcol(x, y) and fcol(i)
+    give float r g b for vertices and for triangles."""
+    verts = [(-half + 2 * half * i / n, -half + 2 * half * j / n)
+             for j in range(n + 1) for i in range(n + 1)]
+    tris = []
+    for j in range(n):
+        for i in range(n):
+            a = j * (n + 1) + i
+            tris.append((a, a + 1, a + n + 2))
+            tris.append((a, a + n + 2, a + n + 1))
+    with open(path, "w") as f:
+        f.write("ply\nformat ascii 1.0\nelement vertex %d\n" % len(verts))
+        f.write("property float x\nproperty float y\nproperty float z\n")
+        if vcol:
+            f.write("property float red\nproperty float green\n"
+                    "property float blue\n")
+        f.write("element face %d\n" % len(tris))
+        f.write("property list uchar int vertex_indices\n")
+        if fcol:
+            f.write("property float r\nproperty float g\n"
+                    "property float b\n")
+        f.write("end_header\n")
+        for x, y in verts:
+            f.write("%g %g 0" % (x, y))
+            if vcol:
+                f.write(" %g %g %g" % vcol(x, y))
+            f.write("\n")
+        for k, t in enumerate(tris):
+            f.write("3 %d %d %d" % t)
+            if fcol:
+                f.write(" %g %g %g" % fcol(k))
+            f.write("\n")
+
+
+# mesh_attribute: vertex colours on the ground, face colours on a
+# panel, and (LAMP_ATTR) vertex colours as a light's radiance.
+ATTRS = """	<shape type="ply">
+		<string name="filename" value="ground.ply"/>
+		<transform name="to_world">
+			<rotate x="1" angle="-90"/>
+		</transform>
+		<bsdf type="diffuse">
+			<texture type="mesh_attribute" name="reflectance">
+				<string name="name" value="vertex_color"/>
+			</texture>
+		</bsdf>
+	</shape>
+	<shape type="ply">
+		<string name="filename" value="panel.ply"/>
+		<transform name="to_world">
+			<rotate x="1" angle="-90"/>
+			<translate x="-0.8" y="0.8" z="0.2"/>
+		</transform>
+		<bsdf type="diffuse">
+			<texture type="mesh_attribute" name="reflectance">
+				<string name="name" value="face_color"/>
+				<float name="scale" value="0.9"/>
+			</texture>
+		</bsdf>
+	</shape>
+	<shape type="ply">
+		<string name="filename" value="lamp.ply"/>
+		<transform name="to_world">
+			<rotate x="1" angle="90"/>
+			<translate x="1" y="3" z="0.5"/>
+		</transform>
+		<emitter type="area">
+			LAMP
+		</emitter>
+	</shape>
+</scene>
+"""
+
+SKY = """	<emitter type="constant">
+		<rgb name="radiance" value="0.3, 0.3, 0.35"/>
+	</emitter>
+"""
+
+LAMP_ATTR = """<texture type="mesh_attribute" name="radiance">
+				<string name="name" value="vertex_color"/>
+				<float name="scale" value="4"/>
+			</texture>"""
+
+
+def textured(d, mi):
+    """spot-tex.xml, projector.xml and projector-flat.xml over OBJECTS,
+    area-tex.xml (a bitmap on a rectangle light seen from the front, a
+    checkerboard on a small sphere light), tex-more.xml: under a
+    constant sky, a checkerboard of an RGBE bitmap and a rawconstant, a
+    rawconstant <vector>, and glass whose transmittance and reflectance
+    are textures; and mesh-attr.xml, PLY meshes written here with vertex
+    and face colours for mesh_attribute textures."""
+    pat = pattern()
+    mi.Bitmap(pat).write(os.path.join(d, "pattern.exr"))
+    mi.Bitmap(pat).write(os.path.join(d, "pattern.hdr"))
+    mi.Bitmap(pat).convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8,
+                           True).write(os.path.join(d, "pattern.png"))
+    mi.Bitmap(pat * 4.0).write(os.path.join(d, "bright.exr"))
+    with open(os.path.join(d, "spot-tex.xml"), "w") as f:
+        f.write(HEAD + SPOT_TEX + OBJECTS)
+    with open(os.path.join(d, "projector.xml"), "w") as f:
+        f.write(HEAD + PROJECTOR + OBJECTS)
+    with open(os.path.join(d, "projector-flat.xml"), "w") as f:
+        f.write(HEAD + PROJECTOR.replace("""		<texture type="bitmap" name="irradiance">
+			<string name="filename" value="pattern.exr"/>
+		</texture>
+""", """		<rgb name="irradiance" value="0.8, 0.6, 0.4"/>
+""") + OBJECTS)
+    with open(os.path.join(d, "area-tex.xml"), "w") as f:
+        f.write(head("0, 3, 7", "0, 1, -0.5", "0, 1, 0", 45) + AREA_TEX)
+    with open(os.path.join(d, "tex-more.xml"), "w") as f:
+        f.write(HEAD + TEX_MORE)
+    ply_grid(os.path.join(d, "ground.ply"), 8, 3.0,
+             vcol=lambda x, y: (0.5 + 0.12 * x, 0.45 - 0.1 * y,
+                                0.3 + 0.05 * x * y))
+    ply_grid(os.path.join(d, "panel.ply"), 3, 0.9,
+             fcol=lambda k: ((k % 3) / 2.0, (k % 5) / 4.0, (k % 2) * 0.9))
+    ply_grid(os.path.join(d, "lamp.ply"), 2, 0.6,
+             vcol=lambda x, y: (1.0 + x, 1.0, 1.0 - y))
+    with open(os.path.join(d, "mesh-attr.xml"), "w") as f:
+        f.write(HEAD + SKY + ATTRS.replace(
+            "LAMP", '<rgb name="radiance" value="4"/>'))
+    # Mitsuba 3.9.1's light samples of a mesh_attribute emitter disagree
+    # with its own BSDF samples (its direct integrator, light samples
+    # only: 0.122 in the mean; BSDF samples only: 0.160, as pm's), so
+    # the light with its colours is checked against Mitsuba's BSDF
+    # samples alone (8 per pixel sample, their noise being high), direct
+    # light only (pm: the path tracer to depth 2).
+    with open(os.path.join(d, "mesh-attr-lamp.xml"), "w") as f:
+        f.write(HEAD.replace('<integrator type="path"/>',
+                             '<integrator type="path">'
+                             '<integer name="max_depth" value="2"/>'
+                             '</integrator>') +
+                ATTRS.replace("LAMP", LAMP_ATTR))
+    with open(os.path.join(d, "mesh-attr-lamp-ref.xml"), "w") as f:
+        f.write(HEAD.replace('<integrator type="path"/>',
+                             '<integrator type="direct">'
+                             '<integer name="emitter_samples" value="0"/>'
+                             '<integer name="bsdf_samples" value="8"/>'
+                             '</integrator>') +
+                ATTRS.replace("LAMP", LAMP_ATTR))
 
 
 if __name__ == "__main__":

@@ -1,6 +1,8 @@
 #!/bin/sh
-# emitters.sh: check pm's envmap and directional emitters against Mitsuba 3,
-# in path mode and in photon mode.
+# emitters.sh: check pm's envmap, directional, textured and projector
+# emitters (and the textures they brought: rawconstant, RGBE bitmaps,
+# textures within a checkerboard, textured glass, mesh_attribute) against
+# Mitsuba 3, in path mode and in photon mode.
 #
 #   sh tests/mitsuba/emitters.sh
 #
@@ -142,5 +144,16 @@ else
 fi
 diag <"$OUT/log"
 check "spot-envmap: pm's variance per sample is within 2x Mitsuba's" $_ok
+# Textured emitters (a spot's texture, the projector with a bitmap and
+# with a colour, bitmap and checkerboard radiance on area lights) and the
+# textures of tex-more.xml (an RGBE bitmap and rawconstants in a
+# checkerboard, textured glass).
+for scene in spot-tex projector projector-flat area-tex tex-more \
+    mesh-attr; do
+	against $scene $scene
+done
+# A light's radiance from its mesh's vertex colours: direct light only,
+# against Mitsuba's BSDF samples alone (see emitter_scenes.py).
+against mesh-attr-lamp mesh-attr-lamp-ref path
 echo "# total $(($(date +%s) - t0)) s"
 finish "mitsuba emitters"

@@ -5,6 +5,7 @@ that pm-render is checked against.
     render_mitsuba.py SCENE.xml OUT.exr [--spp N] [-D name=value ...]
                       [--variant V] [--seed N] [--light-scale F] [--no-cache]
                       [--integrator path|ptracer] [--key-scope dir|scene]
+                      [--moments]
 
 The scene is rendered with its own integrator (the Cornell boxes use `path`),
 so both renderers read exactly the same file. OUT.exr holds linear RGB float32.
@@ -22,7 +23,9 @@ long references (tests/accuracy/references.sh) survive edits to other files
 beside the scene. --integrator replaces the scene's integrator by Mitsuba's
 `path` or `ptracer` with unlimited depth. The cache's .json records the
 seconds spent loading the scene and rendering it, which the accuracy study
-reads as Mitsuba's wall time.
+reads as Mitsuba's wall time. --moments (a scene under Mitsuba's `moment`
+integrator) writes instead of RGB the per-pixel variance of one sample,
+m2 - m1^2 of the moment channels (CIE XYZ), as three channels.
 """
 
 import argparse
@@ -66,6 +69,8 @@ def parse_args(argv):
     p.add_argument("--key-scope", choices=("dir", "scene"), default="dir",
                    help="hash every file beside the scene (dir) or only "
                    "the scene and the files it names (scene)")
+    p.add_argument("--moments", action="store_true",
+                   help="write the moment integrator's variance, m2 - m1^2")
     p.add_argument("-q", "--quiet", action="store_true")
     return p.parse_args(argv)
 
@@ -183,6 +188,8 @@ def cache_key(args, defines, variant, mitsuba_version):
         opts["integrator"] = args.integrator
     if args.key_scope != "dir":
         opts["key_scope"] = args.key_scope
+    if args.moments:
+        opts["moments"] = True
     h.update(json.dumps(opts, sort_keys=True).encode())
     return h.hexdigest()[:32]
 
@@ -239,6 +246,18 @@ def render(args, defines, variant, out):
             done += n
             i += 1
         arr = arr / spp
+    if args.moments:
+        # The film's channels by name: R, G, B, then NAME.X.. and
+        # m2_NAME.X.. of the moment integrator.
+        film = scene.sensors()[0].film()
+        names = [film.bitmap().struct_()[i].name
+                 for i in range(arr.shape[2])]
+        m2 = [i for i, n in enumerate(names) if n.startswith("m2_")]
+        m1 = [names.index(names[i][3:]) for i in m2]
+        if len(m2) != 3:
+            sys.exit("render_mitsuba: --moments: no moment channels in %s"
+                     % names)
+        arr = arr[:, :, m2] - arr[:, :, m1] ** 2
     arr = arr.astype(np.float32)
     seconds = time.time() - t0
     if arr.ndim != 3 or arr.shape[2] < 3:

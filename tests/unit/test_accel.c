@@ -1,7 +1,8 @@
 /*
  * test_accel.c: Embree's answers equal a brute-force ray caster's on random
  * rays through random triangles and spheres; offset origins never hit the
- * surface they leave, at any scene scale.
+ * surface they leave, at any scene scale; batched queries (packets) give
+ * exactly the single queries' answers.
  */
 #include <math.h>
 #include <setjmp.h>
@@ -70,7 +71,8 @@ rand_point(struct pm_rng *r, float scale)
 }
 
 static void
-make_random_scene(struct pm_scene *s, struct pm_rng *r, uint32_t ntris)
+make_random_scene_n(struct pm_scene *s, struct pm_rng *r, uint32_t ntris,
+    int nspheres)
 {
 	struct pm_shape *sh;
 	uint32_t i;
@@ -103,7 +105,7 @@ make_random_scene(struct pm_scene *s, struct pm_rng *r, uint32_t ntris)
 			sh->mesh.idx[3 * i + v] = 3 * i + v;
 		}
 	}
-	for (k = 0; k < 4; k++) {
+	for (k = 0; k < nspheres; k++) {
 		int j = pm_scene_add_shape(s);
 
 		assert_true(j > 0);
@@ -113,6 +115,12 @@ make_random_scene(struct pm_scene *s, struct pm_rng *r, uint32_t ntris)
 		sh->radius = 0.05f + 0.1f * pm_rng_float(r);
 		sh->light = -1;
 	}
+}
+
+static void
+make_random_scene(struct pm_scene *s, struct pm_rng *r, uint32_t ntris)
+{
+	make_random_scene_n(s, r, ntris, 4);
 }
 
 static void
@@ -189,6 +197,75 @@ test_hits_equal_brute_force(void **state)
 	pm_scene_free(&s);
 }
 
+/* Batches of every size up to 20 rays, some with short tmax, through
+ * triangles only (packets) and with spheres (one at a time): every field
+ * of every hit, and every occlusion, bit for bit as the single query's. */
+static void
+test_batches_equal_single_queries(void **state)
+{
+	struct pm_rng r = pm_rng_seed(11, 0, 0);
+	int nspheres, rounds = 0, hits = 0;
+
+	(void)state;
+	for (nspheres = 0; nspheres <= 4; nspheres += 4) {
+		struct pm_scene s;
+		struct pm_accel *a;
+		struct pm_error err;
+		size_t n, i;
+
+		make_random_scene_n(&s, &r, 300, nspheres);
+		assert_int_equal(pm_accel_build(&s, &a, &err), PM_OK);
+		for (n = 1; n <= 20; n++) {
+			int rep;
+
+			for (rep = 0; rep < 100; rep++) {
+				struct pm_ray ray[20];
+				struct pm_hit h[20];
+				bool hit[20], occ[20];
+
+				for (i = 0; i < n; i++) {
+					ray[i].o = rand_point(&r, 1.5f);
+					ray[i].d = pm_normalize(rand_point(&r, 1.0f));
+					ray[i].tmin = 0.0f;
+					ray[i].tmax = pm_rng_float(&r) < 0.3f ?
+					    pm_rng_float(&r) : INFINITY;
+				}
+				pm_accel_intersect_n(a, ray, n, h, hit);
+				pm_accel_occluded_n(a, ray, n, occ);
+				for (i = 0; i < n; i++) {
+					struct pm_hit h1;
+					bool hit1 = pm_accel_intersect(a, ray[i].o,
+					    ray[i].d, ray[i].tmin, ray[i].tmax, &h1);
+
+					assert_int_equal(hit[i], hit1);
+					assert_int_equal(occ[i], pm_accel_occluded(a,
+					    ray[i].o, ray[i].d, ray[i].tmin,
+					    ray[i].tmax));
+					assert_int_equal(occ[i], hit1);
+					if (!hit1)
+						continue;
+					hits++;
+					assert_memory_equal(&h[i].t, &h1.t, sizeof(float));
+					assert_memory_equal(&h[i].p, &h1.p, sizeof(h1.p));
+					assert_memory_equal(&h[i].ng, &h1.ng, sizeof(h1.ng));
+					assert_memory_equal(&h[i].ns, &h1.ns, sizeof(h1.ns));
+					assert_int_equal(h[i].shape, h1.shape);
+					assert_int_equal(h[i].prim, h1.prim);
+					assert_memory_equal(&h[i].u, &h1.u, sizeof(float));
+					assert_memory_equal(&h[i].v, &h1.v, sizeof(float));
+					assert_memory_equal(&h[i].scale, &h1.scale,
+					    sizeof(float));
+				}
+				rounds++;
+			}
+		}
+		pm_accel_free(a);
+		pm_scene_free(&s);
+	}
+	print_message("%d batches, %d hits compared\n", rounds, hits);
+	assert_true(hits > 2000);
+}
+
 /* A ray leaving a surface from the offset origin never hits that surface,
  * whether the scene is in millimetres or kilometres. */
 static void
@@ -241,6 +318,7 @@ main(void)
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_hits_equal_brute_force),
+		cmocka_unit_test(test_batches_equal_single_queries),
 		cmocka_unit_test(test_offset_origin_no_acne),
 	};
 

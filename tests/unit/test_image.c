@@ -483,6 +483,83 @@ test_exr_roundtrip_float(void **state)
 }
 
 /*
+ * Channels beside R, G and B (layers): written and read back bit for bit
+ * under their names, grouped three to a layer in the file's sorted order
+ * (a last layer of one channel has two empty slots); readers that want
+ * only RGB still read the file; duplicate names fail the write.
+ */
+static void
+test_exr_layers(void **state)
+{
+	struct pm_error err;
+	struct pm_exr_layers ly = { NULL, 0 }, back = { NULL, 0 };
+	struct pm_exr_layer *l1, *l2;
+	struct pm_image a, b;
+	char path[512];
+	size_t i, n = 9 * 7;
+	int k;
+
+	(void)state;
+	rng_state = 5;
+	path_in_tmp(path, sizeof(path), "layers.exr");
+	assert_int_equal(pm_image_alloc(&a, 9, 7, &err), PM_OK);
+	fill_random(&a, 0.0f, 10.0f);
+	assert_int_equal(pm_exr_layers_add(&ly, "nested.X", "nested.Y",
+	    "nested.Z", 9, 7, &l1, &err), PM_OK);
+	fill_random(&l1->im, 0.0f, 1.0f);
+	assert_int_equal(pm_exr_layers_add(&ly, "A", NULL, NULL, 9, 7, &l2,
+	    &err), PM_OK);
+	fill_random(&l2->im, 0.0f, 1.0f);
+	if (pm_exr_write_layers(path, &a, false, NULL, &ly, &err) != PM_OK)
+		fail_msg("%s", err.msg);
+	if (pm_exr_read_layers(path, &b, NULL, &back, &err) != PM_OK)
+		fail_msg("%s", err.msg);
+	assert_memory_equal(a.rgb, b.rgb, sizeof(float) * 3 * n);
+	/* Sorted: A, then nested.X, nested.Y; nested.Z alone. */
+	assert_int_equal(back.n, 2);
+	assert_string_equal(back.v[0].name[0], "A");
+	assert_string_equal(back.v[0].name[1], "nested.X");
+	assert_string_equal(back.v[0].name[2], "nested.Y");
+	assert_string_equal(back.v[1].name[0], "nested.Z");
+	assert_null(back.v[1].name[1]);
+	assert_null(back.v[1].name[2]);
+	for (i = 0; i < n; i++) {
+		assert_true(back.v[0].im.rgb[3 * i] == l2->im.rgb[3 * i]);
+		for (k = 0; k < 2; k++)
+			assert_true(back.v[0].im.rgb[3 * i + 1 + k] ==
+			    ly.v[0].im.rgb[3 * i + k]);
+		assert_true(back.v[1].im.rgb[3 * i] ==
+		    ly.v[0].im.rgb[3 * i + 2]);
+	}
+	pm_image_free(&b);
+	assert_int_equal(pm_exr_read(path, &b, &err), PM_OK);
+	assert_memory_equal(a.rgb, b.rgb, sizeof(float) * 3 * n);
+	pm_image_free(&b);
+	/* half: the same names, values within half's precision */
+	assert_int_equal(pm_exr_write_layers(path, &a, true, NULL, &ly, &err),
+	    PM_OK);
+	assert_int_equal(pm_exr_read_layers(path, &b, NULL, &back, &err),
+	    PM_OK);
+	assert_int_equal(back.n, 2);
+	for (i = 0; i < n; i++)
+		assert_true(fabsf(back.v[1].im.rgb[3 * i] -
+		    ly.v[0].im.rgb[3 * i + 2]) <= 1e-3f);
+	pm_image_free(&b);
+	pm_exr_layers_free(&back);
+	/* A name given twice, or one that is R, fails and leaves nothing. */
+	free(ly.v[1].name[0]);
+	ly.v[1].name[0] = strdup("R");
+	assert_non_null(ly.v[1].name[0]);
+	unlink(path);
+	assert_int_not_equal(pm_exr_write_layers(path, &a, false, NULL, &ly,
+	    &err), PM_OK);
+	assert_true(only_files("layers.exr", NULL));
+	pm_exr_layers_free(&ly);
+	assert_null(ly.v);
+	pm_image_free(&a);
+}
+
+/*
  * String attributes, the provenance the tools record: set replaces or
  * appends; they come back in the order written, byte for byte (spaces,
  * quotes, UTF-8, an empty value); the pixels are those of a file written
@@ -1023,6 +1100,7 @@ main(void)
 		cmocka_unit_test(test_exr_roundtrip_incompressible),
 		cmocka_unit_test(test_exr_roundtrip_half),
 		cmocka_unit_test(test_exr_attributes),
+		cmocka_unit_test(test_exr_layers),
 		cmocka_unit_test(test_exr_read_variants),
 		cmocka_unit_test(test_exr_missing_channel),
 		cmocka_unit_test(test_exr_truncated),

@@ -626,6 +626,61 @@ test_roundtrip(void **state)
 	}
 }
 
+/* A volume map (version 2.1) beside the other three: the file says 2.1,
+ * everything comes back, compressed or not, read or mapped; a 2.0
+ * reader's view of it (the version field set back to 0) is refused. */
+static void
+test_volume_roundtrip(void **state)
+{
+	static unsigned char buf[BUFCAP];
+	struct pm_pmap m, r;
+	struct pm_error err;
+	char p[PATHCAP];
+	size_t n;
+	int c, mm;
+
+	(void)state;
+	tpath(p, "vol.pmap");
+	make_pmap(&m, 3, 300, 40, 20);
+	m.maps[3].kind = PM_MAP_VOLUME;
+	m.maps[3].count = 500;
+	m.maps[3].emitted = m.maps[0].emitted;
+	m.maps[3].first_index = m.maps[0].first_index;
+	m.maps[3].photons = make_photons(500, 99u);
+	set_bounds(&m.maps[3]);
+	m.nmaps = 4;
+	m.effects |= PM_EFFECT_MEDIA;
+	for (c = 0; c < 2; c++) {
+		assert_int_equal(pm_pmap_write(p, &m, c, &err), PM_OK);
+		for (mm = 0; mm < 2; mm++) {
+			if (pm_pmap_read(p, &r, mm, &err) != PM_OK)
+				fail_msg("%s", err.msg);
+			assert_int_equal(r.version_major, 2);
+			assert_int_equal(r.version_minor, 1);
+			assert_same(&m, &r);
+			assert_int_equal(r.nmaps, 4);
+			assert_int_equal(r.maps[3].kind, PM_MAP_VOLUME);
+			assert_true(r.maps[3].count == 500);
+			assert_memory_equal(r.maps[3].photons,
+			    m.maps[3].photons, 500 * sizeof(struct pm_photon));
+			assert_ptr_equal(pm_pmap_find(&r, PM_MAP_VOLUME),
+			    &r.maps[3]);
+			assert_string_equal(pm_map_kind_name(PM_MAP_VOLUME),
+			    "volume");
+			pm_pmap_free(&r);
+		}
+	}
+	n = write_bytes(&m, false, buf);
+	assert_int_equal(pm_pmap_parse("t.pmap", buf, n, &r, &err), PM_OK);
+	assert_same(&m, &r);
+	pm_pmap_free(&r);
+	wr16(buf + 10, 0);
+	fix_crc(buf);
+	assert_int_not_equal(pm_pmap_parse("t.pmap", buf, n, &r, &err), PM_OK);
+	unlink(p);
+	pm_pmap_free(&m);
+}
+
 /* Photons mapped from a file may be reordered in place (pm-balance does)
  * without changing the file. */
 static void
@@ -832,7 +887,7 @@ test_versions(void **state)
 
 	/* A newer minor version with longer map entries and more header. */
 	spec_of(&s, &m, 1);
-	s.minor = 1;
+	s.minor = PM_PMAP_VERSION_MINOR + 1;
 	s.entry_size = 120;
 	s.extra = 12;
 	n2 = spec_build(&s, b2);
@@ -855,7 +910,7 @@ test_versions(void **state)
 		    "in record 1 of the caustic map (bytes 22-23 of the "
 		    "record, decompressed)" : "nonzero reserved bytes in "
 		    "record 1 of the caustic map (byte");
-		s.minor = 1;
+		s.minor = PM_PMAP_VERSION_MINOR + 1;
 		n2 = spec_build(&s, b2);
 		assert_int_equal(pm_pmap_parse("t.pmap", b2, n2, &r, &err),
 		    PM_OK);
@@ -1074,7 +1129,10 @@ test_forged(void **state)
 	FORGE(buf[e0 + 4] = 2, PM_ERR_FORMAT, "unknown flags");
 	FORGE(buf[20] = 8, PM_ERR_FORMAT, "unknown effects");
 	FORGE(buf[e1] = 7, PM_ERR_FORMAT, "unknown map kind 7 (byte 160");
-	FORGE(buf[e1] = 4, PM_ERR_FORMAT, "unknown map kind 4 (byte 160");
+	FORGE(buf[e1] = 5, PM_ERR_FORMAT, "unknown map kind 5 (byte 160");
+	/* kind 4, the volume map, is version 2.1's */
+	FORGE(buf[e1] = 4, PM_ERR_FORMAT, "a volume map (kind 4, byte 160) "
+	    "in a version 2.0 file");
 	FORGE(buf[e1] = 1, PM_ERR_FORMAT, "two global maps");
 	FORGE((buf[e1] = 3, memset(buf + e1 + 24, 0, 16)), PM_ERR_FORMAT,
 	    "two irradiance maps (bytes 160 and 256)");
@@ -1082,7 +1140,7 @@ test_forged(void **state)
 	FORGE(wrf(buf + e0 + 56, NAN), PM_ERR_FORMAT, "bounds");
 	FORGE(wrf(buf + e0 + 68, -1e30f), PM_ERR_FORMAT, "bounds");
 	/* The header's own sizes. */
-	FORGE(buf[44] = 4, PM_ERR_FORMAT, "4 maps (byte 44; at most 3");
+	FORGE(buf[44] = 5, PM_ERR_FORMAT, "5 maps (byte 44; at most 4");
 	FORGE(buf[44] = 2, PM_ERR_FORMAT, "a header of");
 	FORGE(buf[52]++, PM_ERR_FORMAT, "a header of");
 	FORGE(wr32(buf + 48, 95), PM_ERR_FORMAT, "map entries of 95 bytes");
@@ -1526,6 +1584,7 @@ main(void)
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_roundtrip),
+		cmocka_unit_test(test_volume_roundtrip),
 		cmocka_unit_test(test_mmap_private),
 		cmocka_unit_test(test_spec_bytes),
 		cmocka_unit_test(test_golden),

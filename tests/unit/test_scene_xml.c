@@ -908,7 +908,38 @@ test_integrators(void **state)
 	assert_int_equal(s.integrator.type, PM_INTEGRATOR_PHOTONMAPPER);
 	assert_int_equal(s.integrator.max_depth, 5);
 	assert_true(s.integrator.moment);
+	/* Mitsuba 3.9's name for an unnamed nested object */
+	assert_string_equal(s.integrator.moment_name, "_arg_0");
 	pm_scene_free(&s);
+	load_ok("<scene version=\"3.0.0\"><integrator type=\"moment\">"
+	    "<integrator type=\"path\" name=\"nested\" id=\"x\"/>"
+	    "</integrator></scene>", &s);
+	assert_string_equal(s.integrator.moment_name, "nested");
+	pm_scene_free(&s);
+	/* The particle tracer: path's parameters and samples_per_pass. */
+	load_ok("<scene version=\"3.0.0\"><integrator type=\"ptracer\">"
+	    "<integer name=\"max_depth\" value=\"4\"/>"
+	    "<integer name=\"rr_depth\" value=\"3\"/>"
+	    "<boolean name=\"hide_emitters\" value=\"true\"/>"
+	    "<integer name=\"samples_per_pass\" value=\"8\"/>"
+	    "</integrator></scene>", &s);
+	assert_int_equal(s.integrator.type, PM_INTEGRATOR_PTRACER);
+	assert_int_equal(s.integrator.max_depth, 4);
+	assert_int_equal(s.integrator.rr_depth, 3);
+	assert_true(s.integrator.hide_emitters);
+	assert_int_equal(s.integrator.samples_per_pass, 8);
+	pm_scene_free(&s);
+	load_ok("<scene version=\"3.0.0\"><integrator type=\"ptracer\"/>"
+	    "</scene>", &s);
+	assert_int_equal(s.integrator.max_depth, -1);
+	assert_int_equal(s.integrator.samples_per_pass, -1);
+	pm_scene_free(&s);
+	load_fails("<scene version=\"3.0.0\">\n<integrator type=\"ptracer\">"
+	    "<integer name=\"samples_per_pass\" value=\"0\"/>"
+	    "</integrator></scene>", 2, "samples_per_pass");
+	load_fails("<scene version=\"3.0.0\"><integrator type=\"moment\">\n"
+	    "<integrator type=\"ptracer\"/></integrator></scene>", 2,
+	    "cannot wrap ptracer");
 	load_fails("<scene version=\"3.0.0\">\n<integrator type=\"moment\"/>"
 	    "</scene>", 2, "one nested <integrator>, found 0");
 	load_fails("<scene version=\"3.0.0\">\n<integrator type=\"moment\">"
@@ -1137,10 +1168,10 @@ test_errors(void **state)
 		    "unknown element <bar> in shape \"sphere\""},
 		{HEAD "<shape type=\"teapot\"/></scene>", 2,
 		    "unknown shape type \"teapot\""},
-		{HEAD "<shape type=\"sphere\"><bsdf type=\"principled\"/>"
-		    "</shape></scene>", 2, "unknown bsdf type \"principled\""},
-		{HEAD "<emitter type=\"projector\"/></scene>", 2,
-		    "unknown emitter type \"projector\""},
+		{HEAD "<shape type=\"sphere\"><bsdf type=\"hair\"/>"
+		    "</shape></scene>", 2, "unknown bsdf type \"hair\""},
+		{HEAD "<emitter type=\"sunsky\"/></scene>", 2,
+		    "unknown emitter type \"sunsky\""},
 		{HEAD "<integrator type=\"aov\"/></scene>", 2,
 		    "unknown integrator type \"aov\""},
 		{HEAD "<sensor type=\"radiancemeter\"/></scene>", 2,
@@ -1279,12 +1310,12 @@ test_errors(void **state)
 		    "</shape></scene>", 3, "texture \"bitmap\": missing required "
 		    "parameter \"filename\""},
 		/* where pm takes no texture, one is named as not supported */
-		{HEAD "<shape type=\"rectangle\"><bsdf type=\"dielectric\">\n"
-		    "<texture name=\"specular_reflectance\" type=\"checkerboard\"/>"
-		    "</bsdf></shape></scene>", 3, "bsdf \"dielectric\": textures "
-		    "are not supported here (<texture name=\"specular_reflectance\">)"},
+		{HEAD "<shape type=\"rectangle\"><bsdf type=\"conductor\">\n"
+		    "<texture name=\"eta\" type=\"checkerboard\"/>"
+		    "</bsdf></shape></scene>", 3, "bsdf \"conductor\": textures "
+		    "are not supported here (<texture name=\"eta\">)"},
 		{HEAD "<texture type=\"checkerboard\" id=\"t\">\n"
-		    "<texture name=\"color0\" type=\"checkerboard\"/></texture>"
+		    "<texture name=\"color2\" type=\"checkerboard\"/></texture>"
 		    "</scene>", 3, "textures are not supported here"},
 		{HEAD "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n"
 		    "<texture type=\"checkerboard\"/></bsdf></shape></scene>", 3,
@@ -1301,7 +1332,8 @@ test_errors(void **state)
 		    "</texture></scene>", 2, "cannot find \"absent.png\""},
 		{HEAD "<texture type=\"bitmap\" id=\"t\">\n"
 		    "<string name=\"filename\" value=\"flat.obj\"/>"
-		    "</texture></scene>", 2, "not a PNG, JPEG or OpenEXR file"},
+		    "</texture></scene>", 2, "not a PNG, JPEG, OpenEXR or Radiance "
+		    "HDR file"},
 		{HEAD "<shape type=\"rectangle\"><bsdf type=\"diffuse\">\n"
 		    "<rgb name=\"reflectance\" value=\"0.5\"/>"
 		    "<texture name=\"reflectance\" type=\"checkerboard\"/>"
@@ -1312,20 +1344,21 @@ test_errors(void **state)
 		    "<bsdf type=\"diffuse\" id=\"b\"/></scene>", 3,
 		    "names a <bsdf>, expected a <texture>"},
 		/* an unknown plugin is named before the texture inside it */
-		{HEAD "<shape type=\"rectangle\">\n<bsdf type=\"principled\">"
+		{HEAD "<shape type=\"rectangle\">\n<bsdf type=\"hair\">"
 		    "<texture name=\"base_color\" type=\"bitmap\"/>"
 		    "</bsdf></shape></scene>", 3,
-		    "unknown bsdf type \"principled\""},
+		    "unknown bsdf type \"hair\""},
 		/* a texture by reference is a texture */
-		{HEAD "<shape type=\"rectangle\"><bsdf type=\"dielectric\">\n"
-		    "<ref name=\"specular_transmittance\" id=\"t\"/></bsdf>"
+		{HEAD "<shape type=\"rectangle\"><bsdf type=\"conductor\">\n"
+		    "<ref name=\"eta\" id=\"t\"/></bsdf>"
 		    "</shape>\n<texture type=\"checkerboard\" id=\"t\"/>"
 		    "</scene>", 3, "textures are not supported here (<ref "
 		    "id=\"t\"> names the <texture> at line 4)"},
-		/* a required parameter given as a texture */
+		/* a required parameter given as a texture: the texture's
+		 * own errors */
 		{HEAD "<shape type=\"rectangle\"><emitter type=\"area\">\n"
 		    "<texture name=\"radiance\" type=\"bitmap\"/></emitter>"
-		    "</shape></scene>", 3, "textures are not supported"},
+		    "</shape></scene>", 3, "filename"},
 		{HEAD "<shape type=\"rectangle\"><bsdf type=\"roughconductor\">\n"
 		    "<string name=\"distribution\" value=\"phong\"/></bsdf>"
 		    "</shape></scene>", 3,
@@ -1457,6 +1490,92 @@ test_cbox(void **state)
 	}
 }
 
+/* principled and principledthin: Mitsuba's defaults, eta from
+ * specular, the transmission adjustments, textured scalars. */
+static void
+test_principled_bsdfs(void **state)
+{
+	struct pm_scene s;
+	const struct pm_bsdf *b;
+
+	(void)state;
+	load_ok("<scene version=\"3.0.0\">\n"
+	    " <shape type=\"rectangle\"><bsdf type=\"principled\"/></shape>\n"
+	    " <shape type=\"rectangle\"><bsdf type=\"principled\">"
+	    "  <rgb name=\"base_color\" value=\"0.1, 0.2, 0.3\"/>"
+	    "  <float name=\"specular\" value=\"0.7\"/>"
+	    "  <float name=\"metallic\" value=\"1\"/>"
+	    "  <float name=\"anisotropic\" value=\"0.5\"/>"
+	    "  <float name=\"clearcoat\" value=\"0\"/>"
+	    "  <float name=\"clearcoat_sampling_rate\" value=\"2\"/>"
+	    " </bsdf></shape>\n"
+	    " <shape type=\"rectangle\"><bsdf type=\"principled\">"
+	    "  <float name=\"spec_trans\" value=\"1\"/>"
+	    "  <float name=\"eta\" value=\"1\"/>"
+	    "  <texture name=\"roughness\" type=\"checkerboard\">"
+	    "   <rgb name=\"color0\" value=\"0.2\"/>"
+	    "   <rgb name=\"color1\" value=\"0.6\"/></texture>"
+	    " </bsdf></shape>\n"
+	    " <shape type=\"rectangle\"><bsdf type=\"principledthin\"/>"
+	    "</shape>\n"
+	    " <shape type=\"rectangle\"><bsdf type=\"principledthin\">"
+	    "  <float name=\"diff_trans\" value=\"2\"/>"
+	    "  <float name=\"eta\" value=\"1.33\"/>"
+	    " </bsdf></shape>\n"
+	    "</scene>\n", &s);
+	assert_int_equal(s.nshapes, 5);
+
+	b = shape_bsdf(&s, 0);
+	assert_int_equal(b->type, PM_BSDF_PRINCIPLED);
+	assert_rgb(b->diffuse, 0.5, 0.5, 0.5);
+	NEAR(b->pr.v[PM_PR_ROUGHNESS], 0.5, 1e-7);
+	NEAR(b->pr.v[PM_PR_ETA], 1.5, 1e-6);	/* specular 0.5 */
+	NEAR(b->pr.v[PM_PR_METALLIC], 0.0, 0.0);
+	assert_false(b->pr.has_spec_trans || b->pr.has_clearcoat ||
+	    b->pr.textured);
+	NEAR(b->pr.rate[PM_PR_RATE_OTHER], 1.0, 0.0);
+	assert_int_equal(b->lobes, PM_LOBE_DIFFUSE | PM_LOBE_GLOSSY);
+
+	b = shape_bsdf(&s, 1);
+	assert_rgb(b->diffuse, 0.1, 0.2, 0.3);
+	NEAR(b->pr.v[PM_PR_ETA], 2.0 / (1.0 - sqrt(0.08 * 0.7)) - 1.0, 1e-6);
+	NEAR(b->pr.v[PM_PR_ANISOTROPIC], 0.5, 1e-7);
+	/* clearcoat given as 0 is off, as Mitsuba's flag says */
+	assert_false(b->pr.has_clearcoat);
+	NEAR(b->pr.rate[PM_PR_RATE_OTHER], 2.0, 0.0);
+	assert_int_equal(b->lobes, PM_LOBE_GLOSSY);
+
+	b = shape_bsdf(&s, 2);
+	assert_true(b->pr.has_spec_trans);
+	NEAR(b->pr.v[PM_PR_ETA], 1.001, 1e-6);
+	assert_true(b->pr.textured && b->pr.tex[PM_PR_ROUGHNESS] > 0);
+	NEAR(b->pr.v[PM_PR_ROUGHNESS], 0.4, 1e-6);	/* the mean */
+	assert_int_equal(b->lobes, PM_LOBE_GLOSSY | PM_LOBE_GLOSSY_TRANSMISSION);
+	assert_true(pm_bsdf_passes_photons(b));
+
+	b = shape_bsdf(&s, 3);
+	assert_int_equal(b->type, PM_BSDF_PRINCIPLEDTHIN);
+	NEAR(b->pr.v[PM_PR_ETA], 1.5, 1e-7);
+	assert_int_equal(b->lobes, PM_LOBE_DIFFUSE);
+
+	b = shape_bsdf(&s, 4);
+	NEAR(b->pr.v[PM_PR_ETA], 1.33, 1e-6);
+	assert_true(b->pr.has_diff_trans);
+	assert_int_equal(b->lobes, PM_LOBE_DIFFUSE_TRANSMISSION);
+	pm_scene_free(&s);
+
+	load_fails("<scene version=\"3.0.0\"><shape type=\"rectangle\">\n"
+	    "<bsdf type=\"principled\"><float name=\"eta\" value=\"1.5\"/>"
+	    "<float name=\"specular\" value=\"0.5\"/></bsdf></shape></scene>",
+	    2, "give either eta or specular");
+	load_fails("<scene version=\"3.0.0\"><shape type=\"rectangle\">\n"
+	    "<bsdf type=\"principledthin\">\n<float name=\"diff_trans\" "
+	    "value=\"3\"/></bsdf></shape></scene>", 3, "outside [0, 2]");
+	load_fails("<scene version=\"3.0.0\"><shape type=\"rectangle\">\n"
+	    "<bsdf type=\"principledthin\">\n<float name=\"clearcoat\" "
+	    "value=\"1\"/></bsdf></shape></scene>", 3, "clearcoat");
+}
+
 int
 main(void)
 {
@@ -1464,6 +1583,7 @@ main(void)
 		cmocka_unit_test(test_empty_scene_defaults),
 		cmocka_unit_test(test_bsdfs),
 		cmocka_unit_test(test_rough_bsdfs),
+		cmocka_unit_test(test_principled_bsdfs),
 		cmocka_unit_test(test_shapes),
 		cmocka_unit_test(test_meshes),
 		cmocka_unit_test(test_emitters),

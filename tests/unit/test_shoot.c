@@ -92,7 +92,7 @@ static void
 shoot(struct world *w, enum pm_map_pass pass, uint64_t first, uint64_t count,
     int threads, struct pm_photon_buf *out)
 {
-	struct pm_shoot_opts o = {pass, 42, first, count, -1, threads};
+	struct pm_shoot_opts o = {pass, 42, first, count, -1, threads, NULL};
 	struct pm_shoot_stats st;
 	struct pm_error err;
 

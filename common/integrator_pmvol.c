@@ -1,0 +1,318 @@
+/*
+ * integrator_pmvol.c: participating media in the photon-map camera pass
+ * (integrator_pm.c), after Jensen and Christensen (1998).
+ *
+ * Radiance along a camera segment of length s in a homogeneous medium:
+ *   L = integral_0^s T(t) L_s(x(t)) dt + T(s) L_surface,
+ * L_s the in-scattered radiance sigma_s * integral(phase * L_i).  The
+ * surface term's transmittance is exact (Beer-Lambert).  The integral is
+ * estimated at n points along the segment (a ray march with jittered
+ * points in transmittance, not in distance: each point is drawn from the
+ * exponential of one channel truncated to the segment, chosen
+ * uniformly, and weighted by T over the mixture of the three channels'
+ * densities, stratified over the n points).  At each point
+ *   - single scattering (light that arrives straight from an emitter,
+ *     through media and index-matched boundaries) is computed exactly
+ *     by a light sample, as the path tracer's next-event estimation;
+ *   - everything else (multiple scattering, light from surfaces,
+ *     volumetric caustics through glass) comes from the volume photon
+ *     map: the photons of depth >= 1 among the k nearest (or, in a
+ *     progressive pass, all within the fixed radius), each weighted by
+ *     the phase function from its direction, over the sphere's volume
+ *     4/3 pi r^3.  A volume photon's power already holds sigma_s / sigma_t
+ *     (shoot.c), so the sum estimates L_s itself.
+ * Depth-0 volume photons (single scattering) are left out, as direct
+ * light is on surfaces.  The density estimate is the ray-marching one;
+ * Jarosz et al.'s beam radiance estimate was not built (docs/media.md).
+ */
+#include <float.h>
+#include <math.h>
+
+#include "integrator.h"
+#include "kdtree.h"
+
+static inline float
+chan(struct pm_rgb c, int i)
+{
+	return i == 0 ? c.r : i == 1 ? c.g : c.b;
+}
+
+struct pm_rgb
+pm_volume_map_estimate(const struct pm_photon_maps *m,
+    const struct pm_phase *ph, struct pm_vec3 p, struct pm_vec3 d,
+    int max_depth)
+{
+	float q[3] = {p.x, p.y, p.z}, r2, w;
+	double sum[3] = {0, 0, 0};
+
+	if (m->nvolume == 0 || !(m->volume_r2 > 0.0f))
+		return pm_rgb1(0.0f);
+	if (m->fixed_radius) {
+		struct pm_kd_range it;
+		uint32_t idx;
+		float d2;
+
+		r2 = m->volume_r2;
+		pm_kdtree_range_init(&it, m->volume, m->nvolume, q, r2, 0, 0);
+		while (pm_kdtree_range_next(&it, &idx, &d2)) {
+			const struct pm_photon *x = &m->volume[idx];
+			struct pm_rgb c;
+
+			if (x->depth == 0 || (max_depth >= 0 &&
+			    x->depth > max_depth))
+				continue;
+			w = pm_phase_eval(ph, pm_dir_unpack(x->dir), d);
+			c = pm_rgbe_unpack(x->power);
+			sum[0] += (double)(c.r * w);
+			sum[1] += (double)(c.g * w);
+			sum[2] += (double)(c.b * w);
+		}
+	} else {
+		struct pm_knn nb[PM_MAX_LOOKUP];
+		size_t found, i, k = (size_t)m->lookup_size;
+
+		if (k < 1)
+			k = 1;
+		if (k > PM_MAX_LOOKUP)
+			k = PM_MAX_LOOKUP;
+		found = pm_kdtree_knn(m->volume, m->nvolume, q, k,
+		    m->volume_r2, 0, 0, nb);
+		if (found == 0)
+			return pm_rgb1(0.0f);
+		r2 = found == k ? nb[0].d2 : m->volume_r2;
+		for (i = 0; i < found; i++) {
+			const struct pm_photon *x = &m->volume[nb[i].idx];
+			struct pm_rgb c;
+
+			if (x->depth == 0 || (max_depth >= 0 &&
+			    x->depth > max_depth))
+				continue;
+			w = pm_phase_eval(ph, pm_dir_unpack(x->dir), d);
+			c = pm_rgbe_unpack(x->power);
+			sum[0] += (double)(c.r * w);
+			sum[1] += (double)(c.g * w);
+			sum[2] += (double)(c.b * w);
+		}
+	}
+	if (!(r2 > 0.0f))
+		return pm_rgb1(0.0f);
+	w = m->volume_scale / (4.0f / 3.0f * PM_PI * r2 * sqrtf(r2));
+	return pm_rgb((float)(sum[0] * w), (float)(sum[1] * w),
+	    (float)(sum[2] * w));
+}
+
+/*
+ * The beam radiance estimate (Jarosz, Zwicker and Jensen 2008) with a
+ * fixed radius: every volume photon within distance r of the camera
+ * segment contributes its phase-weighted power times the transmittance
+ * from the segment's start to its projection, over pi r^2 (the photon's
+ * power spread over a disc across the ray).  The implicit kd-tree
+ * (kdtree.h's layout) is walked with each subtree's box, pruning boxes
+ * that the segment, widened by r, misses.
+ */
+struct beam {
+	const struct pm_photon *p;
+	const struct pm_medium *m;
+	float o[3], d[3], t0, t1, r2;
+	int max_depth;
+	double sum[3];
+};
+
+struct box {
+	float lo[3], hi[3];
+};
+
+/* Whether the segment, widened by r, meets the box. */
+static bool
+beam_meets(const struct beam *b, const struct box *bx)
+{
+	float t0 = b->t0, t1 = b->t1, r = sqrtf(b->r2);
+	int a;
+
+	for (a = 0; a < 3; a++) {
+		float l = bx->lo[a] - r, h = bx->hi[a] + r, inv, ta, tb;
+
+		if (fabsf(b->d[a]) < 1e-12f) {
+			if (b->o[a] < l || b->o[a] > h)
+				return false;
+			continue;
+		}
+		inv = 1.0f / b->d[a];
+		ta = (l - b->o[a]) * inv;
+		tb = (h - b->o[a]) * inv;
+		if (ta > tb) {
+			float t = ta;
+
+			ta = tb;
+			tb = t;
+		}
+		t0 = fmaxf(t0, ta);
+		t1 = fminf(t1, tb);
+		if (t0 > t1)
+			return false;
+	}
+	return true;
+}
+
+/* The subtree over [lo, hi) whose photons lie in bx (a copy: each
+ * call narrows its own). */
+static void
+beam_walk(struct beam *b, uint32_t lo, uint32_t hi, struct box bx)
+{
+	while (lo < hi) {
+		uint32_t mid = lo + (hi - lo) / 2;
+		const struct pm_photon *x = &b->p[mid];
+		float v[3], t, d2;
+		int axis = x->flags & PM_KD_AXIS_MASK;
+		struct box left;
+
+		if (!beam_meets(b, &bx))
+			return;
+		v[0] = x->pos[0] - b->o[0];
+		v[1] = x->pos[1] - b->o[1];
+		v[2] = x->pos[2] - b->o[2];
+		t = v[0] * b->d[0] + v[1] * b->d[1] + v[2] * b->d[2];
+		d2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2] - t * t;
+		if (t >= b->t0 && t <= b->t1 && d2 < b->r2 && x->depth > 0 &&
+		    (b->max_depth < 0 || x->depth <= b->max_depth)) {
+			struct pm_rgb c = pm_rgb_mul(pm_rgbe_unpack(x->power),
+			    pm_medium_transmittance(b->m, t - b->t0));
+			float w = pm_phase_eval(&b->m->phase,
+			    pm_dir_unpack(x->dir), pm_v3(b->d[0], b->d[1],
+			    b->d[2]));
+
+			b->sum[0] += (double)(c.r * w);
+			b->sum[1] += (double)(c.g * w);
+			b->sum[2] += (double)(c.b * w);
+		}
+		if (axis == PM_KD_LEAF || hi - lo == 1)
+			return;
+		/* the left subtree by recursion, the right one here */
+		left = bx;
+		left.hi[axis] = x->pos[axis];
+		beam_walk(b, lo, mid, left);
+		bx.lo[axis] = x->pos[axis];
+		lo = mid + 1;
+	}
+}
+
+struct pm_rgb
+pm_volume_beam_estimate(const struct pm_photon_maps *m,
+    const struct pm_medium *med, struct pm_vec3 o, struct pm_vec3 d,
+    float tmin, float t_end, int max_depth)
+{
+	struct beam b;
+	struct box all = {{-FLT_MAX, -FLT_MAX, -FLT_MAX},
+	    {FLT_MAX, FLT_MAX, FLT_MAX}};
+	float w;
+
+	if (m->nvolume == 0 || !(m->volume_r2 > 0.0f) || !(t_end > tmin))
+		return pm_rgb1(0.0f);
+	b.p = m->volume;
+	b.m = med;
+	b.o[0] = o.x;
+	b.o[1] = o.y;
+	b.o[2] = o.z;
+	b.d[0] = d.x;
+	b.d[1] = d.y;
+	b.d[2] = d.z;
+	b.t0 = tmin;
+	b.t1 = t_end;
+	b.r2 = m->volume_r2;
+	b.max_depth = max_depth;
+	b.sum[0] = b.sum[1] = b.sum[2] = 0.0;
+	beam_walk(&b, 0, (uint32_t)m->nvolume, all);
+	w = m->volume_scale / (PM_PI * m->volume_r2);
+	return pm_rgb((float)(b.sum[0] * w), (float)(b.sum[1] * w),
+	    (float)(b.sum[2] * w));
+}
+
+/* Single scattering at p toward -d: one light sample, through media. */
+static struct pm_rgb
+single_scatter(const struct pm_render_ctx *ctx, int medium, struct pm_vec3 p,
+    struct pm_vec3 d, struct pm_rng *rng)
+{
+	const struct pm_medium *m = &ctx->scene->media[medium];
+	struct pm_light_sample ls;
+	struct pm_rgb tr;
+	float u0 = pm_rng_float(rng), u1 = pm_rng_float(rng);
+	float u2 = pm_rng_float(rng), ph;
+
+	if (!pm_lights_sample(ctx->lights, ctx->scene, p, u0, u1, u2, &ls))
+		return pm_rgb1(0.0f);
+	ph = pm_phase_eval(&m->phase, d, ls.wi);
+	if (!(ph > 0.0f))
+		return pm_rgb1(0.0f);
+	tr = pm_volume_shadow(ctx, p, medium, &ls);
+	if (pm_rgb_is_black(tr))
+		return tr;
+	return pm_rgb_scale(pm_rgb_mul(tr, ls.value), ph / ls.pdf);
+}
+
+struct pm_rgb
+pm_volume_inscatter(const struct pm_render_ctx *ctx, int medium,
+    struct pm_vec3 o, struct pm_vec3 d, float tmin, float t_end, int depth,
+    struct pm_rgb *tr, struct pm_rng *rng)
+{
+	const struct pm_medium *m = &ctx->scene->media[medium];
+	const struct pm_photon_maps *maps = ctx->maps;
+	struct pm_rgb L = pm_rgb1(0.0f), sigma_s;
+	float s = t_end - tmin, norm[3];
+	int n = maps->volume_samples > 0 ? maps->volume_samples : 1, i, c;
+	/* photons of k bounces close paths of depth + k + 1 segments */
+	int dcap = ctx->max_depth < 0 ? -1 : ctx->max_depth - depth - 1;
+
+	if (!(s > 0.0f))
+		s = 0.0f;
+	*tr = pm_medium_transmittance(m, s);
+	if (!(s > 0.0f) || (ctx->max_depth >= 0 && depth >= ctx->max_depth))
+		return L;
+	sigma_s = pm_rgb_mul(m->sigma_t, m->albedo);
+	/* Per channel, the chance of a collision within the segment: the
+	 * truncated exponential's normaliser. */
+	for (c = 0; c < 3; c++) {
+		float sc = chan(m->sigma_t, c);
+
+		norm[c] = sc > 0.0f ? -expm1f(-sc * s) : 0.0f;
+	}
+	for (i = 0; i < n; i++) {
+		float u = ((float)i + pm_rng_float(rng)) / (float)n;
+		float sc, t, pdf = 0.0f;
+		struct pm_rgb w, Ls;
+		struct pm_vec3 p;
+
+		c = (int)(pm_rng_float(rng) * 3.0f);
+		c = c > 2 ? 2 : c;
+		sc = chan(m->sigma_t, c);
+		if (sc > 0.0f && norm[c] > 0.0f)
+			t = -log1pf(-u * norm[c]) / sc;
+		else if (isfinite(s))
+			t = u * s;	/* clear channel: uniform */
+		else
+			continue;
+		t = fminf(t, s);
+		for (c = 0; c < 3; c++) {
+			float sk = chan(m->sigma_t, c);
+
+			if (sk > 0.0f && norm[c] > 0.0f)
+				pdf += sk * expf(-sk * t) / norm[c];
+			else if (isfinite(s))
+				pdf += 1.0f / s;
+		}
+		pdf /= 3.0f;
+		if (!(pdf > 0.0f))
+			continue;
+		w = pm_rgb_scale(pm_medium_transmittance(m, t), 1.0f / pdf);
+		p = pm_madd(o, d, tmin + t);
+		Ls = pm_rgb_mul(sigma_s, single_scatter(ctx, medium, p, d, rng));
+		if (dcap != 0 && !maps->volume_beam)
+			Ls = pm_rgb_add(Ls, pm_volume_map_estimate(maps,
+			    &m->phase, p, d, dcap));
+		L = pm_rgb_madd(L, w, Ls);
+	}
+	L = pm_rgb_scale(L, 1.0f / (float)n);
+	if (dcap != 0 && maps->volume_beam)
+		L = pm_rgb_add(L, pm_volume_beam_estimate(maps, m, o, d, tmin,
+		    t_end, dcap));
+	return L;
+}
