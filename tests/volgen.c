@@ -10,6 +10,11 @@
  *   volgen const OUT.vol NX NY NZ V [V V]
  *                                  every voxel V (one channel) or the
  *                                  colour V V V (three)
+ *   volgen lookup IN.vol trilinear|nearest clamp|repeat|mirror
+ *                                  reads points x y z of the unit cube
+ *                                  from stdin, writes pm's lookup there
+ *                                  (R G B) to stdout (lookup_volume.py
+ *                                  compares them with Mitsuba's)
  *
  * Everything is a pure function of the voxel index (hashed value noise),
  * so the files are the same on every machine.
@@ -135,9 +140,32 @@ main(int argc, char **argv)
 			return 1;
 		for (i = 0; i < (size_t)n[0] * n[1] * n[2] * g.nch; i++)
 			g.data[i] = v[i % (size_t)g.nch];
+	} else if (argc == 5 && strcmp(argv[1], "lookup") == 0) {
+		struct pm_volume vol;
+		double p[3];
+
+		memset(&vol, 0, sizeof(vol));
+		if (pm_vol_read(argv[2], &vol.grid, &err) != PM_OK) {
+			fprintf(stderr, "volgen: %s\n", err.msg);
+			return 1;
+		}
+		vol.to_local = pm_mat4_identity();
+		vol.nearest = strcmp(argv[3], "nearest") == 0;
+		vol.wrap = strcmp(argv[4], "repeat") == 0 ? PM_VOL_REPEAT :
+		    strcmp(argv[4], "mirror") == 0 ? PM_VOL_MIRROR :
+		    PM_VOL_CLAMP;
+		while (scanf("%lf %lf %lf", &p[0], &p[1], &p[2]) == 3) {
+			struct pm_rgb c = pm_volume_eval(&vol, pm_v3((float)p[0],
+			    (float)p[1], (float)p[2]));
+
+			printf("%.9g %.9g %.9g\n", c.r, c.g, c.b);
+		}
+		pm_grid_free(&vol.grid);
+		return 0;
 	} else {
 		fprintf(stderr, "usage: volgen smoke|tint OUT.vol\n"
-		    "       volgen const OUT.vol NX NY NZ V [V V]\n");
+		    "       volgen const OUT.vol NX NY NZ V [V V]\n"
+		    "       volgen lookup IN.vol FILTER WRAP <points\n");
 		return 2;
 	}
 	if (pm_vol_write(argv[2], &g, &err) != PM_OK) {

@@ -344,8 +344,9 @@ fi
 # where fog-box has it homogeneous.
 # Mitsuba's volpath tracks the smoke against the grid's largest value
 # alone, each null collision a turn of its whole loop: at 256x256 and
-# 256 spp a render of it took 40 times fog-box's, so it gets a quarter
-# of MITSUBA_SPP (SMOKE_MITSUBA_SPP overrides).
+# only 64 spp its renders took 528 s and 574 s (2026-12-01, a shared and
+# loaded machine, where hetero-box's at 256 spp took 114 s and 130 s), so
+# it gets a quarter of MITSUBA_SPP (SMOKE_MITSUBA_SPP overrides).
 if [ -f data/smoke.xml ] && [ -f data/smoke.vol ]; then
 	_mi_spp=$MI_SPP
 	MI_SPP=${SMOKE_MITSUBA_SPP:-$(( MI_SPP / 4 > 0 ? MI_SPP / 4 : 1 ))}
@@ -374,6 +375,22 @@ if [ "$selftest" = 0 ] && wanted spectra; then
 	grep -v WARN "$OUT/spectra.txt" | diag
 	check "spectra: pm reads spectra as Mitsuba's RGB variants do" \
 	    test "$_rc" = 0
+fi
+
+# Grid-volume lookups (gridvolume: filters, wrap modes, 1 and 3 channels,
+# grids Mitsuba writes), point by point, against Mitsuba's
+# (lookup_volume.py).
+if [ "$selftest" = 0 ] && wanted grid-lookups; then
+	if [ ! -x build/tests/volgen ]; then
+		check "grid lookups: build/tests/volgen not built" false
+	elif "$PY" "$HERE/lookup_volume.py" build/tests/volgen \
+	    "$OUT/grid-lookup" >"$OUT/log" 2>&1; then
+		diag <"$OUT/log"
+		check "grid lookups: pm reads Mitsuba's .vol grids and looks them up as Mitsuba does" true
+	else
+		diag <"$OUT/log"
+		check "grid lookups: pm's grid lookups differ from Mitsuba's" false
+	fi
 fi
 
 # Bitmap lookups, point by point, against Mitsuba's (texture_lookup.py).
