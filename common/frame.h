@@ -53,7 +53,12 @@ pm_bsdf_needs_tangent(const struct pm_bsdf *b)
 	return b->aniso || b->tex_normal != 0 || b->tex_bump != 0 ||
 	    ((b->type == PM_BSDF_PRINCIPLED ||
 	    b->type == PM_BSDF_PRINCIPLEDTHIN) &&
-	    b->pr.v[PM_PR_ANISOTROPIC] != 0.0f);
+	    b->pr.v[PM_PR_ANISOTROPIC] != 0.0f) ||
+	    /* a blend or mask of anisotropic BSDFs evaluates them in its
+	     * own frame, which must then follow dp/du too */
+	    (pm_bsdf_is_composite(b) && ((b->sub[0] != NULL &&
+	    pm_bsdf_needs_tangent(b->sub[0])) || (b->sub[1] != NULL &&
+	    pm_bsdf_needs_tangent(b->sub[1]))));
 }
 
 static inline const struct pm_bsdf *

@@ -292,7 +292,7 @@ give_rough_tables(struct pm_scene *s)
 
 /* Points a BSDF made of others at its nested ones, which must come
  * before it (so they are prepared first, and nesting cannot loop). */
-static bool
+static enum pm_err
 link_nested(struct pm_scene *s, size_t i, struct pm_error *err)
 {
 	struct pm_bsdf *b = &s->bsdfs[i];
@@ -305,19 +305,26 @@ link_nested(struct pm_scene *s, size_t i, struct pm_error *err)
 		const struct pm_bsdf *c;
 
 		if (b->nested[k] < 0 || (size_t)b->nested[k] >= i) {
-			pm_fail(err, PM_ERR_INVALID, "BSDF %zu: nested BSDF "
-			    "index %d not below its own", i, b->nested[k]);
-			return false;
+			return pm_fail(err, PM_ERR_INVALID, "BSDF %zu: nested "
+			    "BSDF index %d not below its own", i, b->nested[k]);
 		}
 		c = &s->bsdfs[b->nested[k]];
 		b->sub[k] = c;
+		/* the perturbed frame is made for the BSDF at the hit
+		 * (frame.h), not for one nested in it */
+		if (c->tex_normal != 0 || c->tex_bump != 0) {
+			return pm_fail(err, PM_ERR_UNSUPPORTED, "BSDF %zu: a "
+			    "normalmap or bumpmap inside a blendbsdf, mask or "
+			    "two-sided pair is not supported (wrap the whole "
+			    "BSDF instead)", i);
+		}
 		if (c->tex_diffuse > 0 || c->tex_specular > 0 ||
-		    c->tex_alpha > 0 || c->tex_weight > 0 ||
-		    c->tex_transmittance > 0 || c->pr.textured ||
-		    c->nested_textures)
+		    c->tex_alpha > 0 || c->tex_alpha_v > 0 ||
+		    c->tex_weight > 0 || c->tex_transmittance > 0 ||
+		    c->pr.textured || c->nested_textures)
 			b->nested_textures = true;
 	}
-	return true;
+	return PM_OK;
 }
 
 /* Prepares BSDFs, computes the bounding sphere, light areas and powers,
@@ -327,6 +334,7 @@ pm_scene_prepare(struct pm_scene *s, struct pm_error *err)
 {
 	const double pi = 3.14159265358979323846;
 	size_t i;
+	enum pm_err e;
 
 	if (!give_rough_tables(s))
 		return pm_fail(err, PM_ERR_NOMEM, "no memory for roughplastic's "
@@ -343,8 +351,9 @@ pm_scene_prepare(struct pm_scene *s, struct pm_error *err)
 		    b->tex_weight < 0 || (size_t)b->tex_weight > nt)
 			return pm_fail(err, PM_ERR_INVALID, "BSDF %zu: texture "
 			    "index out of range (%zu textures)", i, nt);
-		if (pm_bsdf_is_composite(b) && !link_nested(s, i, err))
-			return PM_ERR_INVALID;
+		if (pm_bsdf_is_composite(b) &&
+		    (e = link_nested(s, i, err)) != PM_OK)
+			return e;
 		pm_bsdf_prepare(b);
 	}
 	scene_bsphere(s);

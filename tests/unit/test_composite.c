@@ -17,7 +17,9 @@
  *     front;
  *   - textures on the weight and inside nested BSDFs are looked up at
  *     the hit (the weight as Mitsuba's eval_1 reads it);
- *   - nested BSDFs come before the BSDF that holds them;
+ *   - nested BSDFs come before the BSDF that holds them; a blend of
+ *     anisotropic BSDFs takes the frame along dp/du, a normal map
+ *     inside a blend is refused;
  *   - Mitsuba's named conductors are found by their names, and are
  *     metals.
  *
@@ -36,6 +38,7 @@
 #include <cmocka.h>
 
 #include "../../common/bsdf.h"
+#include "../../common/frame.h"
 #include "../../common/rng.h"
 #include "../../common/sampling.h"
 #include "../../common/scene.h"
@@ -612,6 +615,51 @@ test_order(void **state)
 	pm_scene_free(&s);
 }
 
+/* A blend of anisotropic BSDFs asks for the frame along dp/du, as they
+ * would alone; a normal-mapped BSDF inside a blend is refused (its
+ * perturbed frame is made for the BSDF at the hit only). */
+static void
+test_frames_of_nested(void **state)
+{
+	struct pm_scene s;
+	struct pm_error err;
+	struct pm_bsdf aniso;
+	int a, d, m;
+
+	(void)state;
+	pm_scene_init(&s);
+	memset(&aniso, 0, sizeof(aniso));
+	aniso.type = PM_BSDF_ROUGHCONDUCTOR;
+	aniso.specular = pm_rgb1(1.0f);
+	aniso.eta = pm_rgb1(0.0f);
+	aniso.k = pm_rgb1(1.0f);
+	aniso.alpha = 0.1f;
+	aniso.alpha_v = 0.4f;
+	aniso.aniso = true;
+	a = add(&s, aniso);
+	d = add(&s, diffuse(pm_rgb1(0.5f)));
+	m = add_mix(&s, PM_BSDF_BLEND, d, a, 0.5f);
+	prepare(&s);
+	assert_true(pm_bsdf_needs_tangent(&s.bsdfs[m]));
+	assert_false(pm_bsdf_needs_tangent(&s.bsdfs[d]));
+	pm_scene_free(&s);
+
+	pm_scene_init(&s);
+	d = add(&s, diffuse(pm_rgb1(0.5f)));
+	s.bsdfs[d].tex_normal = 1;
+	{
+		struct pm_texture t;
+
+		pm_texture_init(&t, PM_TEXTURE_CHECKERBOARD);
+		assert_true(pm_scene_add_texture(&s, &t) == 0);
+	}
+	m = add_mix(&s, PM_BSDF_MASK, d, -1, 0.5f);
+	memset(&err, 0, sizeof(err));
+	assert_int_equal(pm_scene_prepare(&s, &err), PM_ERR_UNSUPPORTED);
+	assert_non_null(strstr(err.msg, "normalmap or bumpmap inside"));
+	pm_scene_free(&s);
+}
+
 /* Mitsuba's table of named conductors: every name it ships data for,
  * case-sensitive as its file names; each a physical metal (reflectance
  * in (0, 1] at every angle); "none" the perfect mirror.  (That the
@@ -656,6 +704,7 @@ main(void)
 		cmocka_unit_test(test_twosided),
 		cmocka_unit_test(test_textures),
 		cmocka_unit_test(test_order),
+		cmocka_unit_test(test_frames_of_nested),
 		cmocka_unit_test(test_conductor_names),
 	};
 
