@@ -80,8 +80,9 @@ $(BIN)/%: $(BUILD)/tools/%.o $(CLI_OBJ) $(LIB)
 	@mkdir -p $(BIN)
 	$(CC) $(CFLAGS) -pthread -o $@ $< $(CLI_OBJ) $(LIB) $(PM_LIBS)
 
-# What the unit tests share (statistics), linked into each of them.
-TEST_HELP_OBJ = $(BUILD)/tests/unit/stats.o
+# What the unit tests share (statistics; the BSDF tests' checks), linked
+# into each of them.
+TEST_HELP_OBJ = $(BUILD)/tests/unit/stats.o $(BUILD)/tests/unit/bsdf_check.o
 
 $(BUILD)/tests/%: $(BUILD)/tests/unit/%.o $(TEST_HELP_OBJ) $(LIB)
 	@mkdir -p $(dir $@)

@@ -30,7 +30,7 @@
 #include "../../common/bsdf.h"
 #include "../../common/rng.h"
 #include "../../common/sampling.h"
-#include "stats.h"
+#include "bsdf_check.h"
 
 #define NCHI2 6
 #define SIGNIFICANCE (1e-3 / NCHI2)
@@ -38,47 +38,7 @@
 #define NPHI 50
 #define NSIGMA 6.0
 
-/* ---- statistics ---- */
-
-/* Running mean and variance (Welford). */
-struct stat {
-	double n, mean, m2;
-};
-
-static void
-stat_add(struct stat *s, double x)
-{
-	double d = x - s->mean;
-
-	s->n += 1.0;
-	s->mean += d / s->n;
-	s->m2 += d * (x - s->mean);
-}
-
-static double
-stat_err(const struct stat *s)
-{
-	return s->n > 1.0 ? sqrt(s->m2 / (s->n - 1.0) / s->n) : 0.0;
-}
-
-static bool
-close_to(double a, double b, double tol, const char *what)
-{
-	if (fabs(a - b) <= tol)
-		return true;
-	fprintf(stderr, "%s: %.9g versus %.9g (tolerance %.3g)\n", what, a, b,
-	    tol);
-	return false;
-}
-
 /* ---- materials ---- */
-
-static struct pm_vec3
-dir(double theta, double phi)
-{
-	return pm_v3((float)(sin(theta) * cos(phi)),
-	    (float)(sin(theta) * sin(phi)), (float)cos(theta));
-}
 
 static struct pm_bsdf
 mk(enum pm_bsdf_type type)
@@ -487,9 +447,9 @@ test_rough_beckmann_analytic(void **state)
 /* ---- energy and consistency ---- */
 
 struct albedo {
-	struct stat eval;	/* integral of eval over the sphere */
-	struct stat smooth;	/* non-delta sample weights (0 if delta) */
-	struct stat delta;	/* weights of delta samples (0 otherwise) */
+	struct est eval;	/* integral of eval over the sphere */
+	struct est smooth;	/* non-delta sample weights (0 if delta) */
+	struct est delta;	/* weights of delta samples (0 otherwise) */
 	double maxc_eval, maxc_smooth;	/* largest channel means */
 };
 
@@ -529,7 +489,7 @@ albedo(const struct pm_bsdf *b, const struct pm_bsdf *guide,
 		    &s))
 			wo = s.wo;
 		else {
-			stat_add(&a->eval, 0.0);
+			est_add(&a->eval, 0.0);
 			continue;
 		}
 		if (guide != NULL)
@@ -541,7 +501,7 @@ albedo(const struct pm_bsdf *b, const struct pm_bsdf *guide,
 		    1.0f / pdf);
 		assert_true(pm_rgb_is_finite(f));
 		assert_true(f.r >= 0.0f && f.g >= 0.0f && f.b >= 0.0f);
-		stat_add(&a->eval, f.r);
+		est_add(&a->eval, f.r);
 		sum_e = pm_rgb_add(sum_e, f);
 	}
 	for (i = 0; i < n; i++) {
@@ -549,20 +509,20 @@ albedo(const struct pm_bsdf *b, const struct pm_bsdf *guide,
 		u2 = pm_rng_float(&rng);
 		u3 = pm_rng_float(&rng);
 		if (!pm_bsdf_sample(b, wi, u1, u2, u3, PM_RADIANCE, &s)) {
-			stat_add(&a->smooth, 0.0);
-			stat_add(&a->delta, 0.0);
+			est_add(&a->smooth, 0.0);
+			est_add(&a->delta, 0.0);
 			continue;
 		}
 		assert_true(pm_rgb_is_finite(s.weight));
 		assert_true(fabsf(pm_length(s.wo) - 1.0f) < 1e-4f);
 		if (s.lobe & PM_LOBE_DELTA) {
 			assert_true(s.pdf == 1.0f);
-			stat_add(&a->delta, s.weight.r);
-			stat_add(&a->smooth, 0.0);
+			est_add(&a->delta, s.weight.r);
+			est_add(&a->smooth, 0.0);
 			continue;
 		}
-		stat_add(&a->delta, 0.0);
-		stat_add(&a->smooth, s.weight.r);
+		est_add(&a->delta, 0.0);
+		est_add(&a->smooth, s.weight.r);
 		sum_s = pm_rgb_add(sum_s, s.weight);
 		/* the sampler agrees with pdf() and eval() */
 		pdf = pm_bsdf_pdf(b, wi, s.wo);
@@ -595,7 +555,7 @@ check_albedo(const struct pm_bsdf *b, const char *name, float r_delta)
 
 		albedo(b, b->type == PM_BSDF_ROUGHCONDUCTOR ? &other : NULL,
 		    wi, 200000, 100 + i, &a);
-		tol = NSIGMA * hypot(stat_err(&a.eval), stat_err(&a.smooth)) +
+		tol = NSIGMA * hypot(est_err(&a.eval), est_err(&a.smooth)) +
 		    1e-4;
 		if (!close_to(a.eval.mean, a.smooth.mean, tol, name))
 			fail_msg("%s at theta %g", name, thetas[i]);
@@ -606,14 +566,14 @@ check_albedo(const struct pm_bsdf *b, const char *name, float r_delta)
 			struct pm_bsdf_sample cs;
 
 			if (!close_to(a.delta.mean, r_delta * fi,
-			    NSIGMA * stat_err(&a.delta) + 1e-5, name))
+			    NSIGMA * est_err(&a.delta) + 1e-5, name))
 				fail_msg("%s: delta part", name);
 			/* pm-render follows the coating every time with this
 			 * weight: it must be what the sampler's coating
 			 * averages to */
 			assert_true(pm_bsdf_coating(b, wi, &cs));
 			if (!close_to(cs.weight.r, a.delta.mean,
-			    NSIGMA * stat_err(&a.delta) + 1e-5, name))
+			    NSIGMA * est_err(&a.delta) + 1e-5, name))
 				fail_msg("%s: coating weight", name);
 			assert_true(close_to(cs.weight.r, r_delta * fi, 1e-6,
 			    name));
@@ -622,7 +582,7 @@ check_albedo(const struct pm_bsdf *b, const char *name, float r_delta)
 			    close_to(cs.wo.z, wi.z, 1e-6, name));
 		}
 		tot = fmax(a.maxc_eval, a.maxc_smooth) + a.delta.mean;
-		if (tot > 1.0 + NSIGMA * stat_err(&a.eval) + 1e-3)
+		if (tot > 1.0 + NSIGMA * est_err(&a.eval) + 1e-3)
 			fail_msg("%s at theta %g: albedo %g > 1", name,
 			    thetas[i], tot);
 	}
@@ -701,7 +661,7 @@ test_furnace(void **state)
 		albedo(&b, NULL, dir(thetas[i], 1.0), n, 200 + i, &a);
 		assert_true(close_to(a.smooth.mean, 1.0, 1e-6, "white"));
 		assert_true(close_to(a.eval.mean, 1.0,
-		    NSIGMA * stat_err(&a.eval), "white integral"));
+		    NSIGMA * est_err(&a.eval), "white integral"));
 	}
 
 	/* clear glass: R + T = 1, each event chosen with its probability */
@@ -808,56 +768,21 @@ test_reciprocity(void **state)
 
 /* ---- sampling follows pdf() ---- */
 
-/* pdf() of one BSDF for one wi, as stats_sphere_expected wants it. */
-struct bsdf_at {
-	const struct pm_bsdf *b;
-	struct pm_vec3 wi;
-};
-
-static double
-bsdf_pdf(struct pm_vec3 wo, const void *ctx)
-{
-	const struct bsdf_at *at = ctx;
-
-	return pm_bsdf_pdf(at->b, at->wi, wo);
-}
-
-/*
- * Histogram of sampled directions on a (z, phi) grid, plus one bin for
- * samples that were delta or failed; expected counts integrate pdf() over
- * each bin (dw = dz dphi) with a 12 x 12 midpoint rule, and the extra bin
- * expects the rest.
- */
+/* Sampled directions against pdf() on an NZ x NPHI grid, delta or
+ * failed samples one more bin (bsdf_chi2). */
 static void
 check_sampling(const struct pm_bsdf *b, struct pm_vec3 wi, uint64_t seed,
     const char *what)
 {
-	static double obs[NZ * NPHI + 1], expd[NZ * NPHI + 1];
-	const int n = 1000000;
-	const struct bsdf_at at = { b, wi };
-	struct pm_rng rng = pm_rng_seed(seed, 0, 0);
-	struct pm_bsdf_sample s;
-	double total;
-	int i;
+	const double n = BSDF_CHI2_N;
+	double total, p;
 
-	memset(obs, 0, sizeof(obs));
-	for (i = 0; i < n; i++) {
-		float u1 = pm_rng_float(&rng), u2 = pm_rng_float(&rng);
-		float u3 = pm_rng_float(&rng);
-
-		if (!pm_bsdf_sample(b, wi, u1, u2, u3, PM_RADIANCE, &s) ||
-		    (s.lobe & PM_LOBE_DELTA))
-			obs[NZ * NPHI] += 1.0;
-		else
-			obs[stats_sphere_bin(s.wo, NZ, NPHI)] += 1.0;
-	}
-	total = stats_sphere_expected(bsdf_pdf, &at, n, NZ, NPHI, 12, expd);
-	expd[NZ * NPHI] = fmax(0.0, n - total);
+	p = bsdf_chi2(b, wi, seed, NZ, NPHI, SIGNIFICANCE, what, NULL,
+	    &total);
 	assert_true(total <= n * 1.001);
 	/* every case here samples a lobe most of the time */
 	assert_true(total > 0.5 * n);
-	assert_true(stats_chi2(obs, expd, NZ * NPHI + 1,
-	    STATS_POOL_JOIN, SIGNIFICANCE, what) > SIGNIFICANCE);
+	assert_true(p > SIGNIFICANCE);
 }
 
 static void
@@ -936,29 +861,6 @@ mk_roughplastic(float alpha, bool beckmann, float ior, struct pm_rgb diffuse,
 	b.nonlinear = nonlinear;
 	pm_bsdf_prepare(&b);
 	return b;
-}
-
-/* The smaller cosine between the facet normal joining wi and wo (for a
- * glass of relative IOR ior) and either direction, in double: where it is
- * near zero, refraction is near its critical angle, 1 - F changes
- * steeply, and float answers differ in their third digit. */
-static double
-facet_cos(struct pm_vec3 wi, struct pm_vec3 wo, float ior)
-{
-	double ei = wi.z > 0 ? 1.0 : ior, eo = wo.z > 0 ? 1.0 : ior;
-	double h[3], l, a, c;
-
-	if (wi.z * wo.z > 0)
-		ei = eo = 1.0;
-	h[0] = ei * wi.x + eo * wo.x;
-	h[1] = ei * wi.y + eo * wo.y;
-	h[2] = ei * wi.z + eo * wo.z;
-	l = sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
-	if (!(l > 0))
-		return 0.0;
-	a = fabs((wi.x * h[0] + wi.y * h[1] + wi.z * h[2]) / l);
-	c = fabs((wo.x * h[0] + wo.y * h[1] + wo.z * h[2]) / l);
-	return fmin(a, c);
 }
 
 /* Roughdielectric against Walter et al.'s formulas written out: GGX's
@@ -1047,7 +949,7 @@ check_roughglass_energy(const struct pm_bsdf *b, struct pm_vec3 wi,
 	struct pm_rng rng = pm_rng_seed(seed, 3, 4);
 	struct pm_bsdf other = *b;
 	struct pm_bsdf_sample s;
-	struct stat w, e;
+	struct est w, e;
 	struct pm_rgb f;
 	float pdf;
 	int i, n = 200000;
@@ -1060,14 +962,14 @@ check_roughglass_energy(const struct pm_bsdf *b, struct pm_vec3 wi,
 		float u3 = pm_rng_float(&rng);
 
 		if (!pm_bsdf_sample(b, wi, u1, u2, u3, PM_IMPORTANCE, &s)) {
-			stat_add(&w, 0.0);
+			est_add(&w, 0.0);
 		} else {
 			assert_true(s.lobe == PM_LOBE_GLOSSY ||
 			    s.lobe == PM_LOBE_GLOSSY_TRANSMISSION);
 			assert_true((s.lobe == PM_LOBE_GLOSSY) ==
 			    (s.wo.z * wi.z > 0.0f));
 			assert_true(fabsf(pm_length(s.wo) - 1.0f) < 1e-4f);
-			stat_add(&w, s.weight.g);
+			est_add(&w, s.weight.g);
 			if (facet_cos(wi, s.wo, b->ior) < 0.02)
 				goto other;
 			pdf = pm_bsdf_pdf(b, wi, s.wo);
@@ -1091,19 +993,19 @@ other:
 			continue;
 		if (!pm_bsdf_sample(&other, wi, u1, u2, u3, PM_IMPORTANCE,
 		    &s)) {
-			stat_add(&e, 0.0);
+			est_add(&e, 0.0);
 			continue;
 		}
 		f = pm_bsdf_eval(b, wi, s.wo, PM_IMPORTANCE);
-		stat_add(&e, f.g / pm_bsdf_pdf(&other, wi, s.wo));
+		est_add(&e, f.g / pm_bsdf_pdf(&other, wi, s.wo));
 	}
-	print_message("%s: albedo %.5f +- %.5f\n", name, w.mean, stat_err(&w));
-	if (w.mean > 1.0 + NSIGMA * stat_err(&w))
+	print_message("%s: albedo %.5f +- %.5f\n", name, w.mean, est_err(&w));
+	if (w.mean > 1.0 + NSIGMA * est_err(&w))
 		fail_msg("%s: albedo %g > 1", name, w.mean);
 	if (w.mean < want_min)
 		fail_msg("%s: albedo %g < %g", name, w.mean, want_min);
 	if (!b->beckmann && !close_to(w.mean, e.mean, NSIGMA *
-	    hypot(stat_err(&w), stat_err(&e)) + 1e-4, name))
+	    hypot(est_err(&w), est_err(&e)) + 1e-4, name))
 		fail_msg("%s: the two techniques disagree", name);
 }
 
@@ -1231,7 +1133,7 @@ test_roughplastic_tables(void **state)
 			struct pm_rng rng = pm_rng_seed(70 + k, i, 0);
 			float mu = fmaxf(1e-6f, nodes[i] / 63.0f);
 			struct pm_vec3 wi = pm_v3(sqrtf(1 - mu * mu), 0, mu);
-			struct stat t;
+			struct est t;
 
 			memset(&t, 0, sizeof(t));
 			for (j = 0; j < n; j++) {
@@ -1239,12 +1141,12 @@ test_roughplastic_tables(void **state)
 				    pm_rng_float(&rng), pm_rng_float(&rng),
 				    PM_IMPORTANCE, &s) &&
 				    s.lobe == PM_LOBE_GLOSSY_TRANSMISSION)
-					stat_add(&t, s.weight.g);
+					est_add(&t, s.weight.g);
 				else
-					stat_add(&t, 0.0);
+					est_add(&t, 0.0);
 			}
 			if (!close_to(p.rough_t[nodes[i]], t.mean,
-			    NSIGMA * stat_err(&t) + 2e-3, "rough_t"))
+			    NSIGMA * est_err(&t) + 2e-3, "rough_t"))
 				fail_msg("alpha %g beckmann %d node %d", alpha,
 				    beck, nodes[i]);
 		}

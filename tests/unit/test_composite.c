@@ -43,7 +43,7 @@
 #include "../../common/sampling.h"
 #include "../../common/scene.h"
 #include "../../common/texture.h"
-#include "stats.h"
+#include "bsdf_check.h"
 
 #define NCHI2 5
 #define SIGNIFICANCE (1e-3 / NCHI2)
@@ -51,23 +51,6 @@
 #define NPHI 40
 #define NSIGMA 6.0
 #define REST (PM_LOBE_GLOSSY | PM_LOBE_DELTA | PM_LOBE_TRANSMISSION)
-
-static struct pm_vec3
-dir(double theta, double phi)
-{
-	return pm_v3((float)(sin(theta) * cos(phi)),
-	    (float)(sin(theta) * sin(phi)), (float)cos(theta));
-}
-
-static bool
-close_to(double a, double b, double tol, const char *what)
-{
-	if (fabs(a - b) <= tol)
-		return true;
-	fprintf(stderr, "%s: %.9g versus %.9g (tolerance %.3g)\n", what, a, b,
-	    tol);
-	return false;
-}
 
 /* ---- building ---- */
 
@@ -161,26 +144,6 @@ prepare(struct pm_scene *s)
 }
 
 /* ---- estimates ---- */
-
-struct est {
-	double n, mean, m2;
-};
-
-static void
-est_add(struct est *e, double x)
-{
-	double d = x - e->mean;
-
-	e->n += 1.0;
-	e->mean += d / e->n;
-	e->m2 += d * (x - e->mean);
-}
-
-static double
-est_err(const struct est *e)
-{
-	return e->n > 1.0 ? sqrt(e->m2 / (e->n - 1.0) / e->n) : 0.0;
-}
 
 /*
  * The albedo towards wi by sampling (mean weight, channel c), checking
@@ -343,50 +306,20 @@ test_albedo(void **state)
 
 /* ---- sampling follows pdf() ---- */
 
-struct bsdf_at {
-	const struct pm_bsdf *b;
-	struct pm_vec3 wi;
-};
-
-static double
-bsdf_pdf(struct pm_vec3 wo, const void *ctx)
-{
-	const struct bsdf_at *at = ctx;
-
-	return pm_bsdf_pdf(at->b, at->wi, wo);
-}
-
 /* Histogram of sampled directions on a (z, phi) grid against pdf(),
- * delta and failed samples in one more bin. */
+ * delta and failed samples in one more bin (bsdf_chi2). */
 static void
 check_sampling(const struct pm_bsdf *b, struct pm_vec3 wi, uint64_t seed,
     const char *what)
 {
-	static double obs[NZ * NPHI + 1], expd[NZ * NPHI + 1];
-	const int n = 1000000;
-	const struct bsdf_at at = { b, wi };
-	struct pm_rng rng = pm_rng_seed(seed, 0, 0);
-	struct pm_bsdf_sample s;
-	double total;
-	int i;
+	const double n = BSDF_CHI2_N;
+	double total, p;
 
-	memset(obs, 0, sizeof(obs));
-	for (i = 0; i < n; i++) {
-		float u1 = pm_rng_float(&rng), u2 = pm_rng_float(&rng);
-		float u3 = pm_rng_float(&rng);
-
-		if (!pm_bsdf_sample(b, wi, u1, u2, u3, PM_RADIANCE, &s) ||
-		    (s.lobe & PM_LOBE_DELTA))
-			obs[NZ * NPHI] += 1.0;
-		else
-			obs[stats_sphere_bin(s.wo, NZ, NPHI)] += 1.0;
-	}
-	total = stats_sphere_expected(bsdf_pdf, &at, n, NZ, NPHI, 12, expd);
-	expd[NZ * NPHI] = fmax(0.0, n - total);
+	p = bsdf_chi2(b, wi, seed, NZ, NPHI, SIGNIFICANCE, what, NULL,
+	    &total);
 	assert_true(total <= n * 1.001);
 	assert_true(total > 0.2 * n);
-	assert_true(stats_chi2(obs, expd, NZ * NPHI + 1,
-	    STATS_POOL_JOIN, SIGNIFICANCE, what) > SIGNIFICANCE);
+	assert_true(p > SIGNIFICANCE);
 }
 
 static void

@@ -40,50 +40,13 @@
 #include "../../common/sampling.h"
 #include "../../common/texture.h"
 #include "../../formats/scene_xml.h"
-#include "stats.h"
+#include "bsdf_check.h"
 
 #define NCHI2 10
 #define SIGNIFICANCE (1e-3 / NCHI2)
 #define NZ 50
 #define NPHI 50
 #define NSIGMA 6.0
-
-struct stat {
-	double n, mean, m2;
-};
-
-static void
-stat_add(struct stat *s, double x)
-{
-	double d = x - s->mean;
-
-	s->n += 1.0;
-	s->mean += d / s->n;
-	s->m2 += d * (x - s->mean);
-}
-
-static double
-stat_err(const struct stat *s)
-{
-	return s->n > 1.0 ? sqrt(s->m2 / (s->n - 1.0) / s->n) : 0.0;
-}
-
-static bool
-close_to(double a, double b, double tol, const char *what)
-{
-	if (fabs(a - b) <= tol)
-		return true;
-	fprintf(stderr, "%s: %.9g versus %.9g (tolerance %.3g)\n", what, a, b,
-	    tol);
-	return false;
-}
-
-static struct pm_vec3
-dir(double theta, double phi)
-{
-	return pm_v3((float)(sin(theta) * cos(phi)),
-	    (float)(sin(theta) * sin(phi)), (float)cos(theta));
-}
 
 /* A rough conductor, a perfect mirror (eta 0, k 1) unless a metal is
  * named, alpha_u ax and alpha_v ay. */
@@ -207,62 +170,40 @@ test_aniso_symmetry(void **state)
 	assert_true(fb.g > 2.0f * fc.g);
 }
 
-struct bsdf_at {
-	const struct pm_bsdf *b;
-	struct pm_vec3 wi;
-};
-
-static double
-bsdf_pdf(struct pm_vec3 wo, const void *ctx)
+/* Every 97th sample that is not delta (and not too unlikely): its pdf
+ * and weight against pdf() and eval(). */
+static void
+check_sample(const struct pm_bsdf *b, struct pm_vec3 wi, int i,
+    const struct pm_bsdf_sample *s, const char *what)
 {
-	const struct bsdf_at *at = ctx;
+	float pdf;
+	struct pm_rgb f;
 
-	return pm_bsdf_pdf(at->b, at->wi, wo);
+	if ((s->lobe & PM_LOBE_DELTA) || i % 97 != 0 || !(s->pdf > 1e-2f))
+		return;
+	pdf = pm_bsdf_pdf(b, wi, s->wo);
+	f = pm_bsdf_eval(b, wi, s->wo, PM_RADIANCE);
+	if (!close_to(s->pdf, pdf, 2e-3 * pdf, "sample pdf") ||
+	    !close_to(s->weight.g, f.g / s->pdf, 2e-3 * s->weight.g + 1e-6,
+	    "sample weight"))
+		fail_msg("%s", what);
 }
 
 /* Histogram of sampled directions against pdf(), failed or delta samples
- * one more bin (as test_bsdf.c's check_sampling); also each sample's pdf
- * and weight against pdf() and eval(). */
+ * one more bin (bsdf_chi2); also each sample's pdf and weight against
+ * pdf() and eval() (check_sample). */
 static void
 check_sampling(const struct pm_bsdf *b, struct pm_vec3 wi, uint64_t seed,
     const char *what)
 {
-	static double obs[NZ * NPHI + 1], expd[NZ * NPHI + 1];
-	const int n = 1000000;
-	const struct bsdf_at at = { b, wi };
-	struct pm_rng rng = pm_rng_seed(seed, 0, 0);
-	struct pm_bsdf_sample s;
-	double total;
-	int i;
+	const double n = BSDF_CHI2_N;
+	double total, p;
 
-	memset(obs, 0, sizeof(obs));
-	for (i = 0; i < n; i++) {
-		float u1 = pm_rng_float(&rng), u2 = pm_rng_float(&rng);
-		float u3 = pm_rng_float(&rng);
-
-		if (!pm_bsdf_sample(b, wi, u1, u2, u3, PM_RADIANCE, &s) ||
-		    (s.lobe & PM_LOBE_DELTA)) {
-			obs[NZ * NPHI] += 1.0;
-			continue;
-		}
-		obs[stats_sphere_bin(s.wo, NZ, NPHI)] += 1.0;
-		if (i % 97 == 0 && s.pdf > 1e-2f) {
-			float pdf = pm_bsdf_pdf(b, wi, s.wo);
-			struct pm_rgb f = pm_bsdf_eval(b, wi, s.wo,
-			    PM_RADIANCE);
-
-			if (!close_to(s.pdf, pdf, 2e-3 * pdf, "sample pdf") ||
-			    !close_to(s.weight.g, f.g / s.pdf,
-			    2e-3 * s.weight.g + 1e-6, "sample weight"))
-				fail_msg("%s", what);
-		}
-	}
-	total = stats_sphere_expected(bsdf_pdf, &at, n, NZ, NPHI, 12, expd);
-	expd[NZ * NPHI] = fmax(0.0, n - total);
+	p = bsdf_chi2(b, wi, seed, NZ, NPHI, SIGNIFICANCE, what, check_sample,
+	    &total);
 	assert_true(total <= n * 1.001);
 	assert_true(total > 0.5 * n);
-	assert_true(stats_chi2(obs, expd, NZ * NPHI + 1, STATS_POOL_JOIN,
-	    SIGNIFICANCE, what) > SIGNIFICANCE);
+	assert_true(p > SIGNIFICANCE);
 }
 
 static void
@@ -285,29 +226,6 @@ test_aniso_sampling(void **state)
 	check_sampling(&b, dir(1.0, 0.3), 36, "roughglass ggx all normals");
 	b = mk_rd(0.4f, 0.1f, true, true, 1.5f);
 	check_sampling(&b, dir(0.8, -1.2), 37, "roughglass beckmann");
-}
-
-/* The smaller cosine between the facet normal joining wi and wo (glass
- * of relative IOR ior) and either direction: near zero, refraction is
- * near its critical angle and float answers differ in their third digit
- * (as test_bsdf.c). */
-static double
-facet_cos(struct pm_vec3 wi, struct pm_vec3 wo, float ior)
-{
-	double ei = wi.z > 0 ? 1.0 : ior, eo = wo.z > 0 ? 1.0 : ior;
-	double h[3], l, a, c;
-
-	if (wi.z * wo.z > 0)
-		ei = eo = 1.0;
-	h[0] = ei * wi.x + eo * wo.x;
-	h[1] = ei * wi.y + eo * wo.y;
-	h[2] = ei * wi.z + eo * wo.z;
-	l = sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
-	if (!(l > 0))
-		return 0.0;
-	a = fabs((wi.x * h[0] + wi.y * h[1] + wi.z * h[2]) / l);
-	c = fabs((wo.x * h[0] + wo.y * h[1] + wo.z * h[2]) / l);
-	return fmin(a, c);
 }
 
 /* Reflection is symmetric in its arguments; refraction gains eta^2 in
@@ -373,7 +291,7 @@ check_furnace(const struct pm_bsdf *b, struct pm_vec3 wi, double want_min,
 	struct pm_rng rng = pm_rng_seed(seed, 1, 2);
 	struct pm_bsdf other = *b;
 	struct pm_bsdf_sample s;
-	struct stat w, e;
+	struct est w, e;
 	const float frac = 0.25f;
 	int i, n = 200000;
 
@@ -385,7 +303,7 @@ check_furnace(const struct pm_bsdf *b, struct pm_vec3 wi, double want_min,
 		float u3 = pm_rng_float(&rng), pdf;
 		struct pm_vec3 wo;
 
-		stat_add(&w, pm_bsdf_sample(b, wi, u1, u2, u3, PM_IMPORTANCE,
+		est_add(&w, pm_bsdf_sample(b, wi, u1, u2, u3, PM_IMPORTANCE,
 		    &s) ? s.weight.g : 0.0);
 		u1 = pm_rng_float(&rng);
 		u2 = pm_rng_float(&rng);
@@ -396,19 +314,19 @@ check_furnace(const struct pm_bsdf *b, struct pm_vec3 wi, double want_min,
 		    PM_IMPORTANCE, &s))
 			wo = s.wo;
 		else {
-			stat_add(&e, 0.0);
+			est_add(&e, 0.0);
 			continue;
 		}
 		pdf = frac / (4.0f * PM_PI) + (1.0f - frac) *
 		    pm_bsdf_pdf(&other, wi, wo);
-		stat_add(&e, pm_bsdf_eval(b, wi, wo, PM_IMPORTANCE).g / pdf);
+		est_add(&e, pm_bsdf_eval(b, wi, wo, PM_IMPORTANCE).g / pdf);
 	}
 	print_message("%s: albedo %.5f +- %.5f, integral %.5f +- %.5f\n",
-	    what, w.mean, stat_err(&w), e.mean, stat_err(&e));
-	if (!close_to(w.mean, e.mean, NSIGMA * hypot(stat_err(&w),
-	    stat_err(&e)) + 1e-4, what))
+	    what, w.mean, est_err(&w), e.mean, est_err(&e));
+	if (!close_to(w.mean, e.mean, NSIGMA * hypot(est_err(&w),
+	    est_err(&e)) + 1e-4, what))
 		fail_msg("%s: the two estimates disagree", what);
-	if (w.mean > 1.0 + NSIGMA * stat_err(&w))
+	if (w.mean > 1.0 + NSIGMA * est_err(&w))
 		fail_msg("%s: albedo %g > 1", what, w.mean);
 	if (w.mean < want_min)
 		fail_msg("%s: albedo %g < %g", what, w.mean, want_min);

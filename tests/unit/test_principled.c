@@ -47,50 +47,13 @@
 #include "../../common/sampling.h"
 #include "../../common/texture.h"
 #include "../../formats/scene_xml.h"
-#include "stats.h"
+#include "bsdf_check.h"
 
 #define NCHI2 13
 #define SIGNIFICANCE (1e-3 / NCHI2)
 #define NZ 50
 #define NPHI 50
 #define NSIGMA 6.0
-
-struct stat {
-	double n, mean, m2;
-};
-
-static void
-stat_add(struct stat *s, double x)
-{
-	double d = x - s->mean;
-
-	s->n += 1.0;
-	s->mean += d / s->n;
-	s->m2 += d * (x - s->mean);
-}
-
-static double
-stat_err(const struct stat *s)
-{
-	return s->n > 1.0 ? sqrt(s->m2 / (s->n - 1.0) / s->n) : 0.0;
-}
-
-static bool
-close_to(double a, double b, double tol, const char *what)
-{
-	if (fabs(a - b) <= tol)
-		return true;
-	fprintf(stderr, "%s: %.9g versus %.9g (tolerance %.3g)\n", what, a, b,
-	    tol);
-	return false;
-}
-
-static struct pm_vec3
-dir(double theta, double phi)
-{
-	return pm_v3((float)(sin(theta) * cos(phi)),
-	    (float)(sin(theta) * sin(phi)), (float)cos(theta));
-}
 
 /* ---- materials ---- */
 
@@ -165,51 +128,32 @@ static const struct kv k_thin_leaf[] = {
 
 /* ---- sampling follows pdf() ---- */
 
-struct bsdf_at {
-	const struct pm_bsdf *b;
-	struct pm_vec3 wi;
-};
-
-static double
-bsdf_pdf(struct pm_vec3 wo, const void *ctx)
+/* No lobe of these is delta. */
+static void
+no_delta(const struct pm_bsdf *b, struct pm_vec3 wi, int i,
+    const struct pm_bsdf_sample *s, const char *what)
 {
-	const struct bsdf_at *at = ctx;
-
-	return pm_bsdf_pdf(at->b, at->wi, wo);
+	(void)b;
+	(void)wi;
+	(void)i;
+	(void)what;
+	assert_false(s->lobe & PM_LOBE_DELTA);
 }
 
 /* Histogram of sampled directions on a (z, phi) grid plus one bin for
- * failed samples, against pdf() integrated over each bin. */
+ * failed samples, against pdf() integrated over each bin (bsdf_chi2). */
 static void
 check_sampling(const struct pm_bsdf *b, struct pm_vec3 wi, uint64_t seed,
     const char *what)
 {
-	static double obs[NZ * NPHI + 1], expd[NZ * NPHI + 1];
-	const int n = 1000000;
-	const struct bsdf_at at = { b, wi };
-	struct pm_rng rng = pm_rng_seed(seed, 0, 0);
-	struct pm_bsdf_sample s;
-	double total;
-	int i;
+	const double n = BSDF_CHI2_N;
+	double total, p;
 
-	memset(obs, 0, sizeof(obs));
-	for (i = 0; i < n; i++) {
-		float u1 = pm_rng_float(&rng), u2 = pm_rng_float(&rng);
-		float u3 = pm_rng_float(&rng);
-
-		if (!pm_bsdf_sample(b, wi, u1, u2, u3, PM_RADIANCE, &s))
-			obs[NZ * NPHI] += 1.0;
-		else {
-			assert_false(s.lobe & PM_LOBE_DELTA);
-			obs[stats_sphere_bin(s.wo, NZ, NPHI)] += 1.0;
-		}
-	}
-	total = stats_sphere_expected(bsdf_pdf, &at, n, NZ, NPHI, 12, expd);
-	expd[NZ * NPHI] = fmax(0.0, n - total);
+	p = bsdf_chi2(b, wi, seed, NZ, NPHI, SIGNIFICANCE, what, no_delta,
+	    &total);
 	assert_true(total <= n * 1.001);
 	assert_true(total > 0.5 * n);
-	assert_true(stats_chi2(obs, expd, NZ * NPHI + 1, STATS_POOL_JOIN,
-	    SIGNIFICANCE, what) > SIGNIFICANCE);
+	assert_true(p > SIGNIFICANCE);
 }
 
 static void
@@ -269,7 +213,7 @@ test_sampling_masks(void **state)
  */
 static void
 albedo(const struct pm_bsdf *b, struct pm_vec3 wi, enum pm_transport mode,
-    int n, uint64_t seed, struct stat *ev, struct stat *sm)
+    int n, uint64_t seed, struct est *ev, struct est *sm)
 {
 	struct pm_rng rng = pm_rng_seed(seed, 1, 2);
 	struct pm_bsdf_sample s;
@@ -293,19 +237,19 @@ albedo(const struct pm_bsdf *b, struct pm_vec3 wi, enum pm_transport mode,
 		f = pm_bsdf_eval(b, wi, wo, mode);
 		assert_true(pm_rgb_is_finite(f));
 		assert_true(f.r >= 0.0f && f.g >= 0.0f && f.b >= 0.0f);
-		stat_add(ev, f.g / pdf);
+		est_add(ev, f.g / pdf);
 	}
 	for (i = 0; i < n; i++) {
 		u1 = pm_rng_float(&rng);
 		u2 = pm_rng_float(&rng);
 		u3 = pm_rng_float(&rng);
 		if (!pm_bsdf_sample(b, wi, u1, u2, u3, mode, &s)) {
-			stat_add(sm, 0.0);
+			est_add(sm, 0.0);
 			continue;
 		}
 		assert_true(pm_rgb_is_finite(s.weight));
 		assert_true(fabsf(pm_length(s.wo) - 1.0f) < 1e-4f);
-		stat_add(sm, s.weight.g);
+		est_add(sm, s.weight.g);
 		pdf = pm_bsdf_pdf(b, wi, s.wo);
 		if (!close_to(s.pdf, pdf, 2e-3 * pdf + 1e-6, "sample pdf"))
 			fail();
@@ -327,14 +271,14 @@ static double
 check_albedo(const struct pm_bsdf *b, struct pm_vec3 wi,
     enum pm_transport mode, uint64_t seed, const char *name, double *err)
 {
-	struct stat ev, sm;
+	struct est ev, sm;
 	double tol;
 
 	albedo(b, wi, mode, 400000, seed, &ev, &sm);
-	tol = NSIGMA * hypot(stat_err(&ev), stat_err(&sm)) + 1e-4;
+	tol = NSIGMA * hypot(est_err(&ev), est_err(&sm)) + 1e-4;
 	if (!close_to(ev.mean, sm.mean, tol, name))
 		fail_msg("%s: the albedo's two estimates disagree", name);
-	*err = NSIGMA * hypot(stat_err(&ev), stat_err(&sm));
+	*err = NSIGMA * hypot(est_err(&ev), est_err(&sm));
 	return 0.5 * (ev.mean + sm.mean);
 }
 
