@@ -1132,7 +1132,9 @@ parse(struct pmap_in *in, struct pm_pmap *m)
 {
 	struct pmap_entry e[PMAP_MAXMAPS];
 	unsigned char *h, extra;
-	uint32_t hs, order[PMAP_MAXMAPS];
+	/* read_header sets hs whenever it succeeds; 0 for GCC's -O1
+	 * sanitizer build, which cannot see that */
+	uint32_t hs = 0, order[PMAP_MAXMAPS];
 	enum pm_err r;
 	size_t got;
 	int i;
