@@ -25,47 +25,12 @@
 
 #include <zlib.h>
 
+#include "endian.h"
 #include "file.h"
 #include "merl.h"
 
 static const double scale[3] = {PM_MERL_SCALE_R, PM_MERL_SCALE_G,
     PM_MERL_SCALE_B};
-
-static void
-put_u32(unsigned char *p, uint32_t v)
-{
-	p[0] = (unsigned char)v;
-	p[1] = (unsigned char)(v >> 8);
-	p[2] = (unsigned char)(v >> 16);
-	p[3] = (unsigned char)(v >> 24);
-}
-
-static uint32_t
-get_u32(const unsigned char *p)
-{
-	return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 |
-	    (uint32_t)p[3] << 24;
-}
-
-static void
-put_f64(unsigned char *p, double d)
-{
-	uint64_t v;
-
-	memcpy(&v, &d, sizeof(v));
-	put_u32(p, (uint32_t)v);
-	put_u32(p + 4, (uint32_t)(v >> 32));
-}
-
-static double
-get_f64(const unsigned char *p)
-{
-	uint64_t v = (uint64_t)get_u32(p) | (uint64_t)get_u32(p + 4) << 32;
-	double d;
-
-	memcpy(&d, &v, sizeof(d));
-	return d;
-}
 
 /* Tabulates a model in the file layout into buf (PM_MERL_FILE_SIZE). */
 void
@@ -73,9 +38,9 @@ pm_merl_encode(const struct pm_merl_model *mo, unsigned char *buf)
 {
 	int ith, itd, ipd, c;
 
-	put_u32(buf, PM_MERL_NTH);
-	put_u32(buf + 4, PM_MERL_NTD);
-	put_u32(buf + 8, PM_MERL_NPD);
+	pm_put_le32(buf, PM_MERL_NTH);
+	pm_put_le32(buf + 4, PM_MERL_NTD);
+	pm_put_le32(buf + 8, PM_MERL_NPD);
 	for (ith = 0; ith < PM_MERL_NTH; ith++)
 		for (itd = 0; itd < PM_MERL_NTD; itd++)
 			for (ipd = 0; ipd < PM_MERL_NPD; ipd++) {
@@ -85,7 +50,7 @@ pm_merl_encode(const struct pm_merl_model *mo, unsigned char *buf)
 
 				pm_merl_model_bin(mo, ith, itd, ipd, v);
 				for (c = 0; c < 3; c++)
-					put_f64(buf + 12 + 8 * ((size_t)c *
+					pm_put_f64(buf + 12 + 8 * ((size_t)c *
 					    PM_MERL_N + idx), v[c]);
 			}
 }
@@ -160,7 +125,7 @@ check(const unsigned char *p, size_t len, uint64_t size, const char *name,
 		    "for a MERL BRDF header (12 bytes)", name,
 		    (unsigned long long)size);
 	for (i = 0; i < 3; i++)
-		d[i] = (int32_t)get_u32(p + 4 * i);
+		d[i] = (int32_t)pm_get_le32(p + 4 * i);
 	if (d[0] != PM_MERL_NTH || d[1] != PM_MERL_NTD || d[2] != PM_MERL_NPD)
 		return pm_fail(err, PM_ERR_FORMAT, "%s: not a MERL BRDF: "
 		    "dimensions %ld x %ld x %ld, expected 90 x 90 x 180", name,
@@ -197,7 +162,7 @@ pm_merl_parse(const void *buf, size_t len, const char *name,
 	for (c = 0; c < 3; c++) {
 		const unsigned char *q = p + 12 + 8 * (size_t)c * PM_MERL_N;
 		for (i = 0; i < PM_MERL_N; i++) {
-			double v = get_f64(q + 8 * i) * scale[c];
+			double v = pm_get_f64(q + 8 * i) * scale[c];
 
 			/* below the horizon (negative) or not a number */
 			m->f[3 * i + (size_t)c] = v > 0.0 && v < 3.4e38 ?

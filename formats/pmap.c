@@ -30,6 +30,7 @@
 #include <unistd.h>
 #include <zlib.h>
 
+#include "endian.h"
 #include "pmap.h"
 #include "file.h"
 #include "../common/parallel.h"
@@ -105,67 +106,6 @@ struct pmap_in {
 	int threads;			/* for checking records in place */
 };
 
-static uint16_t
-get16(const unsigned char *p)
-{
-	return (uint16_t)(p[0] | p[1] << 8);
-}
-
-static uint32_t
-get32(const unsigned char *p)
-{
-	return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 |
-	    (uint32_t)p[3] << 24;
-}
-
-static uint64_t
-get64(const unsigned char *p)
-{
-	return (uint64_t)get32(p) | (uint64_t)get32(p + 4) << 32;
-}
-
-static float
-getf(const unsigned char *p)
-{
-	uint32_t u = get32(p);
-	float f;
-
-	memcpy(&f, &u, sizeof(f));
-	return f;
-}
-
-static void
-put16(unsigned char *p, uint16_t v)
-{
-	p[0] = (unsigned char)v;
-	p[1] = (unsigned char)(v >> 8);
-}
-
-static void
-put32(unsigned char *p, uint32_t v)
-{
-	p[0] = (unsigned char)v;
-	p[1] = (unsigned char)(v >> 8);
-	p[2] = (unsigned char)(v >> 16);
-	p[3] = (unsigned char)(v >> 24);
-}
-
-static void
-put64(unsigned char *p, uint64_t v)
-{
-	put32(p, (uint32_t)v);
-	put32(p + 4, (uint32_t)(v >> 32));
-}
-
-static void
-putf(unsigned char *p, float f)
-{
-	uint32_t u;
-
-	memcpy(&u, &f, sizeof(u));
-	put32(p, u);
-}
-
 static uint64_t
 align_up(uint64_t x)
 {
@@ -226,7 +166,7 @@ records_to_host(struct pm_photon *p, size_t n)
 		return;
 	for (i = 0; i < n; i++)
 		for (k = 0; k < 3; k++)
-			p[i].pos[k] = getf((const unsigned char *)&p[i].pos[k]);
+			p[i].pos[k] = pm_get_f32((const unsigned char *)&p[i].pos[k]);
 }
 
 /* Records in file order: the memory itself on a little-endian host, else
@@ -242,7 +182,7 @@ records_to_file(const struct pm_photon *p, size_t n, unsigned char *scratch)
 	for (i = 0; i < n; i++) {
 		memcpy(scratch + i * PMAP_REC, &p[i], PMAP_REC);
 		for (k = 0; k < 3; k++)
-			putf(scratch + i * PMAP_REC + 4 * k, p[i].pos[k]);
+			pm_put_f32(scratch + i * PMAP_REC + 4 * k, p[i].pos[k]);
 	}
 	return scratch;
 }
@@ -461,8 +401,8 @@ header_cut(struct pmap_in *in, const unsigned char *fixed, uint32_t hs,
 	uint64_t table, text, end = hs;
 	const char *what = "header";
 
-	table = PMAP_FIXED + (uint64_t)get32(fixed + 44) * get32(fixed + 48);
-	text = table + get32(fixed + 52);
+	table = PMAP_FIXED + (uint64_t)pm_get_le32(fixed + 44) * pm_get_le32(fixed + 48);
+	text = table + pm_get_le32(fixed + 52);
 	if (table <= hs && size < table) {
 		what = "map table";
 		end = table;
@@ -500,8 +440,8 @@ read_header(struct pmap_in *in, unsigned char **hp, uint32_t *hsp)
 		return pm_fail(in->err, PM_ERR_TRUNCATED, "%s: truncated "
 		    "header (byte %d, file is %" PRIu64 " bytes)", in->name,
 		    PMAP_FIXED, (uint64_t)got);
-	major = get16(fixed + 8);
-	minor = get16(fixed + 10);
+	major = pm_get_le16(fixed + 8);
+	minor = pm_get_le16(fixed + 10);
 	if (major == 1)
 		return pm_fail(in->err, PM_ERR_UNSUPPORTED, "%s: a version "
 		    "1.%u photon map, whose 20-byte photons lack the surface "
@@ -515,7 +455,7 @@ read_header(struct pmap_in *in, unsigned char **hp, uint32_t *hsp)
 	in->strict = minor <= PM_PMAP_VERSION_MINOR;
 	in->major = major;
 	in->minor = minor;
-	hs = get32(fixed + 12);
+	hs = pm_get_le32(fixed + 12);
 	if (hs < PMAP_FIXED + 4)
 		return pm_fail(in->err, PM_ERR_FORMAT, "%s: header size %lu "
 		    "is less than %d (byte 12)", in->name, (unsigned long)hs,
@@ -554,7 +494,7 @@ read_header(struct pmap_in *in, unsigned char **hp, uint32_t *hsp)
 		}
 	}
 	in->pos = hs;
-	stored = get32(h + hs - 4);
+	stored = pm_get_le32(h + hs - 4);
 	computed = (uint32_t)crc32_z(0, h, hs - 4);
 	if (stored != computed) {
 		free(h);
@@ -700,11 +640,11 @@ parse_header(struct pmap_in *in, const unsigned char *h, uint32_t hs,
 	uint32_t i, j;
 	int k;
 
-	flags = get32(h + 16);
-	effects = get32(h + 20);
-	nmaps = get32(h + 44);
-	esize = get32(h + 48);
-	isize = get32(h + 52);
+	flags = pm_get_le32(h + 16);
+	effects = pm_get_le32(h + 20);
+	nmaps = pm_get_le32(h + 44);
+	esize = pm_get_le32(h + 48);
+	isize = pm_get_le32(h + 52);
 	if (in->strict && flags != 0)
 		return pm_fail(in->err, PM_ERR_FORMAT, "%s: unknown file "
 		    "flags 0x%lx (byte 16)", in->name, (unsigned long)flags);
@@ -722,7 +662,7 @@ parse_header(struct pmap_in *in, const unsigned char *h, uint32_t hs,
 		    "%lu bytes (byte 48; version %d.%d has %d)", in->name,
 		    (unsigned long)esize, PM_PMAP_VERSION_MAJOR,
 		    PM_PMAP_VERSION_MINOR, PMAP_ENTRY);
-	if (in->strict && get64(h + 56) != 0)
+	if (in->strict && pm_get_le64(h + 56) != 0)
 		return pm_fail(in->err, PM_ERR_FORMAT, "%s: nonzero reserved "
 		    "field (byte 56)", in->name);
 	need = (uint64_t)PMAP_FIXED + (uint64_t)nmaps * esize + isize + 4;
@@ -733,34 +673,34 @@ parse_header(struct pmap_in *in, const unsigned char *h, uint32_t hs,
 		    (unsigned long)nmaps, (unsigned long)esize,
 		    (unsigned long)isize, need);
 
-	m->scene_hash = get64(h + 24);
-	m->seed = get64(h + 32);
+	m->scene_hash = pm_get_le64(h + 24);
+	m->seed = pm_get_le64(h + 32);
 	m->effects = effects;
-	m->max_depth = get32(h + 40);
+	m->max_depth = pm_get_le32(h + 40);
 
 	for (i = 0; i < nmaps; i++) {
 		at = PMAP_FIXED + (uint64_t)i * esize;
 		p = h + at;
 		e[i].at = at;
-		e[i].kind = get32(p);
-		e[i].flags = get32(p + 4);
-		e[i].compression = get32(p + 8);
-		e[i].crc = get32(p + 12);
-		e[i].count = get64(p + 16);
-		e[i].emitted = get64(p + 24);
-		e[i].first_index = get64(p + 32);
-		e[i].offset = get64(p + 40);
-		e[i].stored = get64(p + 48);
+		e[i].kind = pm_get_le32(p);
+		e[i].flags = pm_get_le32(p + 4);
+		e[i].compression = pm_get_le32(p + 8);
+		e[i].crc = pm_get_le32(p + 12);
+		e[i].count = pm_get_le64(p + 16);
+		e[i].emitted = pm_get_le64(p + 24);
+		e[i].first_index = pm_get_le64(p + 32);
+		e[i].offset = pm_get_le64(p + 40);
+		e[i].stored = pm_get_le64(p + 48);
 		for (k = 0; k < 3; k++) {
-			e[i].lo[k] = getf(p + 56 + 4 * k);
-			e[i].hi[k] = getf(p + 68 + 4 * k);
+			e[i].lo[k] = pm_get_f32(p + 56 + 4 * k);
+			e[i].hi[k] = pm_get_f32(p + 68 + 4 * k);
 		}
-		e[i].radius = getf(p + 80);
+		e[i].radius = pm_get_f32(p + 80);
 		/* Bytes 80-83 are the radius of an irradiance map and
 		 * reserved in the others; 84-95 are reserved. */
 		for (k = e[i].kind == PM_MAP_IRRADIANCE ? 84 : 80;
 		    in->strict && k < 96; k += 4)
-			if (get32(p + k) != 0)
+			if (pm_get_le32(p + k) != 0)
 				return pm_fail(in->err, PM_ERR_FORMAT, "%s: "
 				    "nonzero reserved field in the %s map "
 				    "(byte %" PRIu64 ")", in->name,
@@ -1536,43 +1476,43 @@ build_header(unsigned char *h, uint32_t hs, const struct pm_pmap *m,
 
 	memset(h, 0, hs);
 	memcpy(h, pmap_magic, sizeof(pmap_magic));
-	put16(h + 8, PM_PMAP_VERSION_MAJOR);
+	pm_put_le16(h + 8, PM_PMAP_VERSION_MAJOR);
 	/* The oldest version that describes the file: 2.1 only for what
 	 * 2.1 added (a volume map, the media effect), so that files
 	 * without media stay 2.0, byte for byte, and 2.0 readers read
 	 * them as strictly as before. */
-	put16(h + 10, needs_2_1(m) ? 1 : 0);
-	put32(h + 12, hs);
-	put32(h + 16, 0);
-	put32(h + 20, m->effects);
-	put64(h + 24, m->scene_hash);
-	put64(h + 32, m->seed);
-	put32(h + 40, m->max_depth);
-	put32(h + 44, (uint32_t)m->nmaps);
-	put32(h + 48, PMAP_ENTRY);
-	put32(h + 52, (uint32_t)isize);
+	pm_put_le16(h + 10, needs_2_1(m) ? 1 : 0);
+	pm_put_le32(h + 12, hs);
+	pm_put_le32(h + 16, 0);
+	pm_put_le32(h + 20, m->effects);
+	pm_put_le64(h + 24, m->scene_hash);
+	pm_put_le64(h + 32, m->seed);
+	pm_put_le32(h + 40, m->max_depth);
+	pm_put_le32(h + 44, (uint32_t)m->nmaps);
+	pm_put_le32(h + 48, PMAP_ENTRY);
+	pm_put_le32(h + 52, (uint32_t)isize);
 	for (i = 0; i < m->nmaps; i++) {
 		a = &m->maps[i];
 		p = h + PMAP_FIXED + i * PMAP_ENTRY;
-		put32(p, (uint32_t)a->kind);
-		put32(p + 4, a->balanced ? PMAP_MAP_BALANCED : 0);
-		put32(p + 8, o[i].z != NULL ? PMAP_STORE_ZLIB :
+		pm_put_le32(p, (uint32_t)a->kind);
+		pm_put_le32(p + 4, a->balanced ? PMAP_MAP_BALANCED : 0);
+		pm_put_le32(p + 8, o[i].z != NULL ? PMAP_STORE_ZLIB :
 		    PMAP_STORE_NONE);
-		put32(p + 12, o[i].crc);
-		put64(p + 16, a->count);
-		put64(p + 24, a->emitted);
-		put64(p + 32, a->first_index);
-		put64(p + 40, o[i].offset);
-		put64(p + 48, o[i].stored);
+		pm_put_le32(p + 12, o[i].crc);
+		pm_put_le64(p + 16, a->count);
+		pm_put_le64(p + 24, a->emitted);
+		pm_put_le64(p + 32, a->first_index);
+		pm_put_le64(p + 40, o[i].offset);
+		pm_put_le64(p + 48, o[i].stored);
 		for (k = 0; k < 3; k++) {
-			putf(p + 56 + 4 * k, o[i].lo[k]);
-			putf(p + 68 + 4 * k, o[i].hi[k]);
+			pm_put_f32(p + 56 + 4 * k, o[i].lo[k]);
+			pm_put_f32(p + 68 + 4 * k, o[i].hi[k]);
 		}
-		putf(p + 80, a->radius);
+		pm_put_f32(p + 80, a->radius);
 	}
 	if (isize > 0)
 		memcpy(h + PMAP_FIXED + m->nmaps * PMAP_ENTRY, m->info, isize);
-	put32(h + hs - 4, (uint32_t)crc32_z(0, h, hs - 4));
+	pm_put_le32(h + hs - 4, (uint32_t)crc32_z(0, h, hs - 4));
 }
 
 /* Writes the header and payloads to fd. */

@@ -21,6 +21,7 @@
 #include <string.h>
 #include <zlib.h>
 
+#include "endian.h"
 #include "file.h"
 #include "serialized.h"
 
@@ -40,25 +41,6 @@ struct zin {
 	const char *name;
 	struct pm_error *err;
 };
-
-static uint32_t
-le16(const unsigned char *p)
-{
-	return (uint32_t)p[0] | (uint32_t)p[1] << 8;
-}
-
-static uint32_t
-le32(const unsigned char *p)
-{
-	return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 |
-	    (uint32_t)p[3] << 24;
-}
-
-static uint64_t
-le64(const unsigned char *p)
-{
-	return (uint64_t)le32(p) | (uint64_t)le32(p + 4) << 32;
-}
 
 /* Inflates exactly n bytes into dst; a stream that ends first is
  * truncated, one that zlib cannot decode is not a serialized mesh. */
@@ -107,13 +89,13 @@ read_reals(struct zin *in, float *dst, size_t count, bool dbl,
 			continue;
 		for (k = 0; k < n; k++) {
 			if (dbl) {
-				uint64_t b = le64(buf + 8 * k);
+				uint64_t b = pm_get_le64(buf + 8 * k);
 				double d;
 
 				memcpy(&d, &b, sizeof(d));
 				dst[i + k] = (float)d;
 			} else {
-				uint32_t b = le32(buf + 4 * k);
+				uint32_t b = pm_get_le32(buf + 4 * k);
 				float f;
 
 				memcpy(&f, &b, sizeof(f));
@@ -136,7 +118,7 @@ find_mesh(const char *name, const unsigned char *buf, size_t len,
 	if (len < 8)
 		return pm_fail(err, PM_ERR_TRUNCATED, "%s: no table of meshes "
 		    "at the end of the file", name);
-	count = le32(buf + len - 4);
+	count = pm_get_le32(buf + len - 4);
 	if ((uint64_t)index >= count)
 		return pm_fail(err, PM_ERR_INVALID, "%s: shape_index %ld is out "
 		    "of range: the file holds %u mesh%s", name, index, count,
@@ -145,9 +127,9 @@ find_mesh(const char *name, const unsigned char *buf, size_t len,
 		return pm_fail(err, PM_ERR_TRUNCATED, "%s: the table of %u "
 		    "meshes is longer than the file", name, count);
 	at = len - 4 - (size_t)(count - (uint64_t)index) * width;
-	o = width == 8 ? le64(buf + at) : le32(buf + at);
-	if (o > at || at - o < 4 || le16(buf + o) != SER_MAGIC ||
-	    le16(buf + o + 2) != version)
+	o = width == 8 ? pm_get_le64(buf + at) : pm_get_le32(buf + at);
+	if (o > at || at - o < 4 || pm_get_le16(buf + o) != SER_MAGIC ||
+	    pm_get_le16(buf + o + 2) != version)
 		return pm_fail(err, PM_ERR_FORMAT, "%s: the table's offset %llu "
 		    "of mesh %ld is not the start of a mesh", name,
 		    (unsigned long long)o, index);
@@ -170,7 +152,7 @@ parse_mesh(struct zin *in, uint32_t version, struct pm_mesh *m,
 
 	if ((e = zread(in, b, 4, "flags")) != PM_OK)
 		return e;
-	flags = le32(b);
+	flags = pm_get_le32(b);
 	if (flags & ~(uint32_t)(F_NORMALS | F_TEXCOORDS | F_TANGENTS |
 	    F_COLORS | F_FACE_NORMALS | F_SINGLE | F_DOUBLE))
 		return pm_fail(in->err, PM_ERR_FORMAT, "%s: unknown flags 0x%x",
@@ -193,8 +175,8 @@ parse_mesh(struct zin *in, uint32_t version, struct pm_mesh *m,
 		}
 	if ((e = zread(in, b, 16, "counts")) != PM_OK)
 		return e;
-	nv = le64(b);
-	nt = le64(b + 8);
+	nv = pm_get_le64(b);
+	nt = pm_get_le64(b + 8);
 	if (nv > UINT32_MAX || nt > UINT32_MAX / 3)
 		return pm_fail(in->err, PM_ERR_LIMIT, "%s: %llu vertices and "
 		    "%llu triangles: pm takes at most 2^32 - 1 and 2^32 / 3",
@@ -245,7 +227,7 @@ parse_mesh(struct zin *in, uint32_t version, struct pm_mesh *m,
 	for (i = 0; i < 3 * m->ntris; i++) {
 		unsigned char *p = (unsigned char *)&m->idx[i];
 
-		m->idx[i] = le32(p);
+		m->idx[i] = pm_get_le32(p);
 		if (m->idx[i] >= m->nverts)
 			return pm_fail(in->err, PM_ERR_FORMAT, "%s: triangle %u "
 			    "names vertex %u of %u", in->name, i / 3, m->idx[i],
@@ -270,10 +252,10 @@ pm_serialized_parse(const char *name, const unsigned char *buf, size_t len,
 	if (len < 4)
 		return pm_fail(err, PM_ERR_TRUNCATED, "%s: %zu bytes, too short "
 		    "for a serialized mesh", name, len);
-	if (le16(buf) != SER_MAGIC)
+	if (pm_get_le16(buf) != SER_MAGIC)
 		return pm_fail(err, PM_ERR_FORMAT, "%s: not a Mitsuba serialized "
 		    "mesh (no 0x041C at the start)", name);
-	version = le16(buf + 2);
+	version = pm_get_le16(buf + 2);
 	if (version != 3 && version != 4)
 		return pm_fail(err, PM_ERR_UNSUPPORTED, "%s: serialized format "
 		    "version %u (pm reads 3 and 4)", name, version);

@@ -9,43 +9,9 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "endian.h"
 #include "file.h"
 #include "vol.h"
-
-static uint32_t
-get_u32(const unsigned char *p)
-{
-	return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 |
-	    (uint32_t)p[3] << 24;
-}
-
-static float
-get_f32(const unsigned char *p)
-{
-	uint32_t u = get_u32(p);
-	float f;
-
-	memcpy(&f, &u, sizeof(f));
-	return f;
-}
-
-static void
-put_u32(unsigned char *p, uint32_t u)
-{
-	p[0] = (unsigned char)u;
-	p[1] = (unsigned char)(u >> 8);
-	p[2] = (unsigned char)(u >> 16);
-	p[3] = (unsigned char)(u >> 24);
-}
-
-static void
-put_f32(unsigned char *p, float f)
-{
-	uint32_t u;
-
-	memcpy(&u, &f, sizeof(u));
-	put_u32(p, u);
-}
 
 enum pm_err
 pm_vol_parse(const void *buf, size_t len, const char *name,
@@ -68,12 +34,12 @@ pm_vol_parse(const void *buf, size_t len, const char *name,
 	if (b[3] != 3)
 		return pm_fail(err, PM_ERR_UNSUPPORTED, "%s: .vol version %d "
 		    "(only 3 is read)", name, b[3]);
-	if (get_u32(b + 4) != 1)
+	if (pm_get_le32(b + 4) != 1)
 		return pm_fail(err, PM_ERR_UNSUPPORTED, "%s: .vol encoding %u "
 		    "(only 1, float32, is read)", name,
-		    (unsigned)get_u32(b + 4));
+		    (unsigned)pm_get_le32(b + 4));
 	for (k = 0; k < 4; k++)
-		dim[k] = (int32_t)get_u32(b + 8 + 4 * k);
+		dim[k] = (int32_t)pm_get_le32(b + 8 + 4 * k);
 	if (dim[0] <= 0 || dim[1] <= 0 || dim[2] <= 0)
 		return pm_fail(err, PM_ERR_FORMAT, "%s: grid size %d x %d x %d",
 		    name, (int)dim[0], (int)dim[1], (int)dim[2]);
@@ -96,7 +62,7 @@ pm_vol_parse(const void *buf, size_t len, const char *name,
 		return pm_fail(err, PM_ERR_FORMAT, "%s: %zu bytes after the "
 		    ".vol grid's voxels", name, len - PM_VOL_HEADER - 4 * n);
 	for (k = 0; k < 6; k++)
-		g->bbox[k] = get_f32(b + 24 + 4 * k);
+		g->bbox[k] = pm_get_f32(b + 24 + 4 * k);
 	if ((g->data = malloc(n * sizeof(float))) == NULL)
 		return pm_fail(err, PM_ERR_NOMEM, "%s: out of memory for %zu "
 		    "voxel values", name, n);
@@ -106,7 +72,7 @@ pm_vol_parse(const void *buf, size_t len, const char *name,
 	g->nch = dim[3];
 	g->max = 0.0f;
 	for (i = 0; i < n; i++) {
-		float v = get_f32(b + PM_VOL_HEADER + 4 * i);
+		float v = pm_get_f32(b + PM_VOL_HEADER + 4 * i);
 
 		if (!isfinite(v)) {
 			pm_grid_free(g);
@@ -145,15 +111,15 @@ pm_vol_encode(const struct pm_grid *g, unsigned char *buf)
 
 	memcpy(buf, "VOL", 3);
 	buf[3] = 3;
-	put_u32(buf + 4, 1);
-	put_u32(buf + 8, (uint32_t)g->nx);
-	put_u32(buf + 12, (uint32_t)g->ny);
-	put_u32(buf + 16, (uint32_t)g->nz);
-	put_u32(buf + 20, (uint32_t)g->nch);
+	pm_put_le32(buf + 4, 1);
+	pm_put_le32(buf + 8, (uint32_t)g->nx);
+	pm_put_le32(buf + 12, (uint32_t)g->ny);
+	pm_put_le32(buf + 16, (uint32_t)g->nz);
+	pm_put_le32(buf + 20, (uint32_t)g->nch);
 	for (k = 0; k < 6; k++)
-		put_f32(buf + 24 + 4 * k, g->bbox[k]);
+		pm_put_f32(buf + 24 + 4 * k, g->bbox[k]);
 	for (i = 0; i < n; i++)
-		put_f32(buf + PM_VOL_HEADER + 4 * i, g->data[i]);
+		pm_put_f32(buf + PM_VOL_HEADER + 4 * i, g->data[i]);
 }
 
 enum pm_err
