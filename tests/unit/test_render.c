@@ -33,39 +33,14 @@ struct furnace {
 	struct pm_render_ctx ctx;
 };
 
+/* The furnaces' camera (inside the emitter, looking at the inner
+ * object), scene preparation and render context. */
 static void
-furnace_build(struct furnace *f, float rho, float inner_albedo, int max_depth)
+furnace_finish(struct furnace *f, int max_depth)
 {
 	struct pm_scene *s = &f->scene;
 	struct pm_error err;
-	int b, sh, l;
 
-	pm_scene_init(s);
-	b = pm_scene_add_bsdf(s);
-	s->bsdfs[b].type = PM_BSDF_DIFFUSE;
-	s->bsdfs[b].diffuse = pm_rgb1(rho);
-	sh = pm_scene_add_shape(s);
-	s->shapes[sh].type = PM_SHAPE_SPHERE;
-	s->shapes[sh].center = pm_v3(0, 0, 0);
-	s->shapes[sh].radius = 10.0f;
-	s->shapes[sh].flip_normals = true;
-	s->shapes[sh].bsdf = b;
-	l = pm_scene_add_light(s);
-	s->lights[l].type = PM_LIGHT_AREA;
-	s->lights[l].radiance = pm_rgb(1.0f, 2.0f, 0.5f);
-	s->lights[l].shape = sh;
-	s->shapes[sh].light = l;
-	if (inner_albedo >= 0.0f) {
-		b = pm_scene_add_bsdf(s);
-		s->bsdfs[b].type = PM_BSDF_DIFFUSE;
-		s->bsdfs[b].diffuse = pm_rgb1(inner_albedo);
-		sh = pm_scene_add_shape(s);
-		s->shapes[sh].type = PM_SHAPE_SPHERE;
-		s->shapes[sh].center = pm_v3(0, 0, 0);
-		s->shapes[sh].radius = 1.0f;
-		s->shapes[sh].bsdf = b;
-		s->shapes[sh].light = -1;
-	}
 	s->integrator.max_depth = max_depth;
 	s->has_camera = true;
 	s->camera.to_world = pm_mat4_lookat(pm_v3(0, 0, 5), pm_v3(0, 0, 0),
@@ -130,21 +105,38 @@ add_cube(struct pm_scene *s, float h, bool inward)
 	return sh;
 }
 
-/* furnace_build with cubes of triangles for the spheres: an emitting box
- * of half size 10 seen from inside, and a cube of half size 1 in it. */
+/* The furnace's emitter (half size 10, seen from inside) or its inner
+ * object (half size 1): a sphere, or a cube of 12 triangles. */
+static int
+furnace_shape(struct pm_scene *s, float h, bool inward, bool mesh)
+{
+	int sh;
+
+	if (mesh)
+		return add_cube(s, h, inward);
+	sh = pm_scene_add_shape(s);
+	s->shapes[sh].type = PM_SHAPE_SPHERE;
+	s->shapes[sh].center = pm_v3(0, 0, 0);
+	s->shapes[sh].radius = h;
+	s->shapes[sh].flip_normals = inward;
+	s->shapes[sh].light = -1;
+	return sh;
+}
+
+/* A diffuse emitter of albedo rho around the camera and, unless
+ * inner_albedo < 0, a diffuse object in it: spheres, or (mesh) cubes. */
 static void
-furnace_build_mesh(struct furnace *f, float rho, float inner_albedo,
-    int max_depth)
+furnace_make(struct furnace *f, float rho, float inner_albedo, int max_depth,
+    bool mesh)
 {
 	struct pm_scene *s = &f->scene;
-	struct pm_error err;
 	int b, sh, l;
 
 	pm_scene_init(s);
 	b = pm_scene_add_bsdf(s);
 	s->bsdfs[b].type = PM_BSDF_DIFFUSE;
 	s->bsdfs[b].diffuse = pm_rgb1(rho);
-	sh = add_cube(s, 10.0f, true);
+	sh = furnace_shape(s, 10.0f, true, mesh);
 	s->shapes[sh].bsdf = b;
 	l = pm_scene_add_light(s);
 	s->lights[l].type = PM_LIGHT_AREA;
@@ -155,30 +147,23 @@ furnace_build_mesh(struct furnace *f, float rho, float inner_albedo,
 		b = pm_scene_add_bsdf(s);
 		s->bsdfs[b].type = PM_BSDF_DIFFUSE;
 		s->bsdfs[b].diffuse = pm_rgb1(inner_albedo);
-		sh = add_cube(s, 1.0f, false);
+		sh = furnace_shape(s, 1.0f, false, mesh);
 		s->shapes[sh].bsdf = b;
 	}
-	s->integrator.max_depth = max_depth;
-	s->has_camera = true;
-	s->camera.to_world = pm_mat4_lookat(pm_v3(0, 0, 5), pm_v3(0, 0, 0),
-	    pm_v3(0, 1, 0));
-	s->camera.fov = 20.0f;
-	s->camera.fov_axis = PM_FOV_X;
-	s->camera.near_clip = 0.01f;
-	s->camera.far_clip = 1000.0f;
-	s->camera.width = 32;
-	s->camera.height = 32;
-	s->camera.spp = 16;
-	s->camera.rfilter = PM_RFILTER_BOX;
-	assert_int_equal(pm_scene_prepare(s, &err), PM_OK);
-	assert_int_equal(pm_world_init(&f->world, s, &err), PM_OK);
-	f->ctx.scene = s;
-	f->ctx.accel = f->world.accel;
-	f->ctx.lights = &f->world.lights;
-	f->ctx.max_depth = max_depth;
-	f->ctx.rr_depth = 5;
-	f->ctx.hide_emitters = false;
-	f->ctx.maps = NULL;
+	furnace_finish(f, max_depth);
+}
+
+static void
+furnace_build(struct furnace *f, float rho, float inner_albedo, int max_depth)
+{
+	furnace_make(f, rho, inner_albedo, max_depth, false);
+}
+
+static void
+furnace_build_mesh(struct furnace *f, float rho, float inner_albedo,
+    int max_depth)
+{
+	furnace_make(f, rho, inner_albedo, max_depth, true);
 }
 
 static void
