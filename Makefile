@@ -80,9 +80,11 @@ $(BIN)/%: $(BUILD)/tools/%.o $(CLI_OBJ) $(LIB)
 	@mkdir -p $(BIN)
 	$(CC) $(CFLAGS) -pthread -o $@ $< $(CLI_OBJ) $(LIB) $(PM_LIBS)
 
-# What the unit tests share (statistics; the BSDF tests' checks), linked
+# What the unit tests share (statistics; the BSDF tests' checks; scratch
+# directories), linked
 # into each of them.
-TEST_HELP_OBJ = $(BUILD)/tests/unit/stats.o $(BUILD)/tests/unit/bsdf_check.o
+TEST_HELP_OBJ = $(BUILD)/tests/unit/stats.o $(BUILD)/tests/unit/bsdf_check.o \
+    $(BUILD)/tests/unit/tmpdir.o
 
 $(BUILD)/tests/%: $(BUILD)/tests/unit/%.o $(TEST_HELP_OBJ) $(LIB)
 	@mkdir -p $(dir $@)

@@ -32,6 +32,7 @@
 #include "../../formats/exr.h"
 #include "../../formats/scene_xml.h"
 #include "stats.h"
+#include "tmpdir.h"
 
 #define NCHI2 2
 #define SIGNIFICANCE (1e-3 / NCHI2)
@@ -76,18 +77,14 @@ setup(void **state)
 {
 	(void)state;
 	make_image();
-	snprintf(tmpdir, sizeof(tmpdir), "/tmp/pm-test-envmap-XXXXXX");
-	return mkdtemp(tmpdir) == NULL ? -1 : 0;
+	return pm_tmpdir_make(tmpdir, sizeof(tmpdir), "envmap");
 }
 
 static int
 teardown(void **state)
 {
-	char cmd[128];
-
 	(void)state;
-	snprintf(cmd, sizeof(cmd), "rm -rf '%s'", tmpdir);
-	return system(cmd) == 0 ? 0 : -1;
+	return pm_tmpdir_remove(tmpdir);
 }
 
 static void

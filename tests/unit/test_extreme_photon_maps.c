@@ -32,6 +32,7 @@
 #include "../../common/world.h"
 #include "../../formats/pmap.h"
 #include "../../formats/scene_xml.h"
+#include "tmpdir.h"
 
 static char tmpdir[64];
 
@@ -398,15 +399,14 @@ static int
 setup(void **state)
 {
 	(void)state;
-	snprintf(tmpdir, sizeof(tmpdir), "/tmp/pm-hardph-XXXXXX");
-	return mkdtemp(tmpdir) == NULL ? -1 : 0;
+	return pm_tmpdir_make(tmpdir, sizeof(tmpdir), "hardph");
 }
 
 static int
 teardown(void **state)
 {
 	(void)state;
-	return rmdir(tmpdir);
+	return pm_tmpdir_remove(tmpdir);
 }
 
 int

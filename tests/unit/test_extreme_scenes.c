@@ -31,6 +31,7 @@
 #include "../../common/shoot.h"
 #include "../../common/world.h"
 #include "../../formats/scene_xml.h"
+#include "tmpdir.h"
 
 static char tmpdir[64];
 
@@ -727,24 +728,14 @@ static int
 setup(void **state)
 {
 	(void)state;
-	snprintf(tmpdir, sizeof(tmpdir), "/tmp/pm-hard-XXXXXX");
-	return mkdtemp(tmpdir) == NULL ? -1 : 0;
+	return pm_tmpdir_make(tmpdir, sizeof(tmpdir), "hard");
 }
 
 static int
 teardown(void **state)
 {
-	static const char *names[] = {"degenerate.obj", "zero-normals.obj",
-	    "cancel.ply"};
-	char path[128];
-	size_t i;
-
 	(void)state;
-	for (i = 0; i < 3; i++) {
-		snprintf(path, sizeof(path), "%s/%s", tmpdir, names[i]);
-		unlink(path);
-	}
-	return rmdir(tmpdir);
+	return pm_tmpdir_remove(tmpdir);
 }
 
 int

@@ -28,6 +28,7 @@
 #include "../../common/image.h"
 #include "../../formats/exr.h"
 #include "../../formats/png.h"
+#include "tmpdir.h"
 
 static char tmpdir[256];
 
@@ -1069,19 +1070,15 @@ test_png_roundtrip(void **state)
 static int
 setup(void **state)
 {
-	const char *base = getenv("TMPDIR");
-
 	(void)state;
-	snprintf(tmpdir, sizeof(tmpdir), "%s/pm-test-image.XXXXXX",
-	    base != NULL && *base != '\0' ? base : "/tmp");
-	return mkdtemp(tmpdir) == NULL ? -1 : 0;
+	return pm_tmpdir_make(tmpdir, sizeof(tmpdir), "image");
 }
 
 static int
 teardown(void **state)
 {
 	(void)state;
-	return rmdir(tmpdir);
+	return pm_tmpdir_remove(tmpdir);
 }
 
 int

@@ -37,6 +37,7 @@
 #include "../../formats/merl.h"
 #include "../../formats/scene_xml.h"
 #include "stats.h"
+#include "tmpdir.h"
 
 #define NZ 40
 #define NPHI 40
@@ -94,8 +95,7 @@ setup(void **state)
 	unsigned char *buf;
 
 	(void)state;
-	strcpy(dir, "/tmp/pm-merl-XXXXXX");
-	if (mkdtemp(dir) == NULL)
+	if (pm_tmpdir_make(dir, sizeof(dir), "merl") != 0)
 		return -1;
 	snprintf(gold_path, sizeof(gold_path), "%s/gold.binary", dir);
 	snprintf(lambert_path, sizeof(lambert_path), "%s/lambert.binary", dir);
@@ -132,10 +132,7 @@ teardown(void **state)
 	pm_merl_free(lambert);
 	pm_merl_free(plastic);
 	free(gold_buf);
-	unlink(gold_path);
-	unlink(lambert_path);
-	rmdir(dir);
-	return 0;
+	return pm_tmpdir_remove(dir);
 }
 
 static struct pm_vec3

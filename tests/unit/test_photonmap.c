@@ -31,6 +31,7 @@
 #include "../../common/shoot.h"
 #include "../../common/world.h"
 #include "../../formats/pmap.h"
+#include "tmpdir.h"
 
 #define PATHS		20000	/* photon paths of the single run */
 #define CUT		7919	/* where the shards meet */
@@ -72,8 +73,7 @@ setup(void **state)
 	int sh, l;
 
 	(void)state;
-	snprintf(tmpdir, sizeof(tmpdir), "/tmp/test_photonmap.XXXXXX");
-	if (mkdtemp(tmpdir) == NULL)
+	if (pm_tmpdir_make(tmpdir, sizeof(tmpdir), "photonmap") != 0)
 		return -1;
 	pm_scene_init(s);
 	diffuse_sphere(s, pm_v3(0, 0, 0), 10.0f, 0.6f, true);
@@ -98,8 +98,7 @@ teardown(void **state)
 	pm_shooter_free(&w.shooter);
 	pm_world_free(&w.traced);
 	pm_scene_free(&w.scene);
-	rmdir(tmpdir);
-	return 0;
+	return pm_tmpdir_remove(tmpdir);
 }
 
 /* Shoots paths [first, first + count) into m, as pm-shoot would store

@@ -30,6 +30,7 @@
 #include <cmocka.h>
 
 #include "../../formats/pmap.h"
+#include "tmpdir.h"
 
 #define BUFCAP	(1 << 20)
 #define PATHCAP	128
@@ -1636,15 +1637,14 @@ static int
 setup(void **state)
 {
 	(void)state;
-	snprintf(tmpdir, sizeof(tmpdir), "/tmp/test_pmap.XXXXXX");
-	return mkdtemp(tmpdir) == NULL ? -1 : 0;
+	return pm_tmpdir_make(tmpdir, sizeof(tmpdir), "pmap");
 }
 
 static int
 teardown(void **state)
 {
 	(void)state;
-	return rmdir(tmpdir);
+	return pm_tmpdir_remove(tmpdir);
 }
 
 int

@@ -19,6 +19,7 @@
 #include <cmocka.h>
 
 #include "../../formats/rgbe.h"
+#include "tmpdir.h"
 
 static char tmpdir[64];
 
@@ -26,18 +27,14 @@ static int
 setup(void **state)
 {
 	(void)state;
-	snprintf(tmpdir, sizeof(tmpdir), "/tmp/pm-test-rgbe-XXXXXX");
-	return mkdtemp(tmpdir) == NULL ? -1 : 0;
+	return pm_tmpdir_make(tmpdir, sizeof(tmpdir), "rgbe");
 }
 
 static int
 teardown(void **state)
 {
-	char cmd[128];
-
 	(void)state;
-	snprintf(cmd, sizeof(cmd), "rm -rf '%s'", tmpdir);
-	return system(cmd) == 0 ? 0 : -1;
+	return pm_tmpdir_remove(tmpdir);
 }
 
 static const char *

@@ -21,6 +21,7 @@
 #include "../../common/spectrum.h"
 #include "../../formats/exr.h"
 #include "../../formats/scene_xml.h"
+#include "tmpdir.h"
 
 #define NEAR(a, b, tol) assert_true(fabs((double)(a) - (double)(b)) <= (tol))
 #define PI 3.14159265358979323846
@@ -45,21 +46,14 @@ static int
 setup(void **state)
 {
 	(void)state;
-	snprintf(tmpdir, sizeof(tmpdir), "/tmp/pm-test-scene-XXXXXX");
-	if (mkdtemp(tmpdir) == NULL)
-		return -1;
-	return 0;
+	return pm_tmpdir_make(tmpdir, sizeof(tmpdir), "scene");
 }
 
 static int
 teardown(void **state)
 {
-	char cmd[128];
-
 	(void)state;
-	/* tmpdir is ours and has a fixed shape: no shell metacharacters. */
-	snprintf(cmd, sizeof(cmd), "rm -rf '%s'", tmpdir);
-	return system(cmd) == 0 ? 0 : -1;
+	return pm_tmpdir_remove(tmpdir);
 }
 
 /* Loads xml as "t.xml" with tmpdir as its directory. */

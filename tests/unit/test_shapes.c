@@ -30,6 +30,7 @@
 #include "../../common/scene.h"
 #include "../../formats/scene_xml.h"
 #include "../../formats/serialized.h"
+#include "tmpdir.h"
 
 #define NEAR(a, b, tol) assert_true(fabs((double)(a) - (double)(b)) <= (tol))
 #define PI 3.14159265358979323846
@@ -40,18 +41,14 @@ static int
 setup(void **state)
 {
 	(void)state;
-	snprintf(tmpdir, sizeof(tmpdir), "/tmp/pm-test-shapes-XXXXXX");
-	return mkdtemp(tmpdir) == NULL ? -1 : 0;
+	return pm_tmpdir_make(tmpdir, sizeof(tmpdir), "shapes");
 }
 
 static int
 teardown(void **state)
 {
-	char cmd[128];
-
 	(void)state;
-	snprintf(cmd, sizeof(cmd), "rm -rf '%s'", tmpdir);
-	return system(cmd) == 0 ? 0 : -1;
+	return pm_tmpdir_remove(tmpdir);
 }
 
 /* ---- a little writer of the serialized format, from its description ---- */

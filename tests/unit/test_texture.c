@@ -35,6 +35,7 @@
 #include "../../formats/png.h"
 #include "../../formats/scene_xml.h"
 #include "../../formats/texture.h"
+#include "tmpdir.h"
 
 #define assert_near(a, b, tol) do {					\
 	double a_ = (a), b_ = (b);					\
@@ -49,18 +50,14 @@ static int
 setup(void **state)
 {
 	(void)state;
-	snprintf(tmpdir, sizeof(tmpdir), "/tmp/pm-test-texture-XXXXXX");
-	return mkdtemp(tmpdir) == NULL ? -1 : 0;
+	return pm_tmpdir_make(tmpdir, sizeof(tmpdir), "texture");
 }
 
 static int
 teardown(void **state)
 {
-	char cmd[128];
-
 	(void)state;
-	snprintf(cmd, sizeof(cmd), "rm -rf '%s'", tmpdir);
-	return system(cmd) == 0 ? 0 : -1;
+	return pm_tmpdir_remove(tmpdir);
 }
 
 static void

@@ -38,6 +38,7 @@
 #include "../../common/world.h"
 #include "../../formats/exr.h"
 #include "../../formats/scene_xml.h"
+#include "tmpdir.h"
 
 #define assert_near(a, b, tol) do {					\
 	double a_ = (a), b_ = (b);					\
@@ -73,8 +74,7 @@ setup(void **state)
 	FILE *f;
 
 	(void)state;
-	snprintf(tmpdir, sizeof(tmpdir), "/tmp/pm-test-texlight-XXXXXX");
-	if (mkdtemp(tmpdir) == NULL)
+	if (pm_tmpdir_make(tmpdir, sizeof(tmpdir), "texlight") != 0)
 		return -1;
 	snprintf(path, sizeof(path), "%s/img.exr", tmpdir);
 	if (pm_exr_write(path, &im, false, &err) != PM_OK)
@@ -102,11 +102,8 @@ setup(void **state)
 static int
 teardown(void **state)
 {
-	char cmd[128];
-
 	(void)state;
-	snprintf(cmd, sizeof(cmd), "rm -rf '%s'", tmpdir);
-	return system(cmd) == 0 ? 0 : -1;
+	return pm_tmpdir_remove(tmpdir);
 }
 
 static void
