@@ -13,6 +13,7 @@
 
 #include <math.h>
 #include <stdint.h>
+#include <string.h>
 
 #include "vec.h"
 
@@ -57,24 +58,39 @@ enum {
  * equal flux would all round the same way, biasing a map's total by percents.
  * u = 0.5 rounds to nearest.
  */
+/* A dithered channel x = c * m + u to a byte: floor for x >= 0 (truncation
+ * is floor there), 0 for x < 0 or NaN, 255 at most; fminf(fmaxf(floorf()))
+ * bit for bit, without the three libm calls. */
+static inline uint8_t pm_rgbe_chan(float x)
+{
+	return x > 0.0f ? (x < 255.0f ? (uint8_t)x : 255) : 0;
+}
+
 static inline void pm_rgbe_pack(struct pm_rgb c, float u, uint8_t out[4])
 {
-	float m = pm_rgb_max(c);
+	float top = pm_rgb_max(c), m;
+	uint32_t bits;
 	int e;
 
-	if (!(m > 1e-32f)) {
+	if (!(top > 1e-32f)) {
 		out[0] = out[1] = out[2] = out[3] = 0;
 		return;
 	}
-	m = frexpf(m, &e) * 256.0f / m;	/* scale so the max maps to [128, 256) */
+	/* frexpf's exponent e (top = f 2^e, f in [0.5, 1)) from the bits, as
+	 * top is normal here, and the scale m = 2^(8 - e) that maps the
+	 * maximum to [128, 256) built the same way. */
+	memcpy(&bits, &top, sizeof(bits));
+	e = (int)(bits >> 23) - 126;
+	bits = (uint32_t)(135 - e) << 23;
+	memcpy(&m, &bits, sizeof(m));
 	/* A maximum that would dither up to 256 takes the next exponent. */
-	if (floorf(pm_rgb_max(c) * m + u) >= 256.0f) {
+	if (top * m + u >= 256.0f) {
 		m *= 0.5f;
 		e++;
 	}
-	out[0] = (uint8_t)fminf(fmaxf(floorf(c.r * m + u), 0.0f), 255.0f);
-	out[1] = (uint8_t)fminf(fmaxf(floorf(c.g * m + u), 0.0f), 255.0f);
-	out[2] = (uint8_t)fminf(fmaxf(floorf(c.b * m + u), 0.0f), 255.0f);
+	out[0] = pm_rgbe_chan(c.r * m + u);
+	out[1] = pm_rgbe_chan(c.g * m + u);
+	out[2] = pm_rgbe_chan(c.b * m + u);
 	out[3] = (uint8_t)(e + 128);
 }
 
