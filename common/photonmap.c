@@ -15,6 +15,7 @@
  * unsharded run gives, and balancing a balanced map changes nothing.
  */
 #include <math.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -23,6 +24,7 @@
 
 #include "irradiance.h"
 #include "kdtree.h"
+#include "parallel.h"
 #include "photonmap.h"
 #include "integrator.h"
 
@@ -400,15 +402,70 @@ canonical_sort(struct pm_photon *p, size_t n, size_t byte)
 	}
 }
 
-void
-pm_map_canonical_order(struct pm_map *m)
-{
-	size_t i;
+/*
+ * The buckets of the first byte sorted on several threads: each bucket is a
+ * range of its own after the first pass, and the sort is a total order on
+ * the bytes, so the result is the same whoever sorts which bucket.
+ */
+struct bucket_sort {
+	struct pm_photon *p;
+	size_t start[257];		/* bucket b is [start[b], start[b + 1]) */
+	atomic_int next;		/* the next bucket to take */
+};
 
-	for (i = 0; i < (size_t)m->count; i++)
-		m->photons[i].flags &= (uint8_t)~PM_KD_AXIS_MASK;
-	canonical_sort(m->photons, (size_t)m->count, 0);
+static void *
+bucket_worker(void *arg)
+{
+	struct bucket_sort *bs = arg;
+	int b;
+
+	while ((b = atomic_fetch_add(&bs->next, 1)) < 256) {
+		size_t n = bs->start[b + 1] - bs->start[b];
+
+		if (n > 1)
+			canonical_sort(bs->p + bs->start[b], n, 1);
+	}
+	return NULL;
+}
+
+void
+pm_map_canonical_order(struct pm_map *m, int threads)
+{
+	struct pm_photon *p = m->photons, t;
+	size_t n = (size_t)m->count, count[256], next[256], i;
+	struct bucket_sort bs;
+	unsigned v;
+
+	for (i = 0; i < n; i++)
+		p[i].flags &= (uint8_t)~PM_KD_AXIS_MASK;
 	m->balanced = false;
+	if (threads <= 1 || n < 65536) {
+		canonical_sort(p, n, 0);
+		return;
+	}
+	/* canonical_sort's first pass, then its recursion on threads. */
+	memset(count, 0, sizeof(count));
+	for (i = 0; i < n; i++)
+		count[((const unsigned char *)&p[i])[0]]++;
+	bs.start[0] = 0;
+	for (i = 0; i < 256; i++) {
+		next[i] = bs.start[i];
+		bs.start[i + 1] = bs.start[i] + count[i];
+	}
+	for (i = 0; i < 256; i++)
+		while (next[i] < bs.start[i + 1]) {
+			v = ((const unsigned char *)&p[next[i]])[0];
+			if (v == i) {
+				next[i]++;
+				continue;
+			}
+			t = p[next[v]];
+			p[next[v]++] = p[next[i]];
+			p[next[i]] = t;
+		}
+	bs.p = p;
+	atomic_init(&bs.next, 0);
+	pm_parallel(threads, bucket_worker, &bs);
 }
 
 enum pm_err
@@ -426,7 +483,7 @@ pm_map_build_tree(struct pm_map *m, int threads, struct pm_error *err)
 enum pm_err
 pm_map_balance(struct pm_map *m, int threads, struct pm_error *err)
 {
-	pm_map_canonical_order(m);
+	pm_map_canonical_order(m, threads);
 	return pm_map_build_tree(m, threads, err);
 }
 

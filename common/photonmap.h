@@ -148,9 +148,10 @@ enum pm_err pm_pmap_merge(const struct pm_shard *in, int n,
  * Puts m's records in the canonical order: split-axis bits cleared, then
  * sorted by their bytes as memcmp orders them.  The order depends only on
  * the set of photons, so shards given in any order, balanced or not, give
- * the very bytes one unsharded run does.
+ * the very bytes one unsharded run does, whatever the thread count (the
+ * buckets of the first byte are sorted on up to `threads` threads).
  */
-void pm_map_canonical_order(struct pm_map *m);
+void pm_map_canonical_order(struct pm_map *m, int threads);
 
 /* Builds m's kd-tree in place (threads >= 1) and marks it balanced. */
 enum pm_err pm_map_build_tree(struct pm_map *m, int threads,

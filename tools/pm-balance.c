@@ -287,7 +287,7 @@ main(int argc, char *argv[])
 		struct pm_map *m = &out.maps[k];
 
 		t = pm_cli_now();
-		pm_map_canonical_order(m);
+		pm_map_canonical_order(m, (int)threads);
 		t_sort = pm_cli_now() - t;
 		atomic_fetch_add(&pdone, (long)m->count);
 		t = pm_cli_now();

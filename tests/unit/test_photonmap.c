@@ -232,8 +232,8 @@ test_merge_equals_one_run(void **state)
 			assert_true(m->hi[x] == o->hi[x]);
 		}
 		/* The same set of photons: the same canonical order. */
-		pm_map_canonical_order(m);
-		pm_map_canonical_order(o);
+		pm_map_canonical_order(m, 1);
+		pm_map_canonical_order(o, 1);
 		assert_memory_equal(m->photons, o->photons,
 		    (size_t)o->count * sizeof(*o->photons));
 		/* One thread here, two for the single run: the tree is the
@@ -248,6 +248,54 @@ test_merge_equals_one_run(void **state)
 	pm_pmap_free(&a);
 	pm_pmap_free(&b);
 	pm_pmap_free(&one);
+}
+
+/* The canonical order on threads (the first byte's buckets sorted in
+ * parallel) is the one-thread order, byte for byte: random records with
+ * many duplicates and a crowded first byte, for 2, 3 and 8 threads. */
+static void
+test_canonical_order_threads(void **state)
+{
+	const size_t n = 200000, size = n * sizeof(struct pm_photon);
+	struct pm_map in, ref, c;
+	struct pm_rng rng = pm_rng_seed(7, 0, 0);
+	size_t i, k;
+	int threads[3] = {2, 3, 8}, t;
+
+	(void)state;
+	memset(&in, 0, sizeof(in));
+	in.count = n;
+	in.photons = malloc(size);
+	assert_non_null(in.photons);
+	for (i = 0; i < n; i++) {
+		unsigned char *r = (unsigned char *)&in.photons[i];
+
+		for (k = 0; k < sizeof(struct pm_photon); k++)
+			r[k] = (unsigned char)(pm_rng_u32(&rng) >> 24);
+		if (i % 4 == 1)		/* duplicates */
+			in.photons[i] = in.photons[i - 1];
+		if (i % 8 == 3)		/* a bucket far larger than the rest */
+			r[0] = 17;
+	}
+	ref = in;
+	ref.photons = malloc(size);
+	c = in;
+	c.photons = malloc(size);
+	assert_non_null(ref.photons);
+	assert_non_null(c.photons);
+	memcpy(ref.photons, in.photons, size);
+	pm_map_canonical_order(&ref, 1);
+	for (i = 1; i < n; i++)
+		assert_true(memcmp(&ref.photons[i - 1], &ref.photons[i],
+		    sizeof(struct pm_photon)) <= 0);
+	for (t = 0; t < 3; t++) {
+		memcpy(c.photons, in.photons, size);
+		pm_map_canonical_order(&c, threads[t]);
+		assert_memory_equal(ref.photons, c.photons, size);
+	}
+	free(in.photons);
+	free(ref.photons);
+	free(c.photons);
 }
 
 /* The canonical order is the records' bytes, split-axis bits cleared;
@@ -273,7 +321,7 @@ test_canonical_order(void **state)
 		m->photons[i] = m->photons[j];
 		m->photons[j] = t;
 	}
-	pm_map_canonical_order(m);
+	pm_map_canonical_order(m, 1);
 	for (i = 0; i < n; i++)
 		assert_int_equal(m->photons[i].flags & PM_KD_AXIS_MASK, 0);
 	for (i = 1; i < n; i++)
@@ -690,6 +738,7 @@ main(void)
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_merge_equals_one_run),
 		cmocka_unit_test(test_canonical_order),
+		cmocka_unit_test(test_canonical_order_threads),
 		cmocka_unit_test(test_merge_checks),
 		cmocka_unit_test(test_stats_recount),
 		cmocka_unit_test(test_reader_reports),
