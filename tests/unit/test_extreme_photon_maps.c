@@ -34,8 +34,6 @@
 #include "../../formats/scene_xml.h"
 #include "tmpdir.h"
 
-static char tmpdir[64];
-
 static bool
 big_tests(void)
 {
@@ -215,7 +213,7 @@ test_tiny_map_files(void **state)
 	int n, z, mm;
 
 	(void)state;
-	snprintf(path, sizeof(path), "%s/tiny.pmap", tmpdir);
+	snprintf(path, sizeof(path), "%s/tiny.pmap", pm_test_dir);
 	for (n = 0; n <= 1; n++)
 		for (z = 0; z <= 1; z++)
 			for (mm = 0; mm <= 1; mm++) {
@@ -272,7 +270,7 @@ fixed_radius_sum(size_t n)
 	size_t i;
 
 	assert_int_equal(pm_scene_load_string(xml, strlen(xml), "floor.xml",
-	    tmpdir, NULL, 0, &s, &err), PM_OK);
+	    pm_test_dir, NULL, 0, &s, &err), PM_OK);
 	assert_int_equal(pm_world_init(&world, &s, &err), PM_OK);
 	memset(&one, 0, sizeof(one));
 	pm_rgbe_pack(pm_rgb1(1.0f), 0.5f, one.power);
@@ -343,13 +341,13 @@ test_map_past_2gb(void **state)
 		print_message("skipped (PM_TEST_BIG=1 runs it)\n");
 		return;
 	}
-	if (statvfs(tmpdir, &fs) != 0 ||
+	if (statvfs(pm_test_dir, &fs) != 0 ||
 	    (double)fs.f_bavail * (double)fs.f_frsize < 3.0 * (double)n *
 	    (double)sizeof(struct pm_photon)) {
-		print_message("skipped: not enough disk in %s\n", tmpdir);
+		print_message("skipped: not enough disk in %s\n", pm_test_dir);
 		return;
 	}
-	snprintf(path, sizeof(path), "%s/big.pmap", tmpdir);
+	snprintf(path, sizeof(path), "%s/big.pmap", pm_test_dir);
 	/* calloc: untouched zero pages cost no memory until read. */
 	p = calloc(n, sizeof(*p));
 	assert_non_null(p);
@@ -395,20 +393,6 @@ test_map_past_2gb(void **state)
 	unlink(path);
 }
 
-static int
-setup(void **state)
-{
-	(void)state;
-	return pm_tmpdir_make(tmpdir, sizeof(tmpdir), "hardph");
-}
-
-static int
-teardown(void **state)
-{
-	(void)state;
-	return pm_tmpdir_remove(tmpdir);
-}
-
 int
 main(void)
 {
@@ -420,5 +404,5 @@ main(void)
 		cmocka_unit_test(test_map_past_2gb),
 	};
 
-	return cmocka_run_group_tests(tests, setup, teardown);
+	return cmocka_run_group_tests(tests, pm_tmpdir_setup, pm_tmpdir_teardown);
 }

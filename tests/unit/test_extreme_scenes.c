@@ -33,8 +33,6 @@
 #include "../../formats/scene_xml.h"
 #include "tmpdir.h"
 
-static char tmpdir[64];
-
 struct world {
 	struct pm_scene scene;
 	struct pm_world world;
@@ -47,7 +45,7 @@ world_load(struct world *w, const char *xml)
 	struct pm_error err;
 
 	memset(w, 0, sizeof(*w));
-	if (pm_scene_load_string(xml, strlen(xml), "hard.xml", tmpdir, NULL, 0,
+	if (pm_scene_load_string(xml, strlen(xml), "hard.xml", pm_test_dir, NULL, 0,
 	    &w->scene, &err) != PM_OK) {
 		print_error("%s\n", err.msg);
 		fail();
@@ -618,7 +616,7 @@ write_file(const char *name, const char *text)
 	char path[128];
 	FILE *f;
 
-	snprintf(path, sizeof(path), "%s/%s", tmpdir, name);
+	snprintf(path, sizeof(path), "%s/%s", pm_test_dir, name);
 	f = fopen(path, "w");
 	assert_non_null(f);
 	fputs(text, f);
@@ -724,20 +722,6 @@ test_degenerate_meshes(void **state)
 	world_free(&w);
 }
 
-static int
-setup(void **state)
-{
-	(void)state;
-	return pm_tmpdir_make(tmpdir, sizeof(tmpdir), "hard");
-}
-
-static int
-teardown(void **state)
-{
-	(void)state;
-	return pm_tmpdir_remove(tmpdir);
-}
-
 int
 main(void)
 {
@@ -754,5 +738,5 @@ main(void)
 		cmocka_unit_test(test_degenerate_meshes),
 	};
 
-	return cmocka_run_group_tests(tests, setup, teardown);
+	return cmocka_run_group_tests(tests, pm_tmpdir_setup, pm_tmpdir_teardown);
 }

@@ -30,8 +30,6 @@
 #include "../../formats/png.h"
 #include "tmpdir.h"
 
-static char tmpdir[256];
-
 static const enum pm_filter all_filters[] = {
 	PM_FILTER_BOX, PM_FILTER_TENT, PM_FILTER_GAUSSIAN,
 	PM_FILTER_MITCHELL, PM_FILTER_LANCZOS,
@@ -60,7 +58,7 @@ fill_random(struct pm_image *im, float lo, float hi)
 static void
 path_in_tmp(char *buf, size_t size, const char *name)
 {
-	snprintf(buf, size, "%s/%s", tmpdir, name);
+	snprintf(buf, size, "%s/%s", pm_test_dir, name);
 }
 
 /* Copies the first len bytes of src to dst. */
@@ -105,7 +103,7 @@ file_size(const char *path)
 static int
 only_files(const char *a, const char *b)
 {
-	DIR *d = opendir(tmpdir);
+	DIR *d = opendir(pm_test_dir);
 	struct dirent *e;
 	int extra = 0;
 
@@ -1015,7 +1013,7 @@ test_exr_not_exr(void **state)
 	assert_non_null(strstr(err.msg, "no-such-file.exr"));
 
 	/* A directory is not a file either. */
-	assert_int_not_equal(pm_exr_read(tmpdir, &im, &err), PM_OK);
+	assert_int_not_equal(pm_exr_read(pm_test_dir, &im, &err), PM_OK);
 	assert_null(im.rgb);
 }
 
@@ -1067,20 +1065,6 @@ test_png_roundtrip(void **state)
 	unlink(path);
 }
 
-static int
-setup(void **state)
-{
-	(void)state;
-	return pm_tmpdir_make(tmpdir, sizeof(tmpdir), "image");
-}
-
-static int
-teardown(void **state)
-{
-	(void)state;
-	return pm_tmpdir_remove(tmpdir);
-}
-
 int
 main(void)
 {
@@ -1107,5 +1091,5 @@ main(void)
 		cmocka_unit_test(test_png_roundtrip),
 	};
 
-	return cmocka_run_group_tests(tests, setup, teardown);
+	return cmocka_run_group_tests(tests, pm_tmpdir_setup, pm_tmpdir_teardown);
 }

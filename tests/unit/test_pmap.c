@@ -35,8 +35,6 @@
 #define BUFCAP	(1 << 20)
 #define PATHCAP	128
 
-static char tmpdir[64];
-
 /* --- Helpers --- */
 
 static uint64_t
@@ -194,7 +192,7 @@ assert_same(const struct pm_pmap *a, const struct pm_pmap *b)
 static char *
 tpath(char out[PATHCAP], const char *name)
 {
-	snprintf(out, PATHCAP, "%s/%s", tmpdir, name);
+	snprintf(out, PATHCAP, "%s/%s", pm_test_dir, name);
 	return out;
 }
 
@@ -1477,7 +1475,7 @@ test_stdout(void **state)
 static int
 count_files(void)
 {
-	DIR *d = opendir(tmpdir);
+	DIR *d = opendir(pm_test_dir);
 	struct dirent *e;
 	int n = 0;
 
@@ -1561,7 +1559,7 @@ test_write_errors(void **state)
 	pm_pmap_free(&r);
 	assert_int_equal(pm_pmap_read(tpath(q, "missing.pmap"), &r, false,
 	    &err), PM_ERR_IO);
-	assert_int_equal(pm_pmap_read(tmpdir, &r, false, &err), PM_ERR_IO);
+	assert_int_equal(pm_pmap_read(pm_test_dir, &r, false, &err), PM_ERR_IO);
 	unlink(p);
 	pm_pmap_free(&m);
 }
@@ -1633,20 +1631,6 @@ test_large_offsets(void **state)
 	pm_pmap_free(&m);
 }
 
-static int
-setup(void **state)
-{
-	(void)state;
-	return pm_tmpdir_make(tmpdir, sizeof(tmpdir), "pmap");
-}
-
-static int
-teardown(void **state)
-{
-	(void)state;
-	return pm_tmpdir_remove(tmpdir);
-}
-
 int
 main(void)
 {
@@ -1674,5 +1658,5 @@ main(void)
 		cmocka_unit_test(test_large_offsets),
 	};
 
-	return cmocka_run_group_tests(tests, setup, teardown);
+	return cmocka_run_group_tests(tests, pm_tmpdir_setup, pm_tmpdir_teardown);
 }

@@ -26,43 +26,27 @@
 #define NEAR(a, b, tol) assert_true(fabs((double)(a) - (double)(b)) <= (tol))
 #define PI 3.14159265358979323846
 
-static char tmpdir[64];
-
-/* Writes text to tmpdir/name. */
+/* Writes text to pm_test_dir/name. */
 static void
 put_file(const char *name, const char *text)
 {
 	char path[256];
 	FILE *f;
 
-	snprintf(path, sizeof(path), "%s/%s", tmpdir, name);
+	snprintf(path, sizeof(path), "%s/%s", pm_test_dir, name);
 	f = fopen(path, "w");
 	assert_non_null(f);
 	fputs(text, f);
 	assert_int_equal(fclose(f), 0);
 }
 
-static int
-setup(void **state)
-{
-	(void)state;
-	return pm_tmpdir_make(tmpdir, sizeof(tmpdir), "scene");
-}
-
-static int
-teardown(void **state)
-{
-	(void)state;
-	return pm_tmpdir_remove(tmpdir);
-}
-
-/* Loads xml as "t.xml" with tmpdir as its directory. */
+/* Loads xml as "t.xml" with pm_test_dir as its directory. */
 static enum pm_err
 load_defs(const char *xml, const struct pm_define *defs, size_t ndefs,
     struct pm_scene *s, struct pm_error *err)
 {
 	memset(err, 0, sizeof(*err));
-	return pm_scene_load_string(xml, strlen(xml), "t.xml", tmpdir, defs,
+	return pm_scene_load_string(xml, strlen(xml), "t.xml", pm_test_dir, defs,
 	    ndefs, s, err);
 }
 
@@ -749,7 +733,7 @@ test_envmap_directional(void **state)
 	(void)state;
 	for (i = 0; i < 4 * 3 * 3; i++)
 		px[i] = 0.5f;
-	snprintf(path, sizeof(path), "%s/env.exr", tmpdir);
+	snprintf(path, sizeof(path), "%s/env.exr", pm_test_dir);
 	assert_int_equal(pm_exr_write(path, &im, false, &err), PM_OK);
 	load_ok("<scene version=\"3.0.0\">\n"
 	    " <emitter type=\"directional\">\n"
@@ -1121,7 +1105,7 @@ test_include(void **state)
 	    "  <float name=\"reflectance\" value=\"$refl\"/>\n"
 	    " </bsdf>\n"
 	    "</scene>\n");
-	snprintf(path, sizeof(path), "mkdir -p '%s/extra'", tmpdir);
+	snprintf(path, sizeof(path), "mkdir -p '%s/extra'", pm_test_dir);
 	assert_int_equal(system(path), 0);
 	put_file("extra/hidden.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
 	put_file("main.xml", "<scene version=\"3.0.0\">\n"
@@ -1132,7 +1116,7 @@ test_include(void **state)
 	    "  <ref id=\"grey\"/>\n"
 	    " </shape>\n"
 	    "</scene>\n");
-	snprintf(path, sizeof(path), "%s/main.xml", tmpdir);
+	snprintf(path, sizeof(path), "%s/main.xml", pm_test_dir);
 	assert_int_equal(pm_scene_load(path, NULL, 0, &s, &err), PM_OK);
 	assert_int_equal(s.nshapes, 1);
 	assert_int_equal(s.shapes[0].mesh.ntris, 1);
@@ -1145,7 +1129,7 @@ test_include(void **state)
 	    " <include filename=\"b.xml\"/>\n</scene>\n");
 	put_file("b.xml", "<scene version=\"3.0.0\">\n\n"
 	    " <include filename=\"a.xml\"/>\n</scene>\n");
-	snprintf(path, sizeof(path), "%s/a.xml", tmpdir);
+	snprintf(path, sizeof(path), "%s/a.xml", pm_test_dir);
 	assert_int_not_equal(pm_scene_load(path, NULL, 0, &s, &err), PM_OK);
 	assert_non_null(strstr(err.msg, "b.xml:3: "));
 	assert_non_null(strstr(err.msg, "include cycle"));
@@ -1682,5 +1666,5 @@ main(void)
 		cmocka_unit_test(test_cbox),
 	};
 
-	return cmocka_run_group_tests(tests, setup, teardown);
+	return cmocka_run_group_tests(tests, pm_tmpdir_setup, pm_tmpdir_teardown);
 }

@@ -35,22 +35,6 @@
 #define NEAR(a, b, tol) assert_true(fabs((double)(a) - (double)(b)) <= (tol))
 #define PI 3.14159265358979323846
 
-static char tmpdir[64];
-
-static int
-setup(void **state)
-{
-	(void)state;
-	return pm_tmpdir_make(tmpdir, sizeof(tmpdir), "shapes");
-}
-
-static int
-teardown(void **state)
-{
-	(void)state;
-	return pm_tmpdir_remove(tmpdir);
-}
-
 /* ---- a little writer of the serialized format, from its description ---- */
 
 struct buf {
@@ -358,7 +342,7 @@ write_file(const char *name, const void *p, size_t n)
 	char path[256];
 	FILE *f;
 
-	snprintf(path, sizeof(path), "%s/%s", tmpdir, name);
+	snprintf(path, sizeof(path), "%s/%s", pm_test_dir, name);
 	f = fopen(path, "wb");
 	assert_non_null(f);
 	assert_int_equal(fwrite(p, 1, n, f), n);
@@ -369,7 +353,7 @@ static enum pm_err
 load(const char *xml, struct pm_scene *s, struct pm_error *err)
 {
 	memset(err, 0, sizeof(*err));
-	return pm_scene_load_string(xml, strlen(xml), "t.xml", tmpdir, NULL, 0,
+	return pm_scene_load_string(xml, strlen(xml), "t.xml", pm_test_dir, NULL, 0,
 	    s, err);
 }
 
@@ -726,5 +710,5 @@ main(void)
 		cmocka_unit_test(test_shapegroup_instances),
 	};
 
-	return cmocka_run_group_tests(tests, setup, teardown);
+	return cmocka_run_group_tests(tests, pm_tmpdir_setup, pm_tmpdir_teardown);
 }

@@ -44,26 +44,10 @@
 		    a_, b_, (double)(tol));				\
 } while (0)
 
-static char tmpdir[64];
-
-static int
-setup(void **state)
-{
-	(void)state;
-	return pm_tmpdir_make(tmpdir, sizeof(tmpdir), "texture");
-}
-
-static int
-teardown(void **state)
-{
-	(void)state;
-	return pm_tmpdir_remove(tmpdir);
-}
-
 static void
 path_of(char *buf, size_t n, const char *name)
 {
-	snprintf(buf, n, "%s/%s", tmpdir, name);
+	snprintf(buf, n, "%s/%s", pm_test_dir, name);
 }
 
 /* The sRGB curve's inverse, from IEC 61966-2-1, in double. */
@@ -572,7 +556,7 @@ test_scene_textures(void **state)
 	    "<texture name=\"alpha\" type=\"checkerboard\"/></bsdf></shape>\n"
 	    "</scene>\n");
 	memset(&err, 0, sizeof(err));
-	if (pm_scene_load_string(xml, strlen(xml), "t.xml", tmpdir, NULL, 0,
+	if (pm_scene_load_string(xml, strlen(xml), "t.xml", pm_test_dir, NULL, 0,
 	    &s, &err) != PM_OK)
 		fail_msg("%s", err.msg);
 	assert_int_equal(pm_scene_prepare(&s, &err), PM_OK);
@@ -809,5 +793,5 @@ main(void)
 		cmocka_unit_test(test_photons_see_texture),
 	};
 
-	return cmocka_run_group_tests(tests, setup, teardown);
+	return cmocka_run_group_tests(tests, pm_tmpdir_setup, pm_tmpdir_teardown);
 }

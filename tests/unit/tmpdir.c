@@ -1,11 +1,13 @@
 /*
  * tmpdir.c: the unit tests' scratch directories (tmpdir.h).
  */
-#define _XOPEN_SOURCE 700
+#define _GNU_SOURCE	/* nftw, program_invocation_short_name */
 
+#include <errno.h>
 #include <ftw.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "tmpdir.h"
 
@@ -37,4 +39,23 @@ int
 pm_tmpdir_remove(const char *dir)
 {
 	return nftw(dir, remove_one, 16, FTW_DEPTH | FTW_PHYS) == 0 ? 0 : -1;
+}
+
+char pm_test_dir[64];
+
+int
+pm_tmpdir_setup(void **state)
+{
+	(void)state;
+	/* "test_pmap" makes pm-test-pmap.XXXXXX */
+	return pm_tmpdir_make(pm_test_dir, sizeof(pm_test_dir),
+	    program_invocation_short_name + (strncmp(
+	    program_invocation_short_name, "test_", 5) == 0 ? 5 : 0));
+}
+
+int
+pm_tmpdir_teardown(void **state)
+{
+	(void)state;
+	return pm_tmpdir_remove(pm_test_dir);
 }

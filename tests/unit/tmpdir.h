@@ -20,4 +20,13 @@ int pm_tmpdir_make(char *dir, size_t size, const char *name);
 /* Removes dir and everything below it, without a shell.  0 or -1. */
 int pm_tmpdir_remove(const char *dir);
 
+/*
+ * The common case as cmocka group fixtures: pm_tmpdir_setup makes
+ * pm_test_dir, named after the test program, and pm_tmpdir_teardown
+ * removes it.
+ */
+extern char pm_test_dir[64];
+int pm_tmpdir_setup(void **state);
+int pm_tmpdir_teardown(void **state);
+
 #endif
