@@ -24,22 +24,30 @@ void
 pm_square_to_disk(float u1, float u2, float *x, float *y)
 {
 	float a = 2.0f * u1 - 1.0f, b = 2.0f * u2 - 1.0f;
-	float r, phi;
+	float r, t, s, c;
 
 	if (a == 0.0f && b == 0.0f) {
 		*x = 0.0f;
 		*y = 0.0f;
 		return;
 	}
+	/* phi = (pi/4) t, or pi/2 - (pi/4) t, with |t| <= 1: the sine and
+	 * cosine of (pi/4) t from their polynomials, the cosine and sine
+	 * swapped for the second wedge (libm's sincosf was 7% of a path
+	 * tracer's time) */
 	if (fabsf(a) > fabsf(b)) {
 		r = a;
-		phi = (PM_PI / 4.0f) * (b / a);
+		t = b / a;
+		pm_sincos_quarter_pi(t, &s, &c);
+		*x = r * c;
+		*y = r * s;
 	} else {
 		r = b;
-		phi = PM_PI / 2.0f - (PM_PI / 4.0f) * (a / b);
+		t = a / b;
+		pm_sincos_quarter_pi(t, &s, &c);
+		*x = r * s;
+		*y = r * c;
 	}
-	*x = r * cosf(phi);
-	*y = r * sinf(phi);
 }
 
 /* Malley's method: project the uniform disk up onto the hemisphere. */
@@ -49,7 +57,7 @@ pm_square_to_cosine_hemisphere(float u1, float u2)
 	float x, y;
 
 	pm_square_to_disk(u1, u2, &x, &y);
-	return pm_v3(x, y, sqrtf(fmaxf(0.0f, 1.0f - x * x - y * y)));
+	return pm_v3(x, y, sqrtf(pm_fmaxf(0.0f, 1.0f - x * x - y * y)));
 }
 
 /* Density cos(theta)/pi above the horizon, zero below it. */

@@ -15,6 +15,23 @@
 #include "error.h"
 #include "vec.h"
 
+/*
+ * sin and cos of (pi/4) t for |t| <= 1, by their Taylor polynomials to the
+ * x^9 and x^10 terms: the first term left out is below 2e-9 for |x| <=
+ * pi/4, under a tenth of a float's spacing at 1, so the result is libm's
+ * but for the rounding of the sums (a few float spacings at most, which
+ * test_sampling checks).
+ */
+static inline void pm_sincos_quarter_pi(float t, float *s, float *c)
+{
+	float x = t * (PM_PI / 4.0f), x2 = x * x;
+
+	*s = x * (1.0f + x2 * (-1.0f / 6.0f + x2 * (1.0f / 120.0f +
+	    x2 * (-1.0f / 5040.0f + x2 * (1.0f / 362880.0f)))));
+	*c = 1.0f + x2 * (-0.5f + x2 * (1.0f / 24.0f + x2 * (-1.0f / 720.0f +
+	    x2 * (1.0f / 40320.0f + x2 * (-1.0f / 3628800.0f)))));
+}
+
 /* Concentric map (Shirley and Chiu 1997) onto the unit disk; pdf 1/pi. */
 void pm_square_to_disk(float u1, float u2, float *x, float *y);
 

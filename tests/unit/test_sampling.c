@@ -106,6 +106,50 @@ test_uniform_sphere(void **state)
 	check_direction_warp(WARP_SPHERE, sphere_pdf, 3, "uniform sphere");
 }
 
+/*
+ * The concentric map's polynomial sine and cosine (sampling.h) against
+ * libm's in double at 200,001 points of [-1, 1]: within 1.5 float
+ * spacings at 1 (1.8e-7; they reach 0.8), where the sine without its x^9
+ * term errs by 3.1e-7 and a wrong coefficient by more; and the disk
+ * points against the angle form of the map on a 512 x 512 grid.  The
+ * warp's distribution itself is test_cosine_hemisphere's chi-square.
+ */
+static void
+test_disk_sincos(void **state)
+{
+	double worst = 0.0;
+	int i, j;
+
+	(void)state;
+	for (i = -100000; i <= 100000; i++) {
+		float t = (float)i / 100000.0f, s, c;
+		double x = (double)t * M_PI / 4.0;
+
+		pm_sincos_quarter_pi(t, &s, &c);
+		worst = fmax(worst, fabs(s - sin(x)));
+		worst = fmax(worst, fabs(c - cos(x)));
+	}
+	assert_true(worst < 1.5 * 0x1p-23);
+	for (i = 0; i < 512; i++)
+		for (j = 0; j < 512; j++) {
+			float u1 = ((float)i + 0.5f) / 512.0f;
+			float u2 = ((float)j + 0.5f) / 512.0f;
+			double a = 2.0 * u1 - 1.0, b = 2.0 * u2 - 1.0, r, phi;
+			float x, y;
+
+			if (fabs(a) > fabs(b)) {
+				r = a;
+				phi = M_PI / 4.0 * (b / a);
+			} else {
+				r = b;
+				phi = M_PI / 2.0 - M_PI / 4.0 * (a / b);
+			}
+			pm_square_to_disk(u1, u2, &x, &y);
+			assert_true(fabs(x - r * cos(phi)) < 4.0 * 0x1p-23);
+			assert_true(fabs(y - r * sin(phi)) < 4.0 * 0x1p-23);
+		}
+}
+
 /* The pdfs integrate to one over their domains. */
 static void
 test_pdf_normalisation(void **state)
@@ -447,6 +491,7 @@ main(void)
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_cosine_hemisphere),
+		cmocka_unit_test(test_disk_sincos),
 		cmocka_unit_test(test_uniform_hemisphere),
 		cmocka_unit_test(test_uniform_sphere),
 		cmocka_unit_test(test_pdf_normalisation),
