@@ -21,50 +21,6 @@
 #define ONE_MINUS_EPS 0x1.fffffep-1f
 
 /* Shirley and Chiu's concentric map keeps strata compact and adjacent. */
-static inline void
-square_to_disk(float u1, float u2, float *x, float *y)
-{
-	float a = 2.0f * u1 - 1.0f, b = 2.0f * u2 - 1.0f;
-	float big, small, t, s, c;
-	bool wedge_a;
-
-	if (a == 0.0f && b == 0.0f) {
-		*x = 0.0f;
-		*y = 0.0f;
-		return;
-	}
-	/* phi = (pi/4) t in the wedges around the x axis (|a| > |b|, r =
-	 * a), pi/2 - (pi/4) t around the y axis (r = b), with t the smaller
-	 * over the larger, |t| <= 1: the sine and cosine of (pi/4) t from
-	 * their polynomials, swapped in the second wedges (libm's sincosf
-	 * was 7% of a path tracer's time).  Written as selects, not
-	 * branches: which wedge a random point falls in is a coin toss the
-	 * branch predictor loses half the time. */
-	wedge_a = fabsf(a) > fabsf(b);
-	big = wedge_a ? a : b;
-	small = wedge_a ? b : a;
-	t = small / big;
-	pm_sincos_quarter_pi(t, &s, &c);
-	*x = big * (wedge_a ? c : s);
-	*y = big * (wedge_a ? s : c);
-}
-
-void
-pm_square_to_disk(float u1, float u2, float *x, float *y)
-{
-	square_to_disk(u1, u2, x, y);
-}
-
-/* Malley's method: project the uniform disk up onto the hemisphere. */
-struct pm_vec3
-pm_square_to_cosine_hemisphere(float u1, float u2)
-{
-	float x, y;
-
-	square_to_disk(u1, u2, &x, &y);
-	return pm_v3(x, y, sqrtf(pm_fmaxf(0.0f, 1.0f - x * x - y * y)));
-}
-
 /* Density cos(theta)/pi above the horizon, zero below it. */
 float
 pm_cosine_hemisphere_pdf(struct pm_vec3 v)
