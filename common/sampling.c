@@ -21,13 +21,6 @@
 #define ONE_MINUS_EPS 0x1.fffffep-1f
 
 /* Shirley and Chiu's concentric map keeps strata compact and adjacent. */
-/* Density cos(theta)/pi above the horizon, zero below it. */
-float
-pm_cosine_hemisphere_pdf(struct pm_vec3 v)
-{
-	return v.z > 0.0f ? v.z * PM_INV_PI : 0.0f;
-}
-
 /* Archimedes: z uniform in [0,1] gives uniform area on the hemisphere. */
 struct pm_vec3
 pm_square_to_uniform_hemisphere(float u1, float u2)

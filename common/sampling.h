@@ -76,7 +76,13 @@ static inline struct pm_vec3 pm_square_to_cosine_hemisphere(float u1, float u2)
 	pm_square_to_disk(u1, u2, &x, &y);
 	return pm_v3(x, y, sqrtf(pm_fmaxf(0.0f, 1.0f - x * x - y * y)));
 }
-float pm_cosine_hemisphere_pdf(struct pm_vec3 v);
+/* Its density, cos(theta)/pi above the horizon, zero below it (inline
+ * for the same reason: the vector passed by value went through the
+ * stack). */
+static inline float pm_cosine_hemisphere_pdf(struct pm_vec3 v)
+{
+	return v.z > 0.0f ? v.z * PM_INV_PI : 0.0f;
+}
 
 /* Uniform hemisphere around +z; pdf 1/(2 pi). */
 struct pm_vec3 pm_square_to_uniform_hemisphere(float u1, float u2);
