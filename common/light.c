@@ -249,7 +249,6 @@ pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
 			struct pm_vec3 p0 = pm_mesh_vertex(m, t[0]);
 			struct pm_vec3 e1 = pm_sub(pm_mesh_vertex(m, t[1]), p0);
 			struct pm_vec3 e2 = pm_sub(pm_mesh_vertex(m, t[2]), p0);
-
 			struct pm_light_tri *lt = &ls->tri[ls->tri0[i] + j];
 
 			w[j] = 0.5 * pm_length(pm_cross(e1, e2));
