@@ -158,6 +158,12 @@ struct pm_camera_sample {
 struct pm_rgb pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
     struct pm_vec3 d, float tmin, float tmax, const struct pm_camera_sample *cs,
     struct pm_rng *rng);
+/* The same with the camera ray's first hit already found (hit, h: what
+ * pm_accel_intersect gives for it), for camera rays cast in packets. */
+struct pm_rgb pm_photon_li_px_hit(const struct pm_render_ctx *ctx,
+    struct pm_vec3 o, struct pm_vec3 d, float tmin, float tmax,
+    const struct pm_camera_sample *cs, struct pm_rng *rng, bool hit,
+    const struct pm_hit *h);
 
 /* True where the photon render estimates light at a surface rather than
  * following or path tracing it: where indirect light may be cached. */

@@ -546,6 +546,11 @@ indirect(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 	return final_gather(ctx, b, h, fr, wi, medium, depth, rng);
 }
 
+static struct pm_rgb photon_li(const struct pm_render_ctx *ctx,
+    struct pm_vec3 o, struct pm_vec3 d, float tmin, float tmax,
+    const struct pm_camera_sample *cs, struct pm_rng *rng,
+    const bool *first_hit, const struct pm_hit *first);
+
 struct pm_rgb
 pm_photon_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
     float tmin, float tmax, struct pm_rng *rng)
@@ -559,6 +564,24 @@ struct pm_rgb
 pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
     struct pm_vec3 d, float tmin, float tmax, const struct pm_camera_sample *cs,
     struct pm_rng *rng)
+{
+	return photon_li(ctx, o, d, tmin, tmax, cs, rng, NULL, NULL);
+}
+
+struct pm_rgb
+pm_photon_li_px_hit(const struct pm_render_ctx *ctx, struct pm_vec3 o,
+    struct pm_vec3 d, float tmin, float tmax, const struct pm_camera_sample *cs,
+    struct pm_rng *rng, bool hit, const struct pm_hit *h)
+{
+	return photon_li(ctx, o, d, tmin, tmax, cs, rng, &hit, h);
+}
+
+/* The camera path; first_hit and first, when not NULL, are the camera
+ * ray's hit found already. */
+static struct pm_rgb
+photon_li(const struct pm_render_ctx *ctx, struct pm_vec3 o,
+    struct pm_vec3 d, float tmin, float tmax, const struct pm_camera_sample *cs,
+    struct pm_rng *rng, const bool *first_hit, const struct pm_hit *first)
 {
 	const struct pm_scene *s = ctx->scene;
 	const struct pm_photon_maps *m = ctx->maps;
@@ -581,7 +604,16 @@ pm_photon_li_px(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 		struct pm_vec3 wi;
 		float u1, u2, u3;
 
-		hit = pm_accel_intersect(ctx->accel, pa.o, pa.d, pa.tmin, pa.tmax, &h);
+		if (first_hit != NULL) {
+			/* the camera ray's, once */
+			hit = *first_hit;
+			if (hit)
+				h = *first;
+			first_hit = NULL;
+		} else {
+			hit = pm_accel_intersect(ctx->accel, pa.o, pa.d,
+			    pa.tmin, pa.tmax, &h);
+		}
 		if (medium >= 0) {
 			/* media: in-scattering along the segment, then what
 			 * lies beyond through its transmittance */

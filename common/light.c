@@ -80,6 +80,67 @@ texel_distrib(struct pm_distrib *d, const struct pm_texture *t, double *w,
 }
 
 enum pm_err
+pm_alias_build(struct pm_alias *t, const double *w, size_t n,
+    struct pm_error *err)
+{
+	double *p = malloc(n * sizeof(*p)), sum = 0.0;
+	uint32_t *small = malloc(n * sizeof(*small));
+	uint32_t *large = malloc(n * sizeof(*large));
+	size_t i, ns = 0, nl = 0, pos = 0;
+
+	if (p == NULL || small == NULL || large == NULL) {
+		free(p);
+		free(small);
+		free(large);
+		return pm_fail(err, PM_ERR_NOMEM, "no memory for an alias table");
+	}
+	for (i = 0; i < n; i++)
+		sum += w[i];
+	for (i = 0; i < n; i++) {
+		p[i] = w[i] * (double)n / sum;
+		if (w[i] > 0.0)
+			pos = i;
+		if (p[i] < 1.0)
+			small[ns++] = (uint32_t)i;
+		else
+			large[nl++] = (uint32_t)i;
+	}
+	/* Vose: each underfull bin takes its rest from an overfull one */
+	while (ns > 0 && nl > 0) {
+		uint32_t a = small[--ns], b = large[--nl];
+
+		t[a].q = (float)p[a];
+		t[a].alias = b;
+		p[b] = (p[b] + p[a]) - 1.0;
+		if (p[b] < 1.0)
+			small[ns++] = b;
+		else
+			large[nl++] = b;
+	}
+	/* what rounding leaves is full, but a bin of weight zero never
+	 * keeps itself */
+	while (nl > 0) {
+		i = large[--nl];
+		t[i].q = 1.0f;
+		t[i].alias = (uint32_t)i;
+	}
+	while (ns > 0) {
+		i = small[--ns];
+		t[i].q = w[i] > 0.0 ? 1.0f : 0.0f;
+		t[i].alias = (uint32_t)(w[i] > 0.0 ? i : pos);
+	}
+	for (i = 0; i < n; i++) {
+		t[i].inv_q = t[i].q > 0.0f ? (float)(1.0 / t[i].q) : 0.0f;
+		t[i].inv_rest = t[i].q < 1.0f ?
+		    (float)(1.0 / (1.0 - (double)t[i].q)) : 0.0f;
+	}
+	free(p);
+	free(small);
+	free(large);
+	return PM_OK;
+}
+
+enum pm_err
 pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
     struct pm_error *err)
 {
@@ -89,6 +150,11 @@ pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
 
 	ls->n = s->nlights;
 	ls->tris = NULL;
+	ls->nee_alias = NULL;
+	ls->nee_p = NULL;
+	ls->tri = NULL;
+	ls->tri_alias = NULL;
+	ls->tri0 = NULL;
 	ls->pick.cdf = NULL;
 	ls->pick.n = 0;
 	ls->nee.cdf = NULL;
@@ -135,6 +201,34 @@ pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
 	rc = pm_distrib_init(&ls->nee, w, s->nlights, err);
 	if (rc != PM_OK)
 		goto out;
+	ls->nee_alias = calloc(s->nlights, sizeof(*ls->nee_alias));
+	ls->nee_p = calloc(s->nlights, sizeof(*ls->nee_p));
+	ls->tri0 = calloc(s->nlights + 1, sizeof(*ls->tri0));
+	if (ls->nee_alias == NULL || ls->nee_p == NULL || ls->tri0 == NULL) {
+		rc = pm_fail(err, PM_ERR_NOMEM, "no memory for light tables");
+		goto out;
+	}
+	rc = pm_alias_build(ls->nee_alias, w, s->nlights, err);
+	if (rc != PM_OK)
+		goto out;
+	for (i = 0; i < s->nlights; i++) {
+		const struct pm_light *l = &s->lights[i];
+
+		ls->nee_p[i] = (float)pm_distrib_prob(&ls->nee, i);
+		ls->tri0[i + 1] = ls->tri0[i] + (l->type == PM_LIGHT_AREA &&
+		    s->shapes[l->shape].type == PM_SHAPE_MESH ?
+		    s->shapes[l->shape].mesh.ntris : 0);
+	}
+	if (ls->tri0[s->nlights] > 0) {
+		ls->tri = calloc(ls->tri0[s->nlights], sizeof(*ls->tri));
+		ls->tri_alias = calloc(ls->tri0[s->nlights],
+		    sizeof(*ls->tri_alias));
+		if (ls->tri == NULL || ls->tri_alias == NULL) {
+			rc = pm_fail(err, PM_ERR_NOMEM,
+			    "no memory for light tables");
+			goto out;
+		}
+	}
 	for (i = 0; i < s->nlights; i++) {
 		const struct pm_light *l = &s->lights[i];
 		const struct pm_texture *img = projector_image(s, l);
@@ -155,10 +249,36 @@ pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
 			struct pm_vec3 p0 = pm_mesh_vertex(m, t[0]);
 			struct pm_vec3 e1 = pm_sub(pm_mesh_vertex(m, t[1]), p0);
 			struct pm_vec3 e2 = pm_sub(pm_mesh_vertex(m, t[2]), p0);
+			struct pm_light_tri *lt = &ls->tri[ls->tri0[i] + j];
 
 			w[j] = 0.5 * pm_length(pm_cross(e1, e2));
+			lt->p0 = p0;
+			lt->e1 = e1;
+			lt->e2 = e2;
+			lt->n = pm_normalize(pm_cross(e1, e2));
+			lt->prim = (uint32_t)j;
+			lt->flat = true;
+			lt->ns = lt->n;
+			if (m->nrm != NULL) {
+				const float *a = &m->nrm[3 * t[0]];
+				const float *b = &m->nrm[3 * t[1]];
+				const float *c = &m->nrm[3 * t[2]];
+				struct pm_vec3 v = pm_v3(a[0], a[1], a[2]);
+
+				/* equal vertex normals interpolate to
+				 * their own direction */
+				lt->flat = memcmp(a, b, 3 * sizeof(*a)) == 0 &&
+				    memcmp(a, c, 3 * sizeof(*a)) == 0 &&
+				    pm_length(v) > 1e-6f;
+				if (lt->flat)
+					lt->ns = pm_normalize(v);
+			}
 		}
 		rc = pm_distrib_init(&ls->tris[i], w, m->ntris, err);
+		if (rc != PM_OK)
+			goto out;
+		rc = pm_alias_build(&ls->tri_alias[ls->tri0[i]], w, m->ntris,
+		    err);
 		if (rc != PM_OK)
 			goto out;
 	}
@@ -179,6 +299,16 @@ pm_lights_free(struct pm_lights *ls)
 			pm_distrib_free(&ls->tris[i]);
 	free(ls->tris);
 	ls->tris = NULL;
+	free(ls->nee_alias);
+	free(ls->nee_p);
+	free(ls->tri);
+	free(ls->tri_alias);
+	free(ls->tri0);
+	ls->nee_alias = NULL;
+	ls->nee_p = NULL;
+	ls->tri = NULL;
+	ls->tri_alias = NULL;
+	ls->tri0 = NULL;
 	pm_distrib_free(&ls->pick);
 	pm_distrib_free(&ls->nee);
 }
@@ -269,9 +399,9 @@ pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
 
 	if (ls->n == 0)
 		return false;
-	li = pm_distrib_sample(&ls->nee, u0, NULL);
+	li = pm_alias_sample(ls->nee_alias, ls->n, u0, NULL);
 	l = &s->lights[li];
-	psel = (float)pm_distrib_prob(&ls->nee, li);
+	psel = ls->nee_p[li];
 	o->light = (int)li;
 	o->delta = false;
 	switch (l->type) {
@@ -342,22 +472,21 @@ pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
 			ns = o->n;
 		} else {
 			const struct pm_mesh *m = &sh->mesh;
-			size_t t = pm_distrib_sample(&ls->tris[li], u1, &u1);
-			const uint32_t *ix = &m->idx[3 * t];
-			struct pm_vec3 p0 = pm_mesh_vertex(m, ix[0]);
-			struct pm_vec3 p1 = pm_mesh_vertex(m, ix[1]);
-			struct pm_vec3 p2 = pm_mesh_vertex(m, ix[2]);
+			size_t t0 = ls->tri0[li];
+			const struct pm_light_tri *lt = &ls->tri[t0 +
+			    pm_alias_sample(&ls->tri_alias[t0],
+			    ls->tri0[li + 1] - t0, u1, &u1)];
 			float b1, b2;
 
 			pm_square_to_triangle(u1, u2, &b1, &b2);
-			lh.prim = (uint32_t)t;
+			lh.prim = lt->prim;
 			lh.u = b1;
 			lh.v = b2;
-			o->p = pm_add(pm_add(pm_scale(p0, 1.0f - b1 - b2),
-			    pm_scale(p1, b1)), pm_scale(p2, b2));
-			o->n = pm_normalize(pm_cross(pm_sub(p1, p0), pm_sub(p2, p0)));
-			ns = o->n;
-			if (m->nrm != NULL) {
+			o->p = pm_madd(pm_madd(lt->p0, lt->e1, b1), lt->e2, b2);
+			o->n = lt->n;
+			ns = lt->ns;
+			if (!lt->flat) {
+				const uint32_t *ix = &m->idx[3 * lt->prim];
 				const float *nv = m->nrm;
 				struct pm_vec3 sum = pm_v3(0, 0, 0);
 				float bw[3] = {1.0f - b1 - b2, b1, b2};
@@ -382,7 +511,9 @@ pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
 		cos_l = fabsf(pm_dot(o->n, o->wi));
 		lh.p = o->p;
 		lh.ns = ns;
-		o->value = pm_area_emitted_at(s, l, &lh, pm_neg(o->wi));
+		o->value = l->tex == 0 ? (pm_dot(ns, o->wi) < 0.0f ?
+		    l->radiance : pm_rgb1(0.0f)) :
+		    pm_area_emitted_at(s, l, &lh, pm_neg(o->wi));
 		if (cos_l <= 0.0f || pm_rgb_is_black(o->value))
 			return false;
 		o->pdf = psel * d2 / (cos_l * (float)l->area);

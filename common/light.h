@@ -21,12 +21,37 @@
 #define PM_LIGHT_H
 
 #include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
 
 #include "accel.h"
 #include "error.h"
 #include "sampling.h"
 #include "scene.h"
 #include "vec.h"
+
+/*
+ * Walker's alias table (Vose's construction) over n weights: an index in
+ * O(1) from one uniform number, which also leaves a fresh one, as
+ * pm_distrib_sample does; light samples draw lights and triangles by it,
+ * where the cdf's binary search in double was 5% of a path tracer's time.
+ */
+struct pm_alias {
+	float q;		/* keep this bin with probability q ... */
+	uint32_t alias;		/* ... else take this one */
+	float inv_q, inv_rest;	/* 1 / q and 1 / (1 - q) (0 where
+				 * infinite): no division per sample */
+};
+
+/* A triangle of an area light, as light samples need it. */
+struct pm_light_tri {
+	struct pm_vec3 p0, e1, e2;	/* p1 - p0, p2 - p0 */
+	struct pm_vec3 n;		/* unit geometric normal */
+	struct pm_vec3 ns;		/* the shading normal when the vertex
+					 * normals agree (flat), else unused */
+	uint32_t prim;
+	bool flat;			/* no vertex normals, or three equal */
+};
 
 struct pm_lights {
 	struct pm_distrib pick;		/* over scene.lights, by power: photons */
@@ -39,7 +64,46 @@ struct pm_lights {
 					 * (photons; empty when not drawn
 					 * by texel) */
 	size_t n;
+	/* for light samples: nee as an alias table (n bins) with each
+	 * light's probability in float; per area mesh light i, its
+	 * triangles tri[tri0[i] .. tri0[i + 1]) and their alias table by
+	 * area in the same bins of tri_alias */
+	struct pm_alias *nee_alias;
+	float *nee_p;
+	struct pm_light_tri *tri;
+	struct pm_alias *tri_alias;
+	size_t *tri0;
 };
+
+/* Builds an alias table over w[0..n) (n >= 1, finite w >= 0 with a
+ * positive sum, n < 2^32). */
+enum pm_err pm_alias_build(struct pm_alias *t, const double *w, size_t n,
+    struct pm_error *err);
+
+/* An index drawn from t (n bins) by u in [0,1), and u's fresh remainder
+ * in *u_reuse when not NULL. */
+static inline size_t pm_alias_sample(const struct pm_alias *t, size_t n,
+    float u, float *u_reuse)
+{
+	double x = (double)u * (double)n;	/* exact: u has 24 bits */
+	size_t i = (size_t)x;
+	double f, q;
+	float r;
+
+	if (i >= n)
+		i = n - 1;
+	f = x - (double)i;
+	q = (double)t[i].q;
+	if (f < q) {
+		r = (float)(f * (double)t[i].inv_q);
+	} else {
+		r = (float)((f - q) * (double)t[i].inv_rest);
+		i = t[i].alias;
+	}
+	if (u_reuse != NULL)
+		*u_reuse = r < 0x1.fffffep-1f ? r : 0x1.fffffep-1f;
+	return i;
+}
 
 struct pm_light_sample {
 	struct pm_vec3 wi;		/* unit direction from the reference point */

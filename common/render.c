@@ -254,6 +254,86 @@ render_tile_paths(struct job *j, struct strata *st, int x0, int y0, int x1,
 		atomic_fetch_add(&j->dropped, dropped);
 }
 
+/*
+ * render_tile for the photon render in a scene without media: the
+ * camera rays of up to PATH_CHUNK of the tile's samples, in render_tile's
+ * order, find their first hits together (Embree packets; coherent rays,
+ * which packets cast fastest), and each sample's path goes on from its
+ * hit one at a time (pm_photon_li_px_hit) in the same order as before,
+ * each pixel summing its own in sample order: the same image bit for
+ * bit.
+ */
+static void
+render_tile_photon(struct job *j, struct strata *st, int x0, int y0, int x1,
+    int y1)
+{
+	const struct pm_camera *cam = j->cam;
+	struct pm_ray ray[PATH_CHUNK];
+	struct pm_camera_sample cs[PATH_CHUNK];
+	struct pm_rng rng[PATH_CHUNK];
+	struct pm_hit hit[PATH_CHUNK];
+	bool hitf[PATH_CHUNK];
+	uint16_t slot[PATH_CHUNK];
+	double acc[TILE * TILE][3], mom[TILE * TILE][6];
+	int spp = j->opts->spp, x, y, i, n = 0, k;
+	uint64_t dropped = 0;
+
+	memset(acc, 0, sizeof(acc));
+	if (j->moments)
+		memset(mom, 0, sizeof(mom));
+	for (y = y0; y < y1; y++) {
+		for (x = x0; x < x1; x++) {
+			pixel_cells(j, (uint64_t)y * (uint64_t)cam->width +
+			    (uint64_t)x, st);
+			for (i = 0; i < spp; i++) {
+				camera_sample(j, st, x, y, i, &ray[n].o, &ray[n].d,
+				    &ray[n].tmin, &ray[n].tmax, &cs[n], &rng[n]);
+				slot[n] = (uint16_t)((y - y0) * TILE + (x - x0));
+				if (++n < PATH_CHUNK &&
+				    !(y == y1 - 1 && x == x1 - 1 && i == spp - 1))
+					continue;
+				pm_accel_intersect_n(j->ctx->accel, ray, (size_t)n,
+				    hit, hitf);
+				for (k = 0; k < n; k++) {
+					struct pm_rgb L = pm_photon_li_px_hit(j->ctx,
+					    ray[k].o, ray[k].d, ray[k].tmin,
+					    ray[k].tmax, &cs[k], &rng[k], hitf[k],
+					    &hit[k]);
+
+					if (!pm_rgb_is_finite(L)) {
+						dropped++;
+						continue;
+					}
+					acc[slot[k]][0] += L.r;
+					acc[slot[k]][1] += L.g;
+					acc[slot[k]][2] += L.b;
+					if (j->moments)
+						moment_add(mom[slot[k]], L);
+				}
+				n = 0;
+			}
+		}
+	}
+	for (y = y0; y < y1; y++) {
+		for (x = x0; x < x1; x++) {
+			float *dst = &j->out->rgb[3 * ((size_t)y *
+			    (size_t)cam->width + (size_t)x)];
+			const double *a = acc[(y - y0) * TILE + (x - x0)];
+
+			/* Dropped samples count as zero, as in render_tile. */
+			dst[0] = (float)(a[0] / spp);
+			dst[1] = (float)(a[1] / spp);
+			dst[2] = (float)(a[2] / spp);
+			if (j->moments)
+				moment_store(j, (size_t)y * (size_t)cam->width +
+				    (size_t)x, mom[(y - y0) * TILE + (x - x0)],
+				    spp);
+		}
+	}
+	if (dropped)
+		atomic_fetch_add(&j->dropped, dropped);
+}
+
 static void
 render_tile(struct job *j, int tile)
 {
@@ -283,6 +363,10 @@ render_tile(struct job *j, int tile)
 	st.ly = ky < LIGHT_STRATA ? ky : LIGHT_STRATA;
 	if (j->opts->method == PM_METHOD_PATH) {
 		render_tile_paths(j, &st, x0, y0, x1, y1);
+		return;
+	}
+	if (j->opts->method == PM_METHOD_PHOTON && j->ctx->scene->nmedia == 0) {
+		render_tile_photon(j, &st, x0, y0, x1, y1);
 		return;
 	}
 	for (y = y0; y < y1; y++) {

@@ -11,6 +11,7 @@
  * zero further down the pipeline.
  */
 #include <math.h>
+#include <stdbool.h>
 #include <stdint.h>
 #include <stdlib.h>
 
@@ -20,45 +21,6 @@
 #define ONE_MINUS_EPS 0x1.fffffep-1f
 
 /* Shirley and Chiu's concentric map keeps strata compact and adjacent. */
-void
-pm_square_to_disk(float u1, float u2, float *x, float *y)
-{
-	float a = 2.0f * u1 - 1.0f, b = 2.0f * u2 - 1.0f;
-	float r, phi;
-
-	if (a == 0.0f && b == 0.0f) {
-		*x = 0.0f;
-		*y = 0.0f;
-		return;
-	}
-	if (fabsf(a) > fabsf(b)) {
-		r = a;
-		phi = (PM_PI / 4.0f) * (b / a);
-	} else {
-		r = b;
-		phi = PM_PI / 2.0f - (PM_PI / 4.0f) * (a / b);
-	}
-	*x = r * cosf(phi);
-	*y = r * sinf(phi);
-}
-
-/* Malley's method: project the uniform disk up onto the hemisphere. */
-struct pm_vec3
-pm_square_to_cosine_hemisphere(float u1, float u2)
-{
-	float x, y;
-
-	pm_square_to_disk(u1, u2, &x, &y);
-	return pm_v3(x, y, sqrtf(fmaxf(0.0f, 1.0f - x * x - y * y)));
-}
-
-/* Density cos(theta)/pi above the horizon, zero below it. */
-float
-pm_cosine_hemisphere_pdf(struct pm_vec3 v)
-{
-	return v.z > 0.0f ? v.z * PM_INV_PI : 0.0f;
-}
-
 /* Archimedes: z uniform in [0,1] gives uniform area on the hemisphere. */
 struct pm_vec3
 pm_square_to_uniform_hemisphere(float u1, float u2)

@@ -12,7 +12,9 @@
  *    record's own position, and nothing for a normal no record has;
  *  - a closed diffuse sphere that emits Le inside and reflects rho renders
  *    Le / (1 - rho) through photons, records, the irradiance cache and
- *    final gathering (a white furnace has one answer everywhere).
+ *    final gathering (a white furnace has one answer everywhere);
+ *  - the photon render's camera path from a first hit found in a packet
+ *    returns what it does tracing that hit itself, bit for bit.
  */
 #include <math.h>
 #include <setjmp.h>
@@ -450,6 +452,72 @@ test_stratified_light_points(void **state)
 	pm_scene_free(&s);
 }
 
+/* The photon render's camera rays cast in packets (render_tile_photon):
+ * pm_photon_li_px_hit from the hits pm_accel_intersect_n gives returns
+ * pm_photon_li_px's radiance bit for bit, for rays that hit the inner
+ * sphere, the outer one, or nothing (tmax short of both). */
+static void
+test_photon_first_hits(void **state)
+{
+	enum { N = 40 };
+	struct pm_scene s;
+	struct pm_world world;
+	struct pm_photon_maps maps;
+	struct pm_render_ctx ctx;
+	struct pm_error err;
+	struct pm_ray ray[N];
+	struct pm_hit hit[N];
+	bool hitf[N];
+	struct pm_rng r = pm_rng_seed(4, 0, 0);
+	int b, shp, i, nmiss = 0, nhit = 0;
+
+	(void)state;
+	emitting_sphere(&s, 0.3f, pm_rgb1(2.0f));
+	b = pm_scene_add_bsdf(&s);
+	s.bsdfs[b].type = PM_BSDF_DIFFUSE;
+	s.bsdfs[b].diffuse = pm_rgb1(0.5f);
+	shp = pm_scene_add_shape(&s);
+	s.shapes[shp].type = PM_SHAPE_SPHERE;
+	s.shapes[shp].center = pm_v3(0, 0, 0);
+	s.shapes[shp].radius = 1.0f;
+	s.shapes[shp].bsdf = b;
+	s.shapes[shp].light = -1;
+	s.integrator.max_depth = -1;
+	assert_int_equal(pm_scene_prepare(&s, &err), PM_OK);
+	assert_int_equal(pm_world_init(&world, &s, &err), PM_OK);
+	memset(&maps, 0, sizeof(maps));
+	maps.global_r2 = 1.0f;
+	maps.caustic_r2 = 1.0f;
+	maps.lookup_size = 16;
+	maps.direct_samples = 2;
+	photon_ctx(&ctx, &s, &world, &maps);
+	for (i = 0; i < N; i++) {
+		ray[i].o = pm_v3(0, 0, 5);
+		ray[i].d = pm_normalize(pm_v3(0.8f * (pm_rng_float(&r) - 0.5f),
+		    0.8f * (pm_rng_float(&r) - 0.5f), -1.0f));
+		ray[i].tmin = 0.0f;
+		ray[i].tmax = i % 5 == 4 ? 2.0f : INFINITY;
+	}
+	pm_accel_intersect_n(world.accel, ray, N, hit, hitf);
+	for (i = 0; i < N; i++) {
+		struct pm_camera_sample cs = { 3.5f, 7.5f, { -1.0f, -1.0f } };
+		struct pm_rng r1 = pm_rng_seed(8, 1, (uint64_t)i), r2 = r1;
+		struct pm_rgb want, got;
+
+		want = pm_photon_li_px(&ctx, ray[i].o, ray[i].d, ray[i].tmin,
+		    ray[i].tmax, &cs, &r1);
+		got = pm_photon_li_px_hit(&ctx, ray[i].o, ray[i].d,
+		    ray[i].tmin, ray[i].tmax, &cs, &r2, hitf[i], &hit[i]);
+		assert_memory_equal(&got, &want, sizeof(want));
+		assert_memory_equal(&r1, &r2, sizeof(r1));
+		nhit += hitf[i];
+		nmiss += !hitf[i];
+	}
+	assert_true(nhit > 0 && nmiss > 0);
+	pm_world_free(&world);
+	pm_scene_free(&s);
+}
+
 /* The cache's default spacing: the finest of 4, 2, 1 whose gather rays
  * per pixel stay within the samples per pixel (pm-render(1)). */
 static void
@@ -490,6 +558,7 @@ main(void)
 		cmocka_unit_test(test_grid_lookup),
 		cmocka_unit_test(test_furnace_final_gather),
 		cmocka_unit_test(test_stratified_light_points),
+		cmocka_unit_test(test_photon_first_hits),
 		cmocka_unit_test(test_icache_default_step),
 	};
 
