@@ -22,7 +22,7 @@
  *     4/3 pi r^3.  A volume photon's power already holds sigma_s / sigma_t
  *     (shoot.c), so the sum estimates L_s itself.
  * Depth-0 volume photons (single scattering) are left out, as direct
- * light is on surfaces.  The density estimate is the ray-marching one;
+ * light is on surfaces.  Heterogeneous media: hetero_inscatter.  The density estimate is the ray-marching one;
  * Jarosz et al.'s beam radiance estimate was not built (docs/media.md).
  */
 #include <float.h>
@@ -249,6 +249,72 @@ single_scatter(const struct pm_render_ctx *ctx, int medium, struct pm_vec3 p,
 	return pm_rgb_scale(pm_rgb_mul(tr, ls.value), ph / ls.pdf);
 }
 
+/*
+ * pm_volume_inscatter in a heterogeneous medium.  The surface term's
+ * transmittance is a ratio-tracking estimate (unbiased, as the path
+ * tracer's shadow rays).  Each of the n points is a free flight delta-
+ * tracked from the segment's start (medium.h; one channel per flight,
+ * weighted over the mixture of channels, as photons fly): a real
+ * collision at x before the segment's end has the density
+ * sigma_t(x) T(x) per channel, so it adds
+ *   T(x) / (sigma_t(x) T(x)) * L_s(x) = L_s(x) / sigma_t(x),
+ * L_s = sigma_s(x) (single scattering) + the volume map's estimate, which
+ * holds sigma_s already (photons store their power past the albedo at
+ * their own scatter, so their density is that of sigma_s times the
+ * fluence, pointwise); a flight that leaves the segment adds nothing.
+ * The weight f / mean(pdf) of the flight, in a grey medium the albedo at
+ * x, is sigma_s(x) / sigma_t(x) times this point's weight: the ratio of
+ * the two per channel is taken from pdf (sigma_t at the collision),
+ * which is never 0 in the channel that sampled it.  The beam estimate
+ * (it needs the transmittance to every photon along the beam) is not
+ * used here: heterogeneous media always take the point estimate.
+ */
+static struct pm_rgb
+hetero_inscatter(const struct pm_render_ctx *ctx, int medium,
+    struct pm_vec3 o, struct pm_vec3 d, float tmin, float t_end, int depth,
+    struct pm_rgb *tr, struct pm_rng *rng)
+{
+	const struct pm_medium *m = &ctx->scene->media[medium];
+	const struct pm_photon_maps *maps = ctx->maps;
+	struct pm_rgb L = pm_rgb1(0.0f);
+	int n = maps->volume_samples > 0 ? maps->volume_samples : 1, i, c;
+	int dcap = ctx->max_depth < 0 ? -1 : ctx->max_depth - depth - 1;
+
+	*tr = pm_rgb1(1.0f);
+	if (!(t_end > tmin))
+		return L;
+	*tr = pm_medium_transmittance_ray(m, o, d, tmin, t_end, rng);
+	if (ctx->max_depth >= 0 && depth >= ctx->max_depth)
+		return L;
+	for (i = 0; i < n; i++) {
+		struct pm_medium_sample ms;
+		struct pm_rgb st, w, Ls;
+		struct pm_vec3 p;
+		float q;
+
+		c = (int)(pm_rng_float(rng) * 3.0f);
+		pm_medium_sample_ray(m, o, d, tmin, t_end, c > 2 ? 2 : c, rng,
+		    &ms);
+		q = pm_rgb_mean(ms.pdf);
+		if (!ms.scattered || !(q > 0.0f))
+			continue;
+		p = pm_madd(o, d, tmin + ms.t);
+		st = pm_medium_sigma_t_at(m, p);
+		/* per channel: (null ratios) / mean(pdf) = pdf / sigma_t(x) /
+		 * mean(pdf), 0 where the channel is clear at x */
+		w = pm_rgb(st.r > 0.0f ? ms.pdf.r / (st.r * q) : 0.0f,
+		    st.g > 0.0f ? ms.pdf.g / (st.g * q) : 0.0f,
+		    st.b > 0.0f ? ms.pdf.b / (st.b * q) : 0.0f);
+		Ls = pm_rgb_mul(pm_rgb_mul(st, pm_medium_albedo_at(m, p)),
+		    single_scatter(ctx, medium, p, d, rng));
+		if (dcap != 0)
+			Ls = pm_rgb_add(Ls, pm_volume_map_estimate(maps,
+			    &m->phase, p, d, dcap));
+		L = pm_rgb_madd(L, w, Ls);
+	}
+	return pm_rgb_scale(L, 1.0f / (float)n);
+}
+
 struct pm_rgb
 pm_volume_inscatter(const struct pm_render_ctx *ctx, int medium,
     struct pm_vec3 o, struct pm_vec3 d, float tmin, float t_end, int depth,
@@ -262,6 +328,9 @@ pm_volume_inscatter(const struct pm_render_ctx *ctx, int medium,
 	/* photons of k bounces close paths of depth + k + 1 segments */
 	int dcap = ctx->max_depth < 0 ? -1 : ctx->max_depth - depth - 1;
 
+	if (m->het != NULL)
+		return hetero_inscatter(ctx, medium, o, d, tmin, t_end, depth,
+		    tr, rng);
 	if (!(s > 0.0f))
 		s = 0.0f;
 	*tr = pm_medium_transmittance(m, s);

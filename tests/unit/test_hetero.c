@@ -711,10 +711,6 @@ test_load(void **state)
 	/* nearest: the voxel (1, 1, 1) at world (2.5, 1.5, 1.5) */
 	assert_true(pm_medium_sigma_t_at(&s.media[0], pm_v3(2.5f, 1.5f,
 	    1.5f)).r == 4.0f * 1.75f);
-	/* photon mapping refuses it, naming it */
-	assert_int_equal(pm_scene_refuse_media(&s, &err), PM_ERR_UNSUPPORTED);
-	assert_non_null(strstr(err.msg, "\"smoke\""));
-	assert_non_null(strstr(err.msg, "heterogeneous"));
 	pm_scene_free(&s);
 
 	/* use_grid_bbox: the file's box [0, 1]^3 changes nothing here */
