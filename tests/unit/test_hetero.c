@@ -926,7 +926,7 @@ test_constant_grid_photon_mode(void **state)
 	pm_scene_free(&s);
 	unlink(path);
 	for (c = 0; c < 3; c++) {
-		char what[64];
+		char what[96];
 
 		snprintf(what, sizeof(what), "photon mode: constant grid "
 		    "against homogeneous, channel %d", c);
