@@ -579,8 +579,12 @@ pm_medium_transmittance_ray(const struct pm_medium *m, struct pm_vec3 o,
 			if (!(t < b))
 				break;
 			st = pm_medium_sigma_t_at(m, pm_madd(o, d, (float)t));
-			tr = pm_rgb_mul(tr, null_ratio(pm_rgb(st.r - ctl.r,
-			    st.g - ctl.g, st.b - ctl.b), maj));
+			/* sigma_t is never below the control but for
+			 * rounding (and a point rounded out of the box,
+			 * where it reads 0): such a ratio stays 1 */
+			tr = pm_rgb_mul(tr, null_ratio(pm_rgb(fmaxf(0.0f,
+			    st.r - ctl.r), fmaxf(0.0f, st.g - ctl.g),
+			    fmaxf(0.0f, st.b - ctl.b)), maj));
 			/* Russian roulette once little is left (weights 1/q
 			 * keep the estimate unbiased). */
 			mx = pm_rgb_max(tr);
