@@ -250,6 +250,97 @@ single_scatter(const struct pm_render_ctx *ctx, int medium, struct pm_vec3 p,
 }
 
 /*
+ * The volume map's in-scattered radiance at p in a heterogeneous medium
+ * m: each photon's power over sigma_s of m where it lies, times sigma_s
+ * at p.  A photon stored at y holds, in expectation, sigma_s(y) times the
+ * light arriving there (shoot.c), so the plain estimate averages
+ * sigma_s * S over the kernel, S = integral(phase L_i): where sigma_s
+ * changes within the kernel (a plume's edge) that average is not
+ * sigma_s(p) S(p), and the points placed where sigma_t(p) is small see the
+ * denser neighbourhood's light (measured on smoke.xml: 8/768 blocks
+ * beyond 4 sigma at the plume's base).  Divided by sigma_s(y) the sum
+ * averages S alone, which varies as smoothly as the light does.  Photons
+ * where m does not scatter (another medium's) are left out.
+ */
+static struct pm_rgb
+hetero_map_estimate(const struct pm_photon_maps *maps,
+    const struct pm_medium *m, struct pm_vec3 p, struct pm_vec3 d,
+    int max_depth)
+{
+	float q[3] = {p.x, p.y, p.z}, r2, w;
+	double sum[3] = {0, 0, 0};
+	struct pm_rgb ss;
+	uint32_t idx[PM_MAX_LOOKUP];
+	size_t found = 0, i;
+
+	if (maps->nvolume == 0 || !(maps->volume_r2 > 0.0f))
+		return pm_rgb1(0.0f);
+	ss = pm_rgb_mul(pm_medium_sigma_t_at(m, p), pm_medium_albedo_at(m, p));
+	if (pm_rgb_is_black(ss))
+		return pm_rgb1(0.0f);
+	if (maps->fixed_radius) {
+		struct pm_kd_range it;
+		uint32_t k;
+		float d2;
+
+		r2 = maps->volume_r2;
+		pm_kdtree_range_init(&it, maps->volume, maps->nvolume, q, r2,
+		    0, 0);
+		while (pm_kdtree_range_next(&it, &k, &d2)) {
+			const struct pm_photon *x = &maps->volume[k];
+			struct pm_vec3 y = pm_v3(x->pos[0], x->pos[1], x->pos[2]);
+			struct pm_rgb c, sy;
+
+			if (x->depth == 0 || (max_depth >= 0 &&
+			    x->depth > max_depth))
+				continue;
+			sy = pm_rgb_mul(pm_medium_sigma_t_at(m, y),
+			    pm_medium_albedo_at(m, y));
+			w = pm_phase_eval(&m->phase, pm_dir_unpack(x->dir), d);
+			c = pm_rgbe_unpack(x->power);
+			sum[0] += sy.r > 0.0f ? (double)(c.r * w / sy.r) : 0.0;
+			sum[1] += sy.g > 0.0f ? (double)(c.g * w / sy.g) : 0.0;
+			sum[2] += sy.b > 0.0f ? (double)(c.b * w / sy.b) : 0.0;
+		}
+	} else {
+		struct pm_knn nb[PM_MAX_LOOKUP];
+		size_t k = (size_t)maps->lookup_size;
+
+		if (k < 1)
+			k = 1;
+		if (k > PM_MAX_LOOKUP)
+			k = PM_MAX_LOOKUP;
+		found = pm_kdtree_knn(maps->volume, maps->nvolume, q, k,
+		    maps->volume_r2, 0, 0, nb);
+		if (found == 0)
+			return pm_rgb1(0.0f);
+		r2 = found == k ? nb[0].d2 : maps->volume_r2;
+		for (i = 0; i < found; i++)
+			idx[i] = nb[i].idx;
+	}
+	for (i = 0; i < found; i++) {
+		const struct pm_photon *x = &maps->volume[idx[i]];
+		struct pm_vec3 y = pm_v3(x->pos[0], x->pos[1], x->pos[2]);
+		struct pm_rgb c, sy;
+
+		if (x->depth == 0 || (max_depth >= 0 && x->depth > max_depth))
+			continue;
+		sy = pm_rgb_mul(pm_medium_sigma_t_at(m, y),
+		    pm_medium_albedo_at(m, y));
+		w = pm_phase_eval(&m->phase, pm_dir_unpack(x->dir), d);
+		c = pm_rgbe_unpack(x->power);
+		sum[0] += sy.r > 0.0f ? (double)(c.r * w / sy.r) : 0.0;
+		sum[1] += sy.g > 0.0f ? (double)(c.g * w / sy.g) : 0.0;
+		sum[2] += sy.b > 0.0f ? (double)(c.b * w / sy.b) : 0.0;
+	}
+	if (!(r2 > 0.0f))
+		return pm_rgb1(0.0f);
+	w = maps->volume_scale / (4.0f / 3.0f * PM_PI * r2 * sqrtf(r2));
+	return pm_rgb_mul(ss, pm_rgb((float)(sum[0] * w),
+	    (float)(sum[1] * w), (float)(sum[2] * w)));
+}
+
+/*
  * pm_volume_inscatter in a heterogeneous medium.  The surface term's
  * transmittance is a ratio-tracking estimate (unbiased, as the path
  * tracer's shadow rays).  Each of the n points is a free flight delta-
@@ -258,10 +349,9 @@ single_scatter(const struct pm_render_ctx *ctx, int medium, struct pm_vec3 p,
  * collision at x before the segment's end has the density
  * sigma_t(x) T(x) per channel, so it adds
  *   T(x) / (sigma_t(x) T(x)) * L_s(x) = L_s(x) / sigma_t(x),
- * L_s = sigma_s(x) (single scattering) + the volume map's estimate, which
- * holds sigma_s already (photons store their power past the albedo at
- * their own scatter, so their density is that of sigma_s times the
- * fluence, pointwise); a flight that leaves the segment adds nothing.
+ * L_s = sigma_s(x) (single scattering + the volume map's estimate of the
+ * phase-weighted light, hetero_map_estimate); a flight that leaves the
+ * segment adds nothing.
  * The weight f / mean(pdf) of the flight, in a grey medium the albedo at
  * x, is sigma_s(x) / sigma_t(x) times this point's weight: the ratio of
  * the two per channel is taken from pdf (sigma_t at the collision),
@@ -308,8 +398,8 @@ hetero_inscatter(const struct pm_render_ctx *ctx, int medium,
 		Ls = pm_rgb_mul(pm_rgb_mul(st, pm_medium_albedo_at(m, p)),
 		    single_scatter(ctx, medium, p, d, rng));
 		if (dcap != 0)
-			Ls = pm_rgb_add(Ls, pm_volume_map_estimate(maps,
-			    &m->phase, p, d, dcap));
+			Ls = pm_rgb_add(Ls, hetero_map_estimate(maps, m, p, d,
+			    dcap));
 		L = pm_rgb_madd(L, w, Ls);
 	}
 	return pm_rgb_scale(L, 1.0f / (float)n);
