@@ -582,8 +582,8 @@ render_mean(struct pm_scene *s, double mean[3], double se[3])
  * the surfaces here are black.
  */
 static void
-photon_render_mean(struct pm_scene *s, int k, uint64_t n, double mean[3],
-    double se[3])
+photon_render_mean(struct pm_scene *s, int k, uint64_t n, bool fixed,
+    double mean[3], double se[3])
 {
 	struct pm_world w;
 	struct pm_shooter sh;
@@ -623,7 +623,7 @@ photon_render_mean(struct pm_scene *s, int k, uint64_t n, double mean[3],
 		maps.volume_scale = 1.0f / (float)n;
 		maps.volume_r2 = 0.3f * 0.3f;
 		maps.volume_samples = 1;
-		maps.fixed_radius = true;
+		maps.fixed_radius = fixed;
 		maps.lookup_size = 50;
 		maps.direct_samples = 1;
 		maps.gather_max_depth = -1;
@@ -888,7 +888,8 @@ test_load(void **state)
  * ratio-tracked transmittance, single scattering through ratio-tracked
  * shadow rays.  Grey, so that every photon's weight is its albedo and
  * Russian roulette keeps fluxes bounded (finite variance).  Means of 8
- * independent maps' renders agree within four combined standard errors.
+ * independent maps' renders agree within four combined standard errors,
+ * with the fixed radius and with the 50 nearest photons.
  */
 static void
 test_constant_grid_photon_mode(void **state)
@@ -897,7 +898,7 @@ test_constant_grid_photon_mode(void **state)
 	struct pm_scene s;
 	struct pm_error err;
 	char path[256], xml[4096], vol[1024];
-	double m1[3], e1[3], m2[3], e2[3];
+	double m1[3], e1[3], m2[3], e2[3], k1[3], f1[3], k2[3], f2[3];
 	int i, c;
 
 	(void)state;
@@ -911,7 +912,8 @@ test_constant_grid_photon_mode(void **state)
 	    "<float name=\"sigma_t\" value=\"0.4\"/>"
 	    "<float name=\"scale\" value=\"2\"/>");
 	assert_int_equal(load(xml, &s, &err), PM_OK);
-	photon_render_mean(&s, 8, 20000, m1, e1);
+	photon_render_mean(&s, 8, 20000, true, m1, e1);
+	photon_render_mean(&s, 8, 20000, false, k1, f1);
 	pm_scene_free(&s);
 
 	snprintf(vol, sizeof(vol), "<volume type=\"gridvolume\" "
@@ -922,7 +924,8 @@ test_constant_grid_photon_mode(void **state)
 	snprintf(xml, sizeof(xml), ROOM_HEAD_PM, "heterogeneous", vol);
 	assert_int_equal(load(xml, &s, &err), PM_OK);
 	assert_int_equal(s.media[0].type, PM_MEDIUM_HETEROGENEOUS);
-	photon_render_mean(&s, 8, 20000, m2, e2);
+	photon_render_mean(&s, 8, 20000, true, m2, e2);
+	photon_render_mean(&s, 8, 20000, false, k2, f2);
 	pm_scene_free(&s);
 	unlink(path);
 	for (c = 0; c < 3; c++) {
@@ -931,6 +934,10 @@ test_constant_grid_photon_mode(void **state)
 		snprintf(what, sizeof(what), "photon mode: constant grid "
 		    "against homogeneous, channel %d", c);
 		assert_within(m2[c], m1[c], sqrt(e1[c] * e1[c] + e2[c] * e2[c]),
+		    4.0, what);
+		snprintf(what, sizeof(what), "photon mode, 50 nearest: "
+		    "constant grid against homogeneous, channel %d", c);
+		assert_within(k2[c], k1[c], sqrt(f1[c] * f1[c] + f2[c] * f2[c]),
 		    4.0, what);
 	}
 }
