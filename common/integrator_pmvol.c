@@ -22,7 +22,7 @@
  *     4/3 pi r^3.  A volume photon's power already holds sigma_s / sigma_t
  *     (shoot.c), so the sum estimates L_s itself.
  * Depth-0 volume photons (single scattering) are left out, as direct
- * light is on surfaces.  The density estimate is the ray-marching one;
+ * light is on surfaces.  Heterogeneous media: hetero_inscatter.  The density estimate is the ray-marching one;
  * Jarosz et al.'s beam radiance estimate was not built (docs/media.md).
  */
 #include <float.h>
@@ -249,6 +249,162 @@ single_scatter(const struct pm_render_ctx *ctx, int medium, struct pm_vec3 p,
 	return pm_rgb_scale(pm_rgb_mul(tr, ls.value), ph / ls.pdf);
 }
 
+/*
+ * The volume map's in-scattered radiance at p in a heterogeneous medium
+ * m: each photon's power over sigma_s of m where it lies, times sigma_s
+ * at p.  A photon stored at y holds, in expectation, sigma_s(y) times the
+ * light arriving there (shoot.c), so the plain estimate averages
+ * sigma_s * S over the kernel, S = integral(phase L_i): where sigma_s
+ * changes within the kernel (a plume's edge) that average is not
+ * sigma_s(p) S(p), and the points placed where sigma_t(p) is small see the
+ * denser neighbourhood's light (measured on smoke.xml: 8/768 blocks
+ * beyond 4 sigma at the plume's base).  Divided by sigma_s(y) the sum
+ * averages S alone, which varies as smoothly as the light does.  Photons
+ * where m does not scatter (another medium's) are left out.
+ */
+static struct pm_rgb
+hetero_map_estimate(const struct pm_photon_maps *maps,
+    const struct pm_medium *m, struct pm_vec3 p, struct pm_vec3 d,
+    int max_depth)
+{
+	float q[3] = {p.x, p.y, p.z}, r2, w;
+	double sum[3] = {0, 0, 0};
+	struct pm_rgb ss;
+	uint32_t idx[PM_MAX_LOOKUP];
+	size_t found = 0, i;
+
+	if (maps->nvolume == 0 || !(maps->volume_r2 > 0.0f))
+		return pm_rgb1(0.0f);
+	ss = pm_rgb_mul(pm_medium_sigma_t_at(m, p), pm_medium_albedo_at(m, p));
+	if (pm_rgb_is_black(ss))
+		return pm_rgb1(0.0f);
+	if (maps->fixed_radius) {
+		struct pm_kd_range it;
+		uint32_t k;
+		float d2;
+
+		r2 = maps->volume_r2;
+		pm_kdtree_range_init(&it, maps->volume, maps->nvolume, q, r2,
+		    0, 0);
+		while (pm_kdtree_range_next(&it, &k, &d2)) {
+			const struct pm_photon *x = &maps->volume[k];
+			struct pm_vec3 y = pm_v3(x->pos[0], x->pos[1], x->pos[2]);
+			struct pm_rgb c, sy;
+
+			if (x->depth == 0 || (max_depth >= 0 &&
+			    x->depth > max_depth))
+				continue;
+			sy = pm_rgb_mul(pm_medium_sigma_t_at(m, y),
+			    pm_medium_albedo_at(m, y));
+			w = pm_phase_eval(&m->phase, pm_dir_unpack(x->dir), d);
+			c = pm_rgbe_unpack(x->power);
+			sum[0] += sy.r > 0.0f ? (double)(c.r * w / sy.r) : 0.0;
+			sum[1] += sy.g > 0.0f ? (double)(c.g * w / sy.g) : 0.0;
+			sum[2] += sy.b > 0.0f ? (double)(c.b * w / sy.b) : 0.0;
+		}
+	} else {
+		struct pm_knn nb[PM_MAX_LOOKUP];
+		size_t k = (size_t)maps->lookup_size;
+
+		if (k < 1)
+			k = 1;
+		if (k > PM_MAX_LOOKUP)
+			k = PM_MAX_LOOKUP;
+		found = pm_kdtree_knn(maps->volume, maps->nvolume, q, k,
+		    maps->volume_r2, 0, 0, nb);
+		if (found == 0)
+			return pm_rgb1(0.0f);
+		r2 = found == k ? nb[0].d2 : maps->volume_r2;
+		for (i = 0; i < found; i++)
+			idx[i] = nb[i].idx;
+	}
+	for (i = 0; i < found; i++) {
+		const struct pm_photon *x = &maps->volume[idx[i]];
+		struct pm_vec3 y = pm_v3(x->pos[0], x->pos[1], x->pos[2]);
+		struct pm_rgb c, sy;
+
+		if (x->depth == 0 || (max_depth >= 0 && x->depth > max_depth))
+			continue;
+		sy = pm_rgb_mul(pm_medium_sigma_t_at(m, y),
+		    pm_medium_albedo_at(m, y));
+		w = pm_phase_eval(&m->phase, pm_dir_unpack(x->dir), d);
+		c = pm_rgbe_unpack(x->power);
+		sum[0] += sy.r > 0.0f ? (double)(c.r * w / sy.r) : 0.0;
+		sum[1] += sy.g > 0.0f ? (double)(c.g * w / sy.g) : 0.0;
+		sum[2] += sy.b > 0.0f ? (double)(c.b * w / sy.b) : 0.0;
+	}
+	if (!(r2 > 0.0f))
+		return pm_rgb1(0.0f);
+	w = maps->volume_scale / (4.0f / 3.0f * PM_PI * r2 * sqrtf(r2));
+	return pm_rgb_mul(ss, pm_rgb((float)(sum[0] * w),
+	    (float)(sum[1] * w), (float)(sum[2] * w)));
+}
+
+/*
+ * pm_volume_inscatter in a heterogeneous medium.  The surface term's
+ * transmittance is a ratio-tracking estimate (unbiased, as the path
+ * tracer's shadow rays).  Each of the n points is a free flight delta-
+ * tracked from the segment's start (medium.h; one channel per flight,
+ * weighted over the mixture of channels, as photons fly): a real
+ * collision at x before the segment's end has the density
+ * sigma_t(x) T(x) per channel, so it adds
+ *   T(x) / (sigma_t(x) T(x)) * L_s(x) = L_s(x) / sigma_t(x),
+ * L_s = sigma_s(x) (single scattering + the volume map's estimate of the
+ * phase-weighted light, hetero_map_estimate); a flight that leaves the
+ * segment adds nothing.
+ * The weight f / mean(pdf) of the flight, in a grey medium the albedo at
+ * x, is sigma_s(x) / sigma_t(x) times this point's weight: the ratio of
+ * the two per channel is taken from pdf (sigma_t at the collision),
+ * which is never 0 in the channel that sampled it.  The beam estimate
+ * (it needs the transmittance to every photon along the beam) is not
+ * used here: heterogeneous media always take the point estimate.
+ */
+static struct pm_rgb
+hetero_inscatter(const struct pm_render_ctx *ctx, int medium,
+    struct pm_vec3 o, struct pm_vec3 d, float tmin, float t_end, int depth,
+    struct pm_rgb *tr, struct pm_rng *rng)
+{
+	const struct pm_medium *m = &ctx->scene->media[medium];
+	const struct pm_photon_maps *maps = ctx->maps;
+	struct pm_rgb L = pm_rgb1(0.0f);
+	int n = maps->volume_samples > 0 ? maps->volume_samples : 1, i, c;
+	int dcap = ctx->max_depth < 0 ? -1 : ctx->max_depth - depth - 1;
+
+	*tr = pm_rgb1(1.0f);
+	if (!(t_end > tmin))
+		return L;
+	*tr = pm_medium_transmittance_ray(m, o, d, tmin, t_end, rng);
+	if (ctx->max_depth >= 0 && depth >= ctx->max_depth)
+		return L;
+	for (i = 0; i < n; i++) {
+		struct pm_medium_sample ms;
+		struct pm_rgb st, w, Ls;
+		struct pm_vec3 p;
+		float q;
+
+		c = (int)(pm_rng_float(rng) * 3.0f);
+		pm_medium_sample_ray(m, o, d, tmin, t_end, c > 2 ? 2 : c, rng,
+		    &ms);
+		q = pm_rgb_mean(ms.pdf);
+		if (!ms.scattered || !(q > 0.0f))
+			continue;
+		p = pm_madd(o, d, tmin + ms.t);
+		st = pm_medium_sigma_t_at(m, p);
+		/* per channel: (null ratios) / mean(pdf) = pdf / sigma_t(x) /
+		 * mean(pdf), 0 where the channel is clear at x */
+		w = pm_rgb(st.r > 0.0f ? ms.pdf.r / (st.r * q) : 0.0f,
+		    st.g > 0.0f ? ms.pdf.g / (st.g * q) : 0.0f,
+		    st.b > 0.0f ? ms.pdf.b / (st.b * q) : 0.0f);
+		Ls = pm_rgb_mul(pm_rgb_mul(st, pm_medium_albedo_at(m, p)),
+		    single_scatter(ctx, medium, p, d, rng));
+		if (dcap != 0)
+			Ls = pm_rgb_add(Ls, hetero_map_estimate(maps, m, p, d,
+			    dcap));
+		L = pm_rgb_madd(L, w, Ls);
+	}
+	return pm_rgb_scale(L, 1.0f / (float)n);
+}
+
 struct pm_rgb
 pm_volume_inscatter(const struct pm_render_ctx *ctx, int medium,
     struct pm_vec3 o, struct pm_vec3 d, float tmin, float t_end, int depth,
@@ -262,6 +418,9 @@ pm_volume_inscatter(const struct pm_render_ctx *ctx, int medium,
 	/* photons of k bounces close paths of depth + k + 1 segments */
 	int dcap = ctx->max_depth < 0 ? -1 : ctx->max_depth - depth - 1;
 
+	if (m->het != NULL)
+		return hetero_inscatter(ctx, medium, o, d, tmin, t_end, depth,
+		    tr, rng);
 	if (!(s > 0.0f))
 		s = 0.0f;
 	*tr = pm_medium_transmittance(m, s);

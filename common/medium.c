@@ -3,7 +3,7 @@
  * the homogeneous medium (medium.h says which estimator and why).
  */
 #include <math.h>
-
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 
@@ -111,6 +111,8 @@ pm_medium_release(struct pm_medium *m)
 	pm_grid_free(&m->het->sigma_t.grid);
 	pm_grid_free(&m->het->albedo.grid);
 	free(m->het->maj);
+	free(m->het->mino);
+	free(m->het->res);
 	free(m->het);
 	m->het = NULL;
 }
@@ -286,7 +288,9 @@ pm_hetero_prepare(struct pm_hetero *h)
 	size_t cells;
 
 	free(h->maj);
-	h->maj = NULL;
+	free(h->mino);
+	free(h->res);
+	h->maj = h->mino = h->res = NULL;
 	if (g->data == NULL)
 		return true;
 	for (a = 0; a < 3; a++)
@@ -296,13 +300,23 @@ pm_hetero_prepare(struct pm_hetero *h)
 	for (k = 0; k < 3; k++)
 		n[k] = (nv[k] + PM_MAJ_BLOCK - 1) / PM_MAJ_BLOCK;
 	cells = (size_t)n[0] * (size_t)n[1] * (size_t)n[2];
-	if ((h->maj = malloc(cells * sizeof(float))) == NULL)
+	h->maj = malloc(cells * sizeof(float));
+	h->mino = malloc(cells * 3 * sizeof(float));
+	h->res = malloc(cells * sizeof(float));
+	if (h->maj == NULL || h->mino == NULL || h->res == NULL) {
+		free(h->maj);
+		free(h->mino);
+		free(h->res);
+		h->maj = h->mino = h->res = NULL;
 		return false;
+	}
 	for (c[2] = 0; c[2] < n[2]; c[2]++)
 		for (c[1] = 0; c[1] < n[1]; c[1]++)
 			for (c[0] = 0; c[0] < n[0]; c[0]++) {
 				int lo[3], hi[3];
-				float mx = 0.0f;
+				float mx = 0.0f, cmin[3] = {INFINITY, INFINITY,
+				    INFINITY}, cmax[3] = {0.0f, 0.0f, 0.0f}, r;
+				size_t ci;
 
 				for (k = 0; k < 3; k++) {
 					lo[k] = c[k] * PM_MAJ_BLOCK - 1;
@@ -319,9 +333,30 @@ pm_hetero_prepare(struct pm_hetero *h)
 							    wrap_index(z, g->nz, v->wrap));
 
 							mx = fmaxf(mx, pm_rgb_max(q));
+							cmin[0] = fminf(cmin[0], q.r);
+							cmin[1] = fminf(cmin[1], q.g);
+							cmin[2] = fminf(cmin[2], q.b);
+							cmax[0] = fmaxf(cmax[0], q.r);
+							cmax[1] = fmaxf(cmax[1], q.g);
+							cmax[2] = fmaxf(cmax[2], q.b);
 						}
-				h->maj[((size_t)c[2] * (size_t)n[1] + (size_t)c[1]) *
-				    (size_t)n[0] + (size_t)c[0]] = h->scale * mx;
+				ci = ((size_t)c[2] * (size_t)n[1] + (size_t)c[1]) *
+				    (size_t)n[0] + (size_t)c[0];
+				h->maj[ci] = h->scale * mx;
+				r = 0.0f;
+				for (k = 0; k < 3; k++) {
+					/* a voxel's value is never below the
+					 * least, nor are lookups: they are convex
+					 * combinations of voxels */
+					h->mino[3 * ci + (size_t)k] = h->scale *
+					    cmin[k];
+					r = fmaxf(r, h->scale * cmax[k] -
+					    h->scale * cmin[k]);
+				}
+				/* rounding of the interpolation: a hair of
+				 * headroom keeps the residual ratios >= 0 */
+				h->res[ci] = r > 0.0f ? r * (1.0f + 1e-5f) +
+				    1e-7f * h->maj[ci] : 0.0f;
 			}
 	for (k = 0; k < 3; k++)
 		h->nmaj[k] = n[k];
@@ -340,6 +375,7 @@ struct walk {
 	int i[3], step[3];
 	double tnext[3], dt[3];
 	bool grid, done;
+	size_t cell;		/* the last segment's cell; SIZE_MAX: none */
 };
 
 static bool
@@ -403,14 +439,16 @@ walk_next(struct walk *w, double *a, double *b, float *maj)
 	if (!w->grid) {
 		*b = w->t1;
 		*maj = w->h->majorant;
+		w->cell = SIZE_MAX;
 		w->done = true;
 		return true;
 	}
 	k = w->tnext[0] < w->tnext[1] ? (w->tnext[0] < w->tnext[2] ? 0 : 2) :
 	    (w->tnext[1] < w->tnext[2] ? 1 : 2);
 	*b = w->tnext[k] < w->t1 ? w->tnext[k] : w->t1;
-	*maj = w->h->maj[((size_t)w->i[2] * (size_t)w->h->nmaj[1] +
-	    (size_t)w->i[1]) * (size_t)w->h->nmaj[0] + (size_t)w->i[0]];
+	w->cell = ((size_t)w->i[2] * (size_t)w->h->nmaj[1] +
+	    (size_t)w->i[1]) * (size_t)w->h->nmaj[0] + (size_t)w->i[0];
+	*maj = w->h->maj[w->cell];
 	w->t = *b;
 	if (!(w->tnext[k] < w->t1)) {
 		w->done = true;
@@ -518,16 +556,35 @@ pm_medium_transmittance_ray(const struct pm_medium *m, struct pm_vec3 o,
 	if (!walk_init(&w, h, o, d, tmin, tmax))
 		return tr;
 	while (walk_next(&w, &a, &b, &maj)) {
+		struct pm_rgb ctl = pm_rgb1(0.0f), st;
+
 		if (!(maj > 0.0f))
 			continue;
+		if (w.cell != SIZE_MAX && h->mino != NULL) {
+			/* residual ratio tracking: the control exactly */
+			const float *mn = h->mino + 3 * w.cell;
+
+			ctl = pm_rgb(mn[0], mn[1], mn[2]);
+			tr = pm_rgb_mul(tr, pm_rgb((float)exp(-(double)ctl.r *
+			    (b - a)), (float)exp(-(double)ctl.g * (b - a)),
+			    (float)exp(-(double)ctl.b * (b - a))));
+			maj = h->res[w.cell];
+			if (!(maj > 0.0f))
+				continue;	/* constant in the cell */
+		}
 		for (t = a;; n++) {
 			if (n >= MAX_COLLISIONS)
 				return pm_rgb1(0.0f);
 			t -= log1p(-(double)pm_rng_float(rng)) / maj;
 			if (!(t < b))
 				break;
-			tr = pm_rgb_mul(tr, null_ratio(pm_medium_sigma_t_at(m,
-			    pm_madd(o, d, (float)t)), maj));
+			st = pm_medium_sigma_t_at(m, pm_madd(o, d, (float)t));
+			/* sigma_t is never below the control but for
+			 * rounding (and a point rounded out of the box,
+			 * where it reads 0): such a ratio stays 1 */
+			tr = pm_rgb_mul(tr, null_ratio(pm_rgb(fmaxf(0.0f,
+			    st.r - ctl.r), fmaxf(0.0f, st.g - ctl.g),
+			    fmaxf(0.0f, st.b - ctl.b)), maj));
 			/* Russian roulette once little is left (weights 1/q
 			 * keep the estimate unbiased). */
 			mx = pm_rgb_max(tr);
@@ -539,21 +596,4 @@ pm_medium_transmittance_ray(const struct pm_medium *m, struct pm_vec3 o,
 		}
 	}
 	return tr;
-}
-
-enum pm_err
-pm_scene_refuse_media(const struct pm_scene *s, struct pm_error *err)
-{
-	size_t i;
-
-	/* Photon mapping simulates homogeneous media (shoot.c, the volume
-	 * map); any other kind is the path tracer's alone for now. */
-	for (i = 0; i < s->nmedia; i++)
-		if (s->media[i].type != PM_MEDIUM_HOMOGENEOUS)
-			return pm_fail(err, PM_ERR_UNSUPPORTED, "medium "
-			    "\"%s\": photon mapping does not simulate "
-			    "heterogeneous media yet (homogeneous only); "
-			    "pm-render --method path renders this scene",
-			    s->media[i].name);
-	return PM_OK;
 }

@@ -225,10 +225,4 @@ int pm_scene_add_texture(struct pm_scene *s, const struct pm_texture *t);
  */
 enum pm_err pm_scene_prepare(struct pm_scene *s, struct pm_error *err);
 
-/* PM_OK for a scene whose media photon mapping simulates (none, or
- * homogeneous ones); otherwise PM_ERR_UNSUPPORTED in one line naming the
- * first other medium and the way out, the path method (medium.c). */
-enum pm_err pm_scene_refuse_media(const struct pm_scene *s,
-    struct pm_error *err);
-
 #endif

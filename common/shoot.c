@@ -21,11 +21,13 @@
  * divided by that mixture's true density, so that nothing is gained or
  * lost; only paths light, specular+, non-specular are stored.
  *
- * Participating media (homogeneous; Jensen and Christensen 1998): a photon
- * travelling in a medium samples a free flight from the exponential of
- * one channel chosen uniformly per flight and is weighted by the flight's
- * RGB value over the density averaged over the channels (one-sample MIS;
- * in a grey medium exactly 1 past the flight, the albedo at a scatter).
+ * Participating media (Jensen and Christensen 1998): a photon travelling
+ * in a medium samples a free flight from the exponential of one channel
+ * chosen uniformly per flight (a heterogeneous medium: delta tracking of
+ * that channel against the majorant grid, medium.h) and is weighted by
+ * the flight's RGB value over the density averaged over the channels
+ * (one-sample MIS; in a grey medium exactly 1 past the flight, the
+ * albedo at the scatter point: null collisions cancel between the two).
  * The global pass stores a volume photon at every scatter, with the flux
  * that leaves it before Russian roulette (so already times the albedo
  * for that flight), then plays roulette on that weight and samples the
@@ -201,11 +203,8 @@ pm_shooter_init(struct pm_shooter *sh, const struct pm_scene *s,
     const struct pm_accel *a, const struct pm_lights *ls, struct pm_error *err)
 {
 	size_t i;
-	enum pm_err e;
 
 	memset(sh, 0, sizeof(*sh));
-	if ((e = pm_scene_refuse_media(s, err)) != PM_OK)
-		return e;
 	sh->scene = s;
 	sh->accel = a;
 	sh->lights = ls;
@@ -667,7 +666,11 @@ medium_flight(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 	float u = pm_rng_float(rng), q, pdf;
 	int c = (int)(pm_rng_float(rng) * 3.0f);
 
-	pm_medium_sample(m, t_end, c > 2 ? 2 : c, u, &ms);
+	if (m->het == NULL)
+		pm_medium_sample(m, t_end, c > 2 ? 2 : c, u, &ms);
+	else	/* delta tracking: same weights, nulls in f and pdf alike */
+		pm_medium_sample_ray(m, *o, *d, 0.0f, t_end, c > 2 ? 2 : c,
+		    rng, &ms);
 	q = pm_rgb_mean(ms.pdf);
 	if (!(q > 0.0f))
 		return 0;
@@ -1026,6 +1029,37 @@ fnv_i(uint64_t h, int64_t v)
 	return fnv(h, &v, sizeof(v));
 }
 
+/* A volume of a heterogeneous medium: its constant or its grid's
+ * voxels, placement, filter and wrap. */
+static uint64_t
+volume_hash(uint64_t h, const struct pm_volume *v)
+{
+	const struct pm_grid *g = &v->grid;
+	int r, c;
+
+	h = fnv_rgb(h, v->value);
+	if (g->data != NULL) {
+		h = fnv_i(fnv_i(fnv_i(fnv_i(h, g->nx), g->ny), g->nz), g->nch);
+		h = fnv(h, g->data, sizeof(float) * (size_t)g->nx *
+		    (size_t)g->ny * (size_t)g->nz * (size_t)g->nch);
+	}
+	for (r = 0; r < 3; r++)
+		for (c = 0; c < 4; c++)
+			h = fnv_f(h, v->to_local.m[r][c]);
+	return fnv_i(fnv_i(h, v->nearest), v->wrap);
+}
+
+/* A heterogeneous medium's volumes, scale and box (only media of that
+ * kind hash them, so homogeneous scenes keep their hashes). */
+static uint64_t
+hetero_hash(uint64_t h, const struct pm_hetero *het)
+{
+	h = volume_hash(volume_hash(h, &het->sigma_t), &het->albedo);
+	h = fnv_f(h, het->scale);
+	h = fnv_f(fnv_f(fnv_f(h, het->lo.x), het->lo.y), het->lo.z);
+	return fnv_f(fnv_f(fnv_f(h, het->hi.x), het->hi.y), het->hi.z);
+}
+
 /* A texture's identity: its parameters and texels. */
 static uint64_t
 texture_hash(uint64_t h, const struct pm_texture *t)
@@ -1160,6 +1194,8 @@ pm_scene_hash(const struct pm_scene *s)
 			h = fnv_i(h, m->type);
 			h = fnv_rgb(fnv_rgb(h, m->sigma_t), m->albedo);
 			h = fnv_i(fnv_f(h, m->phase.g), m->phase.type);
+			if (m->het != NULL)
+				h = hetero_hash(h, m->het);
 		}
 		for (i = 0; i < s->nshapes; i++)
 			h = fnv_i(fnv_i(h, s->shapes[i].interior),

@@ -707,13 +707,6 @@ main(int argc, char **argv)
 		free(cams);
 		return 1;
 	}
-	if (map_path != NULL &&
-	    pm_scene_refuse_media(&scene, &err) != PM_OK) {
-		fprintf(stderr, PROG ": %s: %s\n", scene_path, err.msg);
-		pm_scene_free(&scene);
-		free(cams);
-		return 1;
-	}
 	if (!scene.has_camera && !have_eye && cams == NULL) {
 		fprintf(stderr, PROG ": %s: the scene has no sensor; give --eye and "
 		    "--target, or --cameras\n", scene_path);

@@ -246,11 +246,6 @@ main(int argc, char **argv)
 		fprintf(stderr, PROG ": %s\n", err.msg);
 		return 1;
 	}
-	if (pm_scene_refuse_media(&scene, &err) != PM_OK) {	/* not homogeneous */
-		fprintf(stderr, PROG ": %s: %s\n", scene_path, err.msg);
-		pm_scene_free(&scene);
-		return 1;
-	}
 	if (scene.nlights == 0) {
 		fprintf(stderr, PROG ": %s: the scene has no lights to shoot photons "
 		    "from\n", scene_path);

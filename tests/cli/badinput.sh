@@ -101,10 +101,14 @@ check "pm-render: ...and path mode, exit 0" status 0 \
 check "pm-render: --volume-estimate other than point or beam refused" \
     status 2 $R --volume-estimate cone -o "$tmp/x.exr" data/fog-box.xml
 if [ -f data/smoke.vol ]; then
-	check "pm-shoot: a heterogeneous medium" refused 1 \
-	    'medium "smoke": .*heterogeneous media.*--method path' \
-	    $S -q --photons 100 -o "$tmp/o.pmap" data/smoke.xml
-	check "pm-render: ...which path mode renders, exit 0" status 0 \
+	check "pm-shoot: a heterogeneous medium, exit 0" status 0 \
+	    $S -q --photons 2000 -o "$tmp/smoke.pmap" data/smoke.xml
+	check "pm-balance: its volume map, exit 0" status 0 \
+	    bin/pm-balance -q -o "$tmp/smokeb.pmap" "$tmp/smoke.pmap"
+	check "pm-render: ...in photon mode, exit 0" status 0 \
+	    $R -q --spp 1 --size 8x8 -o "$tmp/smokep.exr" data/smoke.xml \
+	    "$tmp/smokeb.pmap"
+	check "pm-render: ...and path mode, exit 0" status 0 \
 	    $R -q --spp 1 --size 8x8 -o "$tmp/smoke.exr" data/smoke.xml
 fi
 

@@ -10,8 +10,8 @@
 # is); Mitsuba's renders are cached under build/mitsuba-cache/, so after the
 # first run only pm-render's cost remains. Outputs land in build/mitsuba-out/.
 # The scenes: data/cornell-box.xml and the others of data/ listed below
-# (ours, must exist; fog-box, glass-medium and smoke have media, fog-box
-# and glass-medium checked in path and photon mode), Mitsuba's own
+# (ours, must exist; fog-box, glass-medium and smoke have media, all
+# three and hetero-box checked in path and photon mode), Mitsuba's own
 # Cornell box from ../shared/scenes/mitsuba-cbox (skipped when ../shared is
 # absent), data/principled.xml (path traced and photon-mapped, after the
 # principled BSDFs point by point), tests/mitsuba/textures.xml and
@@ -32,8 +32,8 @@
 # PM_SHOOT (bin/pm-shoot), PM_BALANCE (bin/pm-balance) and PM_PHOTONS
 # (1000000 global and as many caustic photon paths per map) for the
 # photon-mapped renders, PM_THREADS (pm-render's -t, unset: its default),
-# MEDIA_PHOTON_SPP (pm-render's spp for fog-box and glass-medium in
-# photon mode, PM_SPP / 4 unset),
+# MEDIA_PHOTON_SPP (pm-render's spp for the media scenes in photon
+# mode, PM_SPP / 4 unset),
 # MITSUBA_VARIANT, PM_VENV (build/venv), SMOKE_MITSUBA_SPP (smoke's
 # Mitsuba spp, MITSUBA_SPP / 4 unset), MITSUBA_ONLY (the checks to run,
 # by the names the results give them, separated by spaces, e.g. "fog-box
@@ -355,7 +355,7 @@ if [ -f data/smoke.xml ] && [ -f data/smoke.vol ]; then
 elif wanted smoke; then
 	check "smoke: data/smoke.xml or its grid (make data/smoke.vol) is missing" false
 fi
-if [ -f data/fog-box.xml ] && wanted hetero-box; then
+if [ -f data/fog-box.xml ] && { wanted hetero-box || wanted hetero-box-photon; }; then
 	if build/tests/volgen const "$VARIANTS/fog-const.vol" 2 2 2 0.3 0.4 0.5; then
 		sed 's|<medium type="homogeneous" id="fog">|<medium type="heterogeneous" id="fog">|
 		    s|<rgb name="sigma_t" value="0.3, 0.4, 0.5"/>|<volume type="gridvolume" name="sigma_t"><string name="filename" value="fog-const.vol"/><transform name="to_world"><scale x="2.4" y="2.4" z="5.6"/><translate x="-1.2" y="-0.2" z="-1.2"/></transform></volume>|' \
@@ -364,6 +364,25 @@ if [ -f data/fog-box.xml ] && wanted hetero-box; then
 	else
 		check "hetero-box: build/tests/volgen not built (make build/tests/volgen)" false
 	fi
+fi
+# The same two in photon mode: photons delta-tracked through the grid and
+# stored at real scatters, camera segments with delta-tracked points and
+# ratio-tracked transmittance (integrator_pmvol.c), at pm-render's spp of
+# fog-box-photon (MEDIA_PHOTON_SPP); Mitsuba's renders are the path-mode
+# checks' own (the same files, spp and seeds: its cache holds them).
+if [ "$selftest" = 0 ]; then
+	_pm_spp=$PM_SPP
+	PM_SPP=${MEDIA_PHOTON_SPP:-$(( PM_SPP / 4 > 0 ? PM_SPP / 4 : 1 ))}
+	if [ -f data/smoke.xml ] && [ -f data/smoke.vol ] &&
+	    wanted smoke-photon; then
+		_mi_spp=$MI_SPP
+		MI_SPP=${SMOKE_MITSUBA_SPP:-$(( MI_SPP / 4 > 0 ? MI_SPP / 4 : 1 ))}
+		against smoke-photon data/smoke.xml photon
+		MI_SPP=$_mi_spp
+	fi
+	[ -f "$VARIANTS/hetero-box.xml" ] && wanted hetero-box-photon &&
+	    against hetero-box-photon "$VARIANTS/hetero-box.xml" photon
+	PM_SPP=$_pm_spp
 fi
 
 # Spectra (wavelength:value lists, .spd files, blackbody) reduced to RGB

@@ -710,10 +710,10 @@ test_load_errors(void **state)
 	    "unexpected <bsdf>");
 }
 
-/* Photon mapping takes homogeneous media (the volume map) and refuses
- * any other kind in one line naming the medium and the way out. */
+/* Photon mapping takes homogeneous media (the volume map) and
+ * heterogeneous ones (delta tracking) alike. */
 static void
-test_photon_refusal(void **state)
+test_photon_takes_media(void **state)
 {
 	struct pm_scene s;
 	struct pm_error err;
@@ -725,25 +725,11 @@ test_photon_refusal(void **state)
 	    BALL("<ref name=\"interior\" id=\"haze\"/>"
 	    "<emitter type=\"area\"><rgb name=\"radiance\" value=\"1\"/>"
 	    "</emitter>") "</scene>", &s, &err), PM_OK);
-	assert_int_equal(pm_scene_refuse_media(&s, &err), PM_OK);
 	assert_int_equal(pm_world_init(&w, &s, &err), PM_OK);
 	assert_int_equal(pm_shooter_init(&sh, &s, w.accel, &w.lights, &err),
 	    PM_OK);
 	pm_shooter_free(&sh);
-	/* a kind photon mapping does not simulate: heterogeneous media
-	 * are the path tracer's alone for now */
-	s.media[0].type = PM_MEDIUM_HETEROGENEOUS;
-	assert_int_equal(pm_shooter_init(&sh, &s, w.accel, &w.lights, &err),
-	    PM_ERR_UNSUPPORTED);
-	assert_non_null(strstr(err.msg, "medium \"haze\""));
-	assert_non_null(strstr(err.msg, "pm-render --method path"));
-	assert_null(strchr(err.msg, '\n'));
 	pm_world_free(&w);
-	pm_scene_free(&s);
-
-	/* without media, nothing to refuse */
-	assert_int_equal(load(HEAD BALL("") "</scene>", &s, &err), PM_OK);
-	assert_int_equal(pm_scene_refuse_media(&s, &err), PM_OK);
 	pm_scene_free(&s);
 }
 
@@ -761,7 +747,7 @@ main(void)
 		cmocka_unit_test(test_single_scattering),
 		cmocka_unit_test(test_load_forms),
 		cmocka_unit_test(test_load_errors),
-		cmocka_unit_test(test_photon_refusal),
+		cmocka_unit_test(test_photon_takes_media),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);

@@ -27,6 +27,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include <cmocka.h>
 
@@ -36,6 +37,7 @@
 #include "../../common/shoot.h"
 #include "../../common/world.h"
 #include "../../formats/scene_xml.h"
+#include "../../formats/vol.h"
 #include "stats.h"
 
 #define PI 3.14159265358979323846
@@ -57,23 +59,27 @@ struct vworld {
 };
 
 /* A point light of intensity `inten` at the origin inside a null sphere
- * of radius `radius` holding the medium (sigma_t, albedo, phase). */
+ * of radius `radius` holding the medium (sigma_t, albedo, phase); with
+ * vol not NULL, the medium is heterogeneous and sigma_t is its XML (a
+ * <volume> naming the file vol, which the caller removes). */
 static void
-vworld_init(struct vworld *w, const char *sigma_t, const char *albedo,
-    const char *phase, float radius, const char *inten)
+vworld_init_any(struct vworld *w, const char *sigma_t, const char *albedo,
+    const char *phase, float radius, const char *inten, const char *vol)
 {
-	char xml[2048];
+	char xml[4096];
 	struct pm_error err;
 
 	snprintf(xml, sizeof(xml), "<scene version=\"3.0.0\">"
-	    "<medium type=\"homogeneous\" id=\"m\">"
-	    "<rgb name=\"sigma_t\" value=\"%s\"/>"
+	    "<medium type=\"%s\" id=\"m\">"
+	    "%s%s%s"
 	    "<rgb name=\"albedo\" value=\"%s\"/>%s</medium>"
 	    "<shape type=\"sphere\"><float name=\"radius\" value=\"%g\"/>"
 	    "<bsdf type=\"null\"/><ref name=\"interior\" id=\"m\"/></shape>"
 	    "<emitter type=\"point\"><point name=\"position\" x=\"0\" y=\"0\" "
 	    "z=\"0\"/><rgb name=\"intensity\" value=\"%s\"/></emitter>"
-	    "</scene>", sigma_t, albedo, phase, (double)radius, inten);
+	    "</scene>", vol != NULL ? "heterogeneous" : "homogeneous",
+	    vol != NULL ? "" : "<rgb name=\"sigma_t\" value=\"", sigma_t,
+	    vol != NULL ? "" : "\"/>", albedo, phase, (double)radius, inten);
 	memset(&err, 0, sizeof(err));
 	if (pm_scene_load_string(xml, strlen(xml), "t.xml", ".", NULL, 0,
 	    &w->scene, &err) != PM_OK)
@@ -81,6 +87,44 @@ vworld_init(struct vworld *w, const char *sigma_t, const char *albedo,
 	assert_int_equal(pm_world_init(&w->world, &w->scene, &err), PM_OK);
 	assert_int_equal(pm_shooter_init(&w->shooter, &w->scene,
 	    w->world.accel, &w->world.lights, &err), PM_OK);
+}
+
+static void
+vworld_init(struct vworld *w, const char *sigma_t, const char *albedo,
+    const char *phase, float radius, const char *inten)
+{
+	vworld_init_any(w, sigma_t, albedo, phase, radius, inten, NULL);
+}
+
+/*
+ * A grid of nx x 1 x 1 voxels of nch channels (v: nx * nch values)
+ * written to a temporary .vol file (path gets its name), and the
+ * <volume> that places it over [x0, x1] x [-h, h] x [-h, h], filtered
+ * as `filter` says, in xml.
+ */
+static void
+grid_volume(char *path, size_t npath, char *xml, size_t nxml, int nx,
+    int nch, const float *v, float x0, float x1, float h, const char *filter)
+{
+	struct pm_grid g;
+	struct pm_error err;
+
+	memset(&g, 0, sizeof(g));
+	g.nx = nx;
+	g.ny = g.nz = 1;
+	g.nch = nch;
+	g.bbox[3] = g.bbox[4] = g.bbox[5] = 1.0f;
+	g.data = (float *)v;
+	snprintf(path, npath, "/tmp/pm-test-volmap-%ld-%d.vol",
+	    (long)getpid(), nx);
+	assert_int_equal(pm_vol_write(path, &g, &err), PM_OK);
+	snprintf(xml, nxml, "<volume type=\"gridvolume\" name=\"sigma_t\">"
+	    "<string name=\"filename\" value=\"%s\"/>"
+	    "<string name=\"filter_type\" value=\"%s\"/>"
+	    "<transform name=\"to_world\"><scale x=\"%g\" y=\"%g\" "
+	    "z=\"%g\"/><translate x=\"%g\" y=\"%g\" z=\"%g\"/></transform>"
+	    "</volume>", path, filter, (double)(x1 - x0), 2.0 * h, 2.0 * h,
+	    (double)x0, -(double)h, -(double)h);
 }
 
 static void
@@ -207,6 +251,127 @@ test_infinite_coloured(void **state)
 		assert_within(mean[c], 4.0 * PI * in[c] * a[c] / (1 - a[c]),
 		    se[c], 4.0, c == 0 ? "stored flux per path, red" :
 		    c == 1 ? "green" : "blue");
+	vworld_free(&w);
+	pm_photon_buf_free(&surf);
+	pm_photon_buf_free(&vol);
+}
+
+/* The coloured case with sigma_t a constant RGB grid (a heterogeneous
+ * medium, delta-tracked against its majorant 2, with null collisions in
+ * two channels of three) covering the sphere: the stored flux per path
+ * is Phi_c a_c / (1 - a_c) again.  Albedos below 1/3 keep every flight's
+ * weight (at most 3 times the analogue one, medium.h) below 1, so that
+ * Russian roulette never lets a channel's flux grow and the per-path
+ * sums have the finite variance their standard error assumes (with
+ * test_infinite_coloured's 0.9 the sums are heavy-tailed: their sample
+ * mean falls mostly below the true one). */
+static void
+test_infinite_coloured_grid(void **state)
+{
+	struct vworld w;
+	struct pm_photon_buf surf = {NULL, 0, 0}, vol = {NULL, 0, 0};
+	const uint64_t n = 100000;
+	const double a[3] = {0.33, 0.3, 0.2}, in[3] = {1.0, 2.0, 0.5};
+	const float v[6] = {0.5f, 1.0f, 2.0f, 0.5f, 1.0f, 2.0f};
+	double mean[3], se[3];
+	char path[128], xml[1024];
+	int c;
+
+	(void)state;
+	grid_volume(path, sizeof(path), xml, sizeof(xml), 2, 3, v, -2100.0f,
+	    2100.0f, 2100.0f, "trilinear");
+	vworld_init_any(&w, xml, "0.33, 0.3, 0.2",
+	    "<phase type=\"hg\"><float name=\"g\" value=\"0.6\"/></phase>",
+	    2000.0f, "1, 2, 0.5", path);
+	unlink(path);
+	assert_int_equal(w.scene.media[0].type, PM_MEDIUM_HETEROGENEOUS);
+	shoot_volume(&w, n, -1, &surf, &vol);
+	assert_int_equal(per_path_flux(&vol, mean, se), n);
+	for (c = 0; c < 3; c++)
+		assert_within(mean[c], 4.0 * PI * in[c] * a[c] / (1 - a[c]),
+		    se[c], 4.0, c == 0 ? "grid: stored flux per path, red" :
+		    c == 1 ? "grid: green" : "grid: blue");
+	vworld_free(&w);
+	pm_photon_buf_free(&surf);
+	pm_photon_buf_free(&vol);
+}
+
+/*
+ * First scatters in a medium whose density steps: sigma_t = s1 = 1 for
+ * |x| < 1 and s2 = 3 beyond (a nearest-filtered grid of 8 voxels over
+ * x in [-4, 4], 80 wide in y and z), grey, albedo 0.7, max_depth 0,
+ * the point light at the origin.  A photon leaving at |cos| = mu to the
+ * x axis (uniform in [0, 1]) reaches the step at r = 1 / mu, so it
+ * passes r with the probability exp(-tau(r, mu)),
+ *   tau = s1 r  (r mu <= 1),  s1 / mu + s2 (r - 1 / mu)  (beyond);
+ * a shell [r0, r1)'s share of first scatters is the integral over mu of
+ * exp(-tau(r0, mu)) - exp(-tau(r1, mu)) (midpoint rule, 20000 points).
+ * Chi-square of the depth-0 photons' distances over 24 shells to r = 3
+ * and the rest (farther, or gone: the box lies 4 past the step along x,
+ * e^-10 at most).  Delta tracking's null collisions cancel in a grey
+ * medium: every photon stores Phi a, up to RGBE's rounding.
+ */
+static double
+step_tau(double r, double mu)
+{
+	const double s1 = 1.0, s2 = 3.0;
+
+	return r * mu <= 1.0 ? s1 * r : s1 / mu + s2 * (r - 1.0 / mu);
+}
+
+static void
+test_first_scatter_step(void **state)
+{
+	struct vworld w;
+	struct pm_photon_buf surf = {NULL, 0, 0}, vol = {NULL, 0, 0};
+	const uint64_t n = 100000;
+	const double rmax = 3.0, a = 0.7, phi = 4.0 * PI;
+	const float v[8] = {3, 3, 3, 1, 1, 3, 3, 3};
+	enum { NB = 24, NMU = 20000 };
+	double obs[NB + 1], expd[NB + 1], p, near = 0.0;
+	char path[128], xml[1024];
+	size_t i;
+	int b, k;
+
+	(void)state;
+	grid_volume(path, sizeof(path), xml, sizeof(xml), 8, 1, v, -4.0f,
+	    4.0f, 40.0f, "nearest");
+	vworld_init_any(&w, xml, "0.7", "", 100.0f, "1", path);
+	unlink(path);
+	shoot_volume(&w, n, 0, &surf, &vol);
+	memset(obs, 0, sizeof(obs));
+	for (i = 0; i < vol.n; i++) {
+		const struct pm_photon *x = &vol.p[i];
+		double r = sqrt((double)x->pos[0] * x->pos[0] +
+		    (double)x->pos[1] * x->pos[1] +
+		    (double)x->pos[2] * x->pos[2]);
+		struct pm_rgb c = pm_rgbe_unpack(x->power);
+
+		assert_int_equal(x->depth, 0);
+		assert_true(fabs(c.r - phi * a) < 0.01 * phi * a &&
+		    c.g == c.r && c.b == c.r);
+		b = (int)(r / rmax * NB);
+		if (b < NB)
+			obs[b]++;
+	}
+	for (b = 0; b < NB; b++)
+		near += obs[b];
+	obs[NB] = (double)n - near;
+	for (b = 0; b <= NB; b++) {
+		double r0 = rmax * b / NB, r1 = rmax * (b + 1) / NB, sum = 0.0;
+
+		for (k = 0; k < NMU; k++) {
+			double mu = (k + 0.5) / NMU;
+
+			sum += exp(-step_tau(r0, mu)) -
+			    (b < NB ? exp(-step_tau(r1, mu)) : 0.0);
+		}
+		expd[b] = (double)n * sum / NMU;
+	}
+	p = stats_chi2(obs, expd, NB + 1, STATS_POOL_JOIN, 1e-3,
+	    "first scatters, stepped density");
+	print_message("first scatters across a step: chi-square p = %.3g\n", p);
+	assert_true(p > 1e-4);
 	vworld_free(&w);
 	pm_photon_buf_free(&surf);
 	pm_photon_buf_free(&vol);
@@ -424,6 +589,8 @@ main(void)
 		cmocka_unit_test(test_infinite_grey),
 		cmocka_unit_test(test_infinite_coloured),
 		cmocka_unit_test(test_first_scatter_per_length),
+		cmocka_unit_test(test_infinite_coloured_grid),
+		cmocka_unit_test(test_first_scatter_step),
 		cmocka_unit_test(test_point_estimate_single_scattering),
 		cmocka_unit_test(test_beam_estimate_single_scattering),
 	};
