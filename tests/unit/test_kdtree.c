@@ -360,6 +360,86 @@ test_batch(void **state)
 	run_batch(SET_GRID, 1000, 45);
 }
 
+/*
+ * A batch's first guess at each query's k-th distance, from its
+ * predecessor's, fails where the density drops along the curve: a dense
+ * cluster of photons and a sparse one, queries in both, so that the
+ * walk in Morton order crosses from one to the other (each direction,
+ * the dense cluster below and above the sparse one); every answer must
+ * still be the brute-force one, as it must for n = 0, 1 and 2 in a batch
+ * large enough to be reordered.
+ */
+static void
+test_batch_guess(void **state)
+{
+	enum { N = 3000, NQ = 400, K = 50 };
+	struct pm_photon *p = calloc(N, sizeof(*p));
+	struct pm_knn *all = malloc((N + 1) * sizeof(*all));
+	struct pm_knn *out = malloc(NQ * K * sizeof(*out));
+	size_t *found = malloc(NQ * sizeof(*found));
+	float *q = malloc(NQ * 3 * sizeof(*q));
+	unsigned char *seen = malloc(N + 1);
+	size_t i, dir, n;
+	int a;
+
+	(void)state;
+	assert_true(p && all && out && found && q && seen);
+	for (dir = 0; dir < 2; dir++) {
+		/* Cluster 0: 2700 photons in a cube of side 0.01; cluster 1:
+		 * 300 in a cube of side 1, one corner or the other. */
+		float dense = dir == 0 ? 0.0f : 5.0f, sparse = 5.0f - dense;
+
+		for (i = 0; i < N; i++) {
+			struct pm_rng r = pm_rng_seed(77 + dir, i, 0);
+			int d = i < 2700;
+
+			for (a = 0; a < 3; a++)
+				p[i].pos[a] = d ? dense + 0.01f *
+				    pm_rng_float(&r) : sparse +
+				    pm_rng_float(&r);
+			p[i].flags = (uint8_t)((pm_rng_u32(&r) & 1) ?
+			    PM_PHOTON_CAUSTIC : 0);
+		}
+		build_ok(p, N, 1);
+		for (i = 0; i < NQ; i++) {
+			struct pm_rng r = pm_rng_seed(78 + dir, i, 1);
+			int d = i % 2;
+
+			for (a = 0; a < 3; a++)
+				q[3 * i + a] = d ? dense + 0.01f *
+				    pm_rng_float(&r) : sparse +
+				    pm_rng_float(&r);
+		}
+		for (a = 0; a < 2; a++) {
+			uint8_t m = a ? PM_PHOTON_CAUSTIC : 0;
+
+			pm_kdtree_knn_batch(p, N, q, NQ, K, INFINITY, m, m, out,
+			    found);
+			for (i = 0; i < NQ; i++)
+				check_knn_answer(p, N, &q[3 * i], K, INFINITY,
+				    m, m, all, &out[i * K], found[i], seen);
+		}
+	}
+	/* n = 0, 1, 2: k beyond n, every query finds all n. */
+	for (n = 0; n <= 2; n++) {
+		struct pm_photon *t = make_set(SET_UNIFORM, n, 90 + n);
+
+		build_ok(t, n, 1);
+		pm_kdtree_knn_batch(t, n, q, NQ, K, INFINITY, 0, 0, out,
+		    found);
+		for (i = 0; i < NQ; i++)
+			check_knn_answer(t, n, &q[3 * i], K, INFINITY, 0, 0,
+			    all, &out[i * K], found[i], seen);
+		free(t);
+	}
+	free(p);
+	free(all);
+	free(out);
+	free(found);
+	free(q);
+	free(seen);
+}
+
 static void
 test_uniform(void **state)
 {
@@ -721,6 +801,7 @@ main(void)
 		cmocka_unit_test(test_verify_detects),
 		cmocka_unit_test(test_knn_sort),
 		cmocka_unit_test(test_batch),
+		cmocka_unit_test(test_batch_guess),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);
