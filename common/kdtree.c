@@ -657,24 +657,6 @@ below(float w)
 	return w;
 }
 
-/* Adds (d2, idx) to the max-heap h[0..cnt), which has room for it. */
-static inline void
-heap_push(struct pm_knn *h, size_t cnt, float d2, uint32_t idx)
-{
-	size_t i = cnt;
-
-	while (i > 0) {
-		size_t up = (i - 1) / 2;
-
-		if (!(h[up].d2 < d2))
-			break;
-		h[i] = h[up];
-		i = up;
-	}
-	h[i].d2 = d2;
-	h[i].idx = idx;
-}
-
 /*
  * Replaces the top of the max-heap h[0..cnt) with (d2, idx).  The choice
  * of the larger child is arithmetic rather than a branch: it is a coin
@@ -721,13 +703,45 @@ struct knn_state {
 	float lim;		/* only d2 <= lim can still be a neighbour */
 };
 
+/* Makes h[0..cnt) a max-heap on d2 (Floyd: sift-downs from the last
+ * parent up, O(cnt)). */
+static void
+heap_make(struct pm_knn *h, size_t cnt)
+{
+	size_t r;
+
+	for (r = cnt / 2; r-- > 0;) {
+		struct pm_knn t = h[r];
+		size_t i = r, c;
+
+		while ((c = 2 * i + 1) < cnt) {
+			if (c + 1 < cnt)
+				c += h[c + 1].d2 > h[c].d2;
+			if (!(h[c].d2 > t.d2))
+				break;
+			h[i] = h[c];
+			i = c;
+		}
+		h[i] = t;
+	}
+}
+
+/*
+ * Until k photons are found the bound does not move, so the first k are
+ * appended as they come and made a heap once, when the k-th arrives (or
+ * at the end, if fewer): a sift-up per photon cost more, and with a
+ * batch's guessed bound most offers come before the heap is full.
+ */
 static inline void
 knn_offer(struct knn_state *s, float d2, uint32_t idx)
 {
 	if (s->cnt < s->k) {
-		heap_push(s->out, s->cnt++, d2, idx);
-		if (s->cnt == s->k)
+		s->out[s->cnt].d2 = d2;
+		s->out[s->cnt++].idx = idx;
+		if (s->cnt == s->k) {
+			heap_make(s->out, s->k);
 			s->lim = below(s->out[0].d2);
+		}
 	} else {
 		heap_replace(s->out, s->cnt, d2, idx);
 		s->lim = below(s->out[0].d2);
@@ -910,8 +924,11 @@ knn_walk(const struct pm_photon *p, uint32_t n, const float q[3], size_t k,
 		}
 		knn_scan(&s, p, lo, hi, q, mask, want);
 		for (;;) {
-			if (sp == 0)
+			if (sp == 0) {
+				if (s.cnt < s.k)
+					heap_make(s.out, s.cnt);
 				return s.cnt;
+			}
 			sp--;
 			if (st[sp].d2 <= s.lim)
 				break;
