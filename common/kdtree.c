@@ -1085,11 +1085,19 @@ pm_kdtree_knn_batch(const struct pm_photon *p, size_t n, const float *q,
 	gf = 1.0f + KNN_GUESS / sqrtf((float)k);
 	for (i = 0; i < nq; i++) {
 		size_t j = ord != NULL ? ord[i].i : i, t;
-		float lim = max_d2, guess = INFINITY;
+		float lim = max_d2, guess, r = 0.0f;
 
 		if (i > 0 && found[prev] == k) {
-			float r = 0.0f;
-
+			guess = out[prev * k].d2 * gf;
+			if (guess < max_d2) {
+				found[j] = knn_walk(p, (uint32_t)n, &q[3 * j], k,
+				    guess, mask, want, &out[j * k]);
+				if (found[j] == k) {
+					prev = j;
+					continue;
+				}
+			}
+			/* The sure bound, needed only now. */
 			for (t = 0; t < k; t++) {
 				float d = kd_dist2(p[out[prev * k + t].idx].pos,
 				    &q[3 * j]);
@@ -1097,15 +1105,6 @@ pm_kdtree_knn_batch(const struct pm_photon *p, size_t n, const float *q,
 				r = d > r ? d : r;
 			}
 			lim = r < max_d2 ? r : max_d2;
-			guess = out[prev * k].d2 * gf;
-		}
-		if (guess < lim) {
-			found[j] = knn_walk(p, (uint32_t)n, &q[3 * j], k, guess,
-			    mask, want, &out[j * k]);
-			if (found[j] == k) {
-				prev = j;
-				continue;
-			}
 		}
 		found[j] = knn_walk(p, (uint32_t)n, &q[3 * j], k, lim, mask,
 		    want, &out[j * k]);
