@@ -25,8 +25,8 @@
  * branch per photon (four at a time with SSE).  Both kinds of query prune
  * a far child by the squared distance from q to its cell, kept
  * incrementally per axis (Arya and Mount 1993).  Batches of k-nearest
- * queries are walked in Morton order, each starting from a bound its
- * predecessor gives.  Squared distances are computed everywhere as dx*dx + dy*dy +
+ * queries are walked in Morton order, each bounded first by a guess at
+ * its k-th distance from its predecessor's.  Squared distances are computed everywhere as dx*dx + dy*dy +
  * dz*dz in float, so results compare exactly with brute force, and both
  * bounds are true lower bounds in float arithmetic too (rounding is
  * monotonic), so pruning never loses a neighbour at the boundary.
@@ -660,7 +660,7 @@ below(float w)
 /*
  * Replaces the top of the max-heap h[0..cnt) with (d2, idx).  The choice
  * of the larger child is arithmetic rather than a branch: it is a coin
- * toss to the branch predictor, and replacements are most of a query.
+ * toss to the branch predictor.
  */
 static inline void
 heap_replace(struct pm_knn *h, size_t cnt, float d2, uint32_t idx)
@@ -944,8 +944,8 @@ knn_walk(const struct pm_photon *p, uint32_t n, const float q[3], size_t k,
 /*
  * Batches are walked in Morton order of their points (a Z-order curve
  * through their bounding box), so that consecutive queries share the
- * upper tree and often buckets in the caches, and each query starts with
- * a bound from the one before it: the largest distance from its point to
+ * upper tree and often buckets in the caches, and each query has a sure
+ * bound from the one before it: the largest distance from its point to
  * the k neighbours just found (photons that pass the filter and are in
  * the caches), within which there are at least k photons, so the k
  * nearest lie within it too.  A walk that starts with its bound takes
@@ -957,7 +957,10 @@ knn_walk(const struct pm_photon *p, uint32_t n, const float q[3], size_t k,
  * slower: the queries are bound by their branches and arithmetic more
  * than by memory, even on 10M photons.  So were a first bound from the
  * subtree around the point, and a buffer of candidates cut down to the
- * k nearest by bisection instead of a heap.)
+ * k nearest by bisection instead of a heap; in this round again, a
+ * buffer of 2k to 4k candidates cut to k by quickselect, with and
+ * without the guess below: 0.8x to 0.9x.)  The sure bound is still
+ * loose; the guess below is tighter.
  */
 /* Spreads the low 21 bits of x to every third bit. */
 static inline uint64_t
