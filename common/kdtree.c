@@ -26,8 +26,9 @@
  * a far child by the squared distance from q to its cell, kept
  * incrementally per axis (Arya and Mount 1993).  Batches of k-nearest
  * queries are walked in Morton order, each bounded first by a guess at
- * its k-th distance from its predecessor's.  Squared distances are computed everywhere as dx*dx + dy*dy +
- * dz*dz in float, so results compare exactly with brute force, and both
+ * its k-th distance from its predecessor's.  Squared distances are
+ * computed everywhere as dx*dx + dy*dy + dz*dz in float, so results
+ * compare exactly with brute force, and both
  * bounds are true lower bounds in float arithmetic too (rounding is
  * monotonic), so pruning never loses a neighbour at the boundary.
  */
@@ -1056,10 +1057,10 @@ morton_order(const float *q, size_t nq, struct kd_order *ord,
  * than all k.  If it finds fewer, the query is walked again with the
  * bound that is sure to hold k (above).  The guess is tighter than that
  * bound, and a tighter bound is fewer buckets and fewer heap replacements:
- * measured on 1M cornell-box photons, 1.26x (k = 50) and 1.5x (k = 200)
- * the queries per second, 1.3x and 1.6x on 10M; one query in twenty (1M)
- * to ten (10M) is walked twice at k = 50.  (KNN_GUESS from 2.5 to 4 gave
- * the same rates within 5%.)
+ * measured alone on 1M cornell-box photons, 1.26x (k = 50) and 1.5x
+ * (k = 200) the queries per second, 1.3x and 1.6x on 10M; one query in
+ * twenty (1M) to ten (10M) is walked twice at k = 50.  (KNN_GUESS from
+ * 2.5 to 4 gave the same rates within 5%.)
  */
 #ifndef KNN_GUESS
 #define KNN_GUESS	3.5f
