@@ -1,9 +1,11 @@
 /*
- * test_kdtree.c: the balanced photon kd-tree answers k-nearest and radius
- * queries exactly as brute force does, on random data and on the
- * degenerate sets that break naive builds (every photon on one point, a
- * plane, a line; duplicates), for tiny trees, k beyond n, a zero radius and
- * flag filters; the build is a permutation that keeps every flag bit but
+ * test_kdtree.c: the balanced photon kd-tree answers k-nearest queries
+ * (one a call and in batches, whose guessed bounds must fall back when
+ * they fail) and radius queries (into a buffer, and the walk that yields
+ * one photon at a time) exactly as brute force does, on random data and
+ * on the degenerate sets that break naive builds (every photon on one
+ * point, a plane, a line; duplicates), for tiny trees, k beyond n, a zero
+ * radius and flag filters; the build is a permutation that keeps every flag bit but
  * the axis, splits each small range on its widest axis, passes verify(),
  * and is byte-identical whatever the thread count; verify() catches
  * damage.
@@ -217,6 +219,32 @@ check_radius(const struct pm_photon *p, size_t n, const float q[3],
 	}
 }
 
+/* The radius walk that yields photons one at a time (progressive
+ * passes) finds the brute-force set too, each photon once. */
+static void
+check_range(const struct pm_photon *p, size_t n, const float q[3],
+    float max_d2, uint8_t mask, uint8_t want, struct pm_knn *all,
+    struct pm_knn *out)
+{
+	size_t nb = brute(p, n, q, max_d2, mask, want, all), got = 0, i;
+	struct pm_kd_range it;
+	uint32_t idx;
+	float d2;
+
+	pm_kdtree_range_init(&it, p, n, q, max_d2, mask, want);
+	while (pm_kdtree_range_next(&it, &idx, &d2)) {
+		assert_true(got < nb);
+		out[got].idx = idx;
+		out[got++].d2 = d2;
+	}
+	assert_int_equal(got, nb);
+	pm_knn_sort(out, got);
+	for (i = 0; i < got; i++) {
+		assert_int_equal(out[i].idx, all[i].idx);
+		assert_true(out[i].d2 == all[i].d2);
+	}
+}
+
 /*
  * Builds a set, then runs k-nearest and radius queries at random points
  * around it and at photons' own positions, with and without filters.
@@ -229,6 +257,8 @@ run_queries(enum set_kind kind, size_t n, size_t nq, uint64_t seed)
 		{ 0, 0 },
 		{ PM_PHOTON_CAUSTIC, PM_PHOTON_CAUSTIC },
 		{ PM_PHOTON_CAUSTIC | PM_PHOTON_VIA_DIFFUSE, PM_PHOTON_VIA_DIFFUSE },
+		/* Nothing passes: want has a bit the mask clears. */
+		{ 0, PM_PHOTON_CAUSTIC },
 	};
 	struct pm_photon *p = make_set(kind, n, seed);
 	struct pm_knn *all = malloc((n + 1) * sizeof(*all));
@@ -244,7 +274,7 @@ run_queries(enum set_kind kind, size_t n, size_t nq, uint64_t seed)
 		struct pm_rng r = pm_rng_seed(seed, i, 7);
 		float q[3], max_d2;
 		size_t k = ks[i % 5];
-		int f = (int)((i / 5) % 3);
+		int f = (int)((i / 5) % 4);
 
 		if (n > 0 && (i & 1)) {
 			/* At a photon: ties with its duplicates at zero. */
@@ -272,6 +302,8 @@ run_queries(enum set_kind kind, size_t n, size_t nq, uint64_t seed)
 		check_knn(p, n, q, k, max_d2, masks[f][0], masks[f][1], all,
 		    out, seen);
 		check_radius(p, n, q, max_d2 == INFINITY ? 0.05f : max_d2,
+		    masks[f][0], masks[f][1], all, out);
+		check_range(p, n, q, max_d2 == INFINITY ? 0.05f : max_d2,
 		    masks[f][0], masks[f][1], all, out);
 	}
 	free(p);
