@@ -54,9 +54,11 @@ size_t pm_kdtree_knn(const struct pm_photon *p, size_t n, const float q[3],
  * The same neighbours as pm_kdtree_knn's, up to the choice among photons
  * tied at the k-th distance, but faster: the points are walked in an
  * order that keeps the caches warm (allocated once per call; without
- * memory, the given order), each starting from a bound its predecessor
- * gives.  The results do not depend on the thread or the order of the
- * calls, only on the batch.
+ * memory, the given order), each bounded first by a guess at its k-th
+ * distance from its predecessor's, then, if fewer than k photons lie
+ * within the guess, by a bound its predecessor's neighbours make sure.
+ * The results do not depend on the thread or the order of the calls,
+ * only on the batch.
  */
 void pm_kdtree_knn_batch(const struct pm_photon *p, size_t n, const float *q,
     size_t nq, size_t k, float max_d2, uint8_t mask, uint8_t want,

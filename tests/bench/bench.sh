@@ -5,7 +5,9 @@
 #   - kd-tree build time and k-nearest queries per second, k = 50 and 200,
 #     on 1M and 10M photons shot in data/cornell-box.xml, against FLANN on
 #     the same photons (pm_knn_check, one thread each, the queries given
-#     to both as one batch; pm also one query a call), as ratios;
+#     to both as one batch; pm also one query a call), as ratios; FLANN's
+#     build both on pm's tree order (pm_knn_check's) and on the file's
+#     order, which is what pm's build gets;
 #   - fixed-radius queries per second (the walk of progressive passes) on
 #     1M photons, with the radii of the 50th and 200th neighbours;
 #   - photon paths and stored photons per second per core (pm-shoot -t 1)
@@ -150,6 +152,9 @@ for r in rows:
         if r["k"] == 50:
             row("kd-tree build, %s photons, 1 thread (FLANN)" % n,
                 r["pm_build_s"], r["flann_build_s"], " s")
+            if r.get("flann_build_file_order_s", -1) > 0:
+                row("  the same, FLANN on the file's order" ,
+                    r["pm_build_s"], r["flann_build_file_order_s"], " s")
             print("%-44s %14s %14s %8s" % (
                 "kd-tree build, %s photons, %d threads" % (n, r["threads"]),
                 "%.4g s" % r["pm_build_all_cores_s"], "-", "-"))

@@ -1,9 +1,11 @@
 /*
- * test_kdtree.c: the balanced photon kd-tree answers k-nearest and radius
- * queries exactly as brute force does, on random data and on the
- * degenerate sets that break naive builds (every photon on one point, a
- * plane, a line; duplicates), for tiny trees, k beyond n, a zero radius and
- * flag filters; the build is a permutation that keeps every flag bit but
+ * test_kdtree.c: the balanced photon kd-tree answers k-nearest queries
+ * (one a call and in batches, whose guessed bounds must fall back when
+ * they fail) and radius queries (into a buffer, and the walk that yields
+ * one photon at a time) exactly as brute force does, on random data and
+ * on the degenerate sets that break naive builds (every photon on one
+ * point, a plane, a line; duplicates), for tiny trees, k beyond n, a zero
+ * radius and flag filters; the build is a permutation that keeps every flag bit but
  * the axis, splits each small range on its widest axis, passes verify(),
  * and is byte-identical whatever the thread count; verify() catches
  * damage.
@@ -217,6 +219,32 @@ check_radius(const struct pm_photon *p, size_t n, const float q[3],
 	}
 }
 
+/* The radius walk that yields photons one at a time (progressive
+ * passes) finds the brute-force set too, each photon once. */
+static void
+check_range(const struct pm_photon *p, size_t n, const float q[3],
+    float max_d2, uint8_t mask, uint8_t want, struct pm_knn *all,
+    struct pm_knn *out)
+{
+	size_t nb = brute(p, n, q, max_d2, mask, want, all), got = 0, i;
+	struct pm_kd_range it;
+	uint32_t idx;
+	float d2;
+
+	pm_kdtree_range_init(&it, p, n, q, max_d2, mask, want);
+	while (pm_kdtree_range_next(&it, &idx, &d2)) {
+		assert_true(got < nb);
+		out[got].idx = idx;
+		out[got++].d2 = d2;
+	}
+	assert_int_equal(got, nb);
+	pm_knn_sort(out, got);
+	for (i = 0; i < got; i++) {
+		assert_int_equal(out[i].idx, all[i].idx);
+		assert_true(out[i].d2 == all[i].d2);
+	}
+}
+
 /*
  * Builds a set, then runs k-nearest and radius queries at random points
  * around it and at photons' own positions, with and without filters.
@@ -229,6 +257,8 @@ run_queries(enum set_kind kind, size_t n, size_t nq, uint64_t seed)
 		{ 0, 0 },
 		{ PM_PHOTON_CAUSTIC, PM_PHOTON_CAUSTIC },
 		{ PM_PHOTON_CAUSTIC | PM_PHOTON_VIA_DIFFUSE, PM_PHOTON_VIA_DIFFUSE },
+		/* Nothing passes: want has a bit the mask clears. */
+		{ 0, PM_PHOTON_CAUSTIC },
 	};
 	struct pm_photon *p = make_set(kind, n, seed);
 	struct pm_knn *all = malloc((n + 1) * sizeof(*all));
@@ -244,7 +274,7 @@ run_queries(enum set_kind kind, size_t n, size_t nq, uint64_t seed)
 		struct pm_rng r = pm_rng_seed(seed, i, 7);
 		float q[3], max_d2;
 		size_t k = ks[i % 5];
-		int f = (int)((i / 5) % 3);
+		int f = (int)((i / 5) % 4);
 
 		if (n > 0 && (i & 1)) {
 			/* At a photon: ties with its duplicates at zero. */
@@ -272,6 +302,8 @@ run_queries(enum set_kind kind, size_t n, size_t nq, uint64_t seed)
 		check_knn(p, n, q, k, max_d2, masks[f][0], masks[f][1], all,
 		    out, seen);
 		check_radius(p, n, q, max_d2 == INFINITY ? 0.05f : max_d2,
+		    masks[f][0], masks[f][1], all, out);
+		check_range(p, n, q, max_d2 == INFINITY ? 0.05f : max_d2,
 		    masks[f][0], masks[f][1], all, out);
 	}
 	free(p);
@@ -358,6 +390,86 @@ test_batch(void **state)
 	run_batch(SET_DUPLICATES, 2000, 43);
 	run_batch(SET_POINT, 300, 44);
 	run_batch(SET_GRID, 1000, 45);
+}
+
+/*
+ * A batch's first guess at each query's k-th distance, from its
+ * predecessor's, fails where the density drops along the curve: a dense
+ * cluster of photons and a sparse one, queries in both, so that the
+ * walk in Morton order crosses from one to the other (each direction,
+ * the dense cluster below and above the sparse one); every answer must
+ * still be the brute-force one, as it must for n = 0, 1 and 2 in a batch
+ * large enough to be reordered.
+ */
+static void
+test_batch_guess(void **state)
+{
+	enum { N = 3000, NQ = 400, K = 50 };
+	struct pm_photon *p = calloc(N, sizeof(*p));
+	struct pm_knn *all = malloc((N + 1) * sizeof(*all));
+	struct pm_knn *out = malloc(NQ * K * sizeof(*out));
+	size_t *found = malloc(NQ * sizeof(*found));
+	float *q = malloc(NQ * 3 * sizeof(*q));
+	unsigned char *seen = malloc(N + 1);
+	size_t i, dir, n;
+	int a;
+
+	(void)state;
+	assert_true(p && all && out && found && q && seen);
+	for (dir = 0; dir < 2; dir++) {
+		/* Cluster 0: 2700 photons in a cube of side 0.01; cluster 1:
+		 * 300 in a cube of side 1, one corner or the other. */
+		float dense = dir == 0 ? 0.0f : 5.0f, sparse = 5.0f - dense;
+
+		for (i = 0; i < N; i++) {
+			struct pm_rng r = pm_rng_seed(77 + dir, i, 0);
+			int d = i < 2700;
+
+			for (a = 0; a < 3; a++)
+				p[i].pos[a] = d ? dense + 0.01f *
+				    pm_rng_float(&r) : sparse +
+				    pm_rng_float(&r);
+			p[i].flags = (uint8_t)((pm_rng_u32(&r) & 1) ?
+			    PM_PHOTON_CAUSTIC : 0);
+		}
+		build_ok(p, N, 1);
+		for (i = 0; i < NQ; i++) {
+			struct pm_rng r = pm_rng_seed(78 + dir, i, 1);
+			int d = i % 2;
+
+			for (a = 0; a < 3; a++)
+				q[3 * i + a] = d ? dense + 0.01f *
+				    pm_rng_float(&r) : sparse +
+				    pm_rng_float(&r);
+		}
+		for (a = 0; a < 2; a++) {
+			uint8_t m = a ? PM_PHOTON_CAUSTIC : 0;
+
+			pm_kdtree_knn_batch(p, N, q, NQ, K, INFINITY, m, m, out,
+			    found);
+			for (i = 0; i < NQ; i++)
+				check_knn_answer(p, N, &q[3 * i], K, INFINITY,
+				    m, m, all, &out[i * K], found[i], seen);
+		}
+	}
+	/* n = 0, 1, 2: k beyond n, every query finds all n. */
+	for (n = 0; n <= 2; n++) {
+		struct pm_photon *t = make_set(SET_UNIFORM, n, 90 + n);
+
+		build_ok(t, n, 1);
+		pm_kdtree_knn_batch(t, n, q, NQ, K, INFINITY, 0, 0, out,
+		    found);
+		for (i = 0; i < NQ; i++)
+			check_knn_answer(t, n, &q[3 * i], K, INFINITY, 0, 0,
+			    all, &out[i * K], found[i], seen);
+		free(t);
+	}
+	free(p);
+	free(all);
+	free(out);
+	free(found);
+	free(q);
+	free(seen);
 }
 
 static void
@@ -721,6 +833,7 @@ main(void)
 		cmocka_unit_test(test_verify_detects),
 		cmocka_unit_test(test_knn_sort),
 		cmocka_unit_test(test_batch),
+		cmocka_unit_test(test_batch_guess),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);
