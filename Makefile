@@ -14,7 +14,10 @@ CC      ?= cc
 OPT     ?= -O2
 CFLAGS  ?= $(OPT) -g
 PKGS     = OpenEXR expat libpng libjpeg zlib
-PM_CFLAGS = -std=c17 -Wall -Wextra -pthread -D_DEFAULT_SOURCE \
+# -fno-math-errno: pm never reads errno after libm, and without it GCC
+# keeps a call to sqrtf behind every inlined sqrtss for the errno of a
+# negative argument (1.5% of a path-traced frame); results are the same.
+PM_CFLAGS = -std=c17 -Wall -Wextra -pthread -D_DEFAULT_SOURCE -fno-math-errno \
 	$(shell pkg-config --cflags $(PKGS) 2>/dev/null)
 # OpenEXR's pkg-config pulls in the C++ libraries; pm uses only the C core.
 PM_LIBS  = -lembree3 -lOpenEXRCore -lflann $(shell pkg-config --libs expat libpng libjpeg zlib 2>/dev/null) \
