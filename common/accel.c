@@ -63,7 +63,7 @@ embree_error(RTCDevice dev, struct pm_error *err, const char *what)
 static inline float
 pm_max_abs(struct pm_vec3 a)
 {
-	return fmaxf(fabsf(a.x), fmaxf(fabsf(a.y), fabsf(a.z)));
+	return pm_fmaxf(fabsf(a.x), pm_fmaxf(fabsf(a.y), fabsf(a.z)));
 }
 
 static enum pm_err
@@ -88,7 +88,7 @@ add_mesh(struct pm_accel *a, const struct pm_shape *sh, unsigned id,
 		struct pm_vec3 p2 = pm_mesh_vertex(m, t[2]);
 
 		tg[k].ng = pm_normalize(pm_cross(pm_sub(p1, p0), pm_sub(p2, p0)));
-		tg[k].scale = fmaxf(fmaxf(pm_max_abs(p0), pm_max_abs(p1)),
+		tg[k].scale = pm_fmaxf(pm_fmaxf(pm_max_abs(p0), pm_max_abs(p1)),
 		    pm_max_abs(p2));
 	}
 	a->tri[id] = tg;

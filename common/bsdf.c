@@ -112,7 +112,7 @@ pm_fresnel_dielectric(float cos_i, float eta, float *cos_t)
 	float eta_ti = 1.0f / eta_it;
 	float ci = fabsf(cos_i);
 	float ct2 = 1.0f - (1.0f - ci * ci) * eta_ti * eta_ti;
-	float ct = sqrtf(fmaxf(ct2, 0.0f));
+	float ct = sqrtf(pm_fmaxf(ct2, 0.0f));
 	float as, ap, r;
 
 	if (eta == 1.0f || ci == 0.0f) {
@@ -136,8 +136,8 @@ fresnel_conductor1(float cos_i, float eta, float k)
 {
 	float c2 = cos_i * cos_i, s2 = 1.0f - c2, s4 = s2 * s2;
 	float t1 = eta * eta - k * k - s2;
-	float a2pb2 = sqrtf(fmaxf(t1 * t1 + 4.0f * k * k * eta * eta, 0.0f));
-	float a = sqrtf(fmaxf(0.5f * (a2pb2 + t1), 0.0f));
+	float a2pb2 = sqrtf(pm_fmaxf(t1 * t1 + 4.0f * k * k * eta * eta, 0.0f));
+	float a = sqrtf(pm_fmaxf(0.5f * (a2pb2 + t1), 0.0f));
 	float term1 = a2pb2 + c2, term2 = 2.0f * cos_i * a;
 	float rs = (term1 - term2) / (term1 + term2);
 	float term3 = a2pb2 * c2 + s4, term4 = term2 * s2;
@@ -241,10 +241,10 @@ ggx_sample_visible(float ax, float ay, struct pm_vec3 wi, float u1,
 	p2 = r * sinf(phi);
 	/* squeeze the disk onto the part of it the view can see */
 	s = 0.5f * (1.0f + vh.z);
-	p2 = (1.0f - s) * sqrtf(fmaxf(0.0f, 1.0f - p1 * p1)) + s * p2;
+	p2 = (1.0f - s) * sqrtf(pm_fmaxf(0.0f, 1.0f - p1 * p1)) + s * p2;
 	nh = pm_add(pm_add(pm_scale(t1, p1), pm_scale(t2, p2)),
-	    pm_scale(vh, sqrtf(fmaxf(0.0f, 1.0f - p1 * p1 - p2 * p2))));
-	return pm_normalize(pm_v3(ax * nh.x, ay * nh.y, fmaxf(0.0f, nh.z)));
+	    pm_scale(vh, sqrtf(pm_fmaxf(0.0f, 1.0f - p1 * p1 - p2 * p2))));
+	return pm_normalize(pm_v3(ax * nh.x, ay * nh.y, pm_fmaxf(0.0f, nh.z)));
 }
 
 /* The microfacet normal of polar angle tan^2 theta = tan2 and azimuth
@@ -253,7 +253,7 @@ static struct pm_vec3
 normal_from_tan2(float tan2, float u)
 {
 	float cos_t = 1.0f / sqrtf(1.0f + tan2);
-	float sin_t = sqrtf(fmaxf(0.0f, 1.0f - cos_t * cos_t));
+	float sin_t = sqrtf(pm_fmaxf(0.0f, 1.0f - cos_t * cos_t));
 	float phi = 2.0f * PM_PI * u;
 
 	return pm_v3(sin_t * cosf(phi), sin_t * sinf(phi), cos_t);
@@ -321,8 +321,8 @@ md_d(const struct pm_bsdf *b, float ax, float ay, struct pm_vec3 m)
 static void
 md_alphas(const struct pm_bsdf *b, float *ax, float *ay)
 {
-	*ax = fmaxf(b->alpha, PM_MIN_ALPHA);
-	*ay = b->aniso ? fmaxf(b->alpha_v, PM_MIN_ALPHA) : *ax;
+	*ax = pm_fmaxf(b->alpha, PM_MIN_ALPHA);
+	*ay = b->aniso ? pm_fmaxf(b->alpha_v, PM_MIN_ALPHA) : *ax;
 }
 
 static bool
@@ -376,7 +376,7 @@ md_sample(const struct pm_bsdf *b, float ax, float ay, struct pm_vec3 wi_up,
 	if (md_visible(b)) {
 		m = ggx_sample_visible(ax, ay, wi_up, u2, u3);
 		*pdf_m = smith_g1(false, ax, ay, wi_up, m) *
-		    fmaxf(pm_dot(wi_up, m), 0.0f) * ggx_d(ax, ay, m) / wi_up.z;
+		    pm_fmaxf(pm_dot(wi_up, m), 0.0f) * ggx_d(ax, ay, m) / wi_up.z;
 	} else {
 		m = md_sample_all(b->beckmann, ax, ay, u2, u3);
 		*pdf_m = md_d(b, ax, ay, m) * m.z;
@@ -391,7 +391,7 @@ md_pdf(const struct pm_bsdf *b, float ax, float ay, struct pm_vec3 wi_up,
 {
 	if (md_visible(b))
 		return smith_g1(false, ax, ay, wi_up, m) *
-		    fmaxf(pm_dot(wi_up, m), 0.0f) * ggx_d(ax, ay, m) / wi_up.z;
+		    pm_fmaxf(pm_dot(wi_up, m), 0.0f) * ggx_d(ax, ay, m) / wi_up.z;
 	return md_d(b, ax, ay, m) * m.z;
 }
 
@@ -571,7 +571,7 @@ static double
 rough_interface(const struct pm_bsdf *b, float alpha, float mu, float eta,
     bool transmit, int nu, int nphi)
 {
-	struct pm_vec3 wi = pm_v3(sqrtf(fmaxf(0.0f, 1.0f - mu * mu)), 0.0f, mu);
+	struct pm_vec3 wi = pm_v3(sqrtf(pm_fmaxf(0.0f, 1.0f - mu * mu)), 0.0f, mu);
 	double sum = 0.0;
 	int i, j;
 
@@ -627,7 +627,7 @@ rough_interface(const struct pm_bsdf *b, float alpha, float mu, float eta,
 static void
 roughplastic_tables(struct pm_bsdf *b)
 {
-	float alpha = fmaxf(b->alpha, PM_MIN_ALPHA);
+	float alpha = pm_fmaxf(b->alpha, PM_MIN_ALPHA);
 	double sum = 0.0;
 	int i;
 
@@ -638,7 +638,7 @@ roughplastic_tables(struct pm_bsdf *b)
 	}
 
 	for (i = 0; i < PM_ROUGH_T_RES; i++) {
-		float mu = fmaxf(1e-6f, (float)i / (float)(PM_ROUGH_T_RES - 1));
+		float mu = pm_fmaxf(1e-6f, (float)i / (float)(PM_ROUGH_T_RES - 1));
 
 		b->rough_t[i] = (float)rough_interface(b, alpha, mu, b->ior,
 		    true, 64, 32);
@@ -652,7 +652,7 @@ roughplastic_tables(struct pm_bsdf *b)
 static float
 rough_t(const struct pm_bsdf *b, float c)
 {
-	float x = fminf(fmaxf(c, 0.0f), 1.0f) * (float)(PM_ROUGH_T_RES - 1);
+	float x = pm_fminf(pm_fmaxf(c, 0.0f), 1.0f) * (float)(PM_ROUGH_T_RES - 1);
 	int i = (int)x;
 
 	if (b->rough_t == NULL)
@@ -693,7 +693,7 @@ static struct pm_rgb
 eval_roughplastic(const struct pm_bsdf *b, struct pm_vec3 wi,
     struct pm_vec3 wo)
 {
-	float alpha = fmaxf(b->alpha, PM_MIN_ALPHA), s;
+	float alpha = pm_fmaxf(b->alpha, PM_MIN_ALPHA), s;
 	struct pm_rgb r = pm_rgb1(0.0f), d;
 	struct pm_vec3 h;
 	bool spec, diff;
@@ -729,7 +729,7 @@ static float
 pdf_roughplastic(const struct pm_bsdf *b, struct pm_vec3 wi,
     struct pm_vec3 wo)
 {
-	float alpha = fmaxf(b->alpha, PM_MIN_ALPHA), ps, p = 0.0f;
+	float alpha = pm_fmaxf(b->alpha, PM_MIN_ALPHA), ps, p = 0.0f;
 	struct pm_vec3 h;
 
 	if (wi.z <= 0.0f || wo.z <= 0.0f)
@@ -746,7 +746,7 @@ static bool
 sample_roughplastic(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
     float u2, float u3, struct pm_bsdf_sample *s)
 {
-	float alpha = fmaxf(b->alpha, PM_MIN_ALPHA), ps, pdf_m;
+	float alpha = pm_fmaxf(b->alpha, PM_MIN_ALPHA), ps, pdf_m;
 	struct pm_vec3 m;
 
 	if (wi.z <= 0.0f)
@@ -818,7 +818,7 @@ static int
 components(const struct pm_bsdf *b, const struct pm_bsdf *c0,
     const struct pm_bsdf *c1, float m[2], float q[2])
 {
-	float w = fminf(fmaxf(b->weight, 0.0f), 1.0f), t;
+	float w = pm_fminf(pm_fmaxf(b->weight, 0.0f), 1.0f), t;
 	bool a0, a1;
 
 	if (b->type == PM_BSDF_BLEND) {
@@ -934,10 +934,10 @@ sample_composite(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
 		return false;
 	if (u1 < q[0]) {
 		k = 0;
-		u1 = fminf(u1 / q[0], BELOW_ONE);
+		u1 = pm_fminf(u1 / q[0], BELOW_ONE);
 	} else {
 		k = 1;
-		u1 = q[1] > 0.0f ? fminf((u1 - q[0]) / q[1], BELOW_ONE) : 0.0f;
+		u1 = q[1] > 0.0f ? pm_fminf((u1 - q[0]) / q[1], BELOW_ONE) : 0.0f;
 	}
 	if (!(q[k] > 0.0f))
 		return false;
@@ -1047,13 +1047,13 @@ shadow_terminator(const struct pm_bsdf *b, struct pm_vec3 n,
 
 	if (b->no_shadowing)
 		return 1.0f;
-	a2 = n2 > 0.0f ? fminf(0.125f * fmaxf(0.0f, 1.0f - n2) / n2, 1.0f) :
+	a2 = n2 > 0.0f ? pm_fminf(0.125f * pm_fmaxf(0.0f, 1.0f - n2) / n2, 1.0f) :
 	    1.0f;
 	if (a2 == 0.0f)
 		return 1.0f;
 	if (!(w2 > 0.0f))
 		return 0.0f;
-	return 2.0f / (1.0f + sqrtf(1.0f + a2 * fmaxf(0.0f, 1.0f - w2) / w2));
+	return 2.0f / (1.0f + sqrtf(1.0f + a2 * pm_fmaxf(0.0f, 1.0f - w2) / w2));
 }
 
 /*
@@ -1309,7 +1309,7 @@ sample_roughconductor(const struct pm_bsdf *b, struct pm_vec3 wi, float u2,
 	if (md_visible(b)) {
 		m = ggx_sample_visible(ax, ay, wi, u2, u3);
 		dim = pm_dot(wi, m);
-		pdf_m = smith_g1(false, ax, ay, wi, m) * fmaxf(dim, 0.0f) *
+		pdf_m = smith_g1(false, ax, ay, wi, m) * pm_fmaxf(dim, 0.0f) *
 		    ggx_d(ax, ay, m) / wi.z;
 	} else {
 		m = md_sample_all(b->beckmann, ax, ay, u2, u3);

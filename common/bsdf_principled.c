@@ -63,7 +63,7 @@ sign1(float x)
 static float
 schlick_weight(float c)
 {
-	float m = fminf(fmaxf(1.0f - c, 0.0f), 1.0f), m2 = m * m;
+	float m = pm_fminf(pm_fmaxf(1.0f - c, 0.0f), 1.0f), m2 = m * m;
 
 	return m2 * m2 * m;
 }
@@ -78,7 +78,7 @@ schlick(float r0, float cos_i, float eta)
 	float eta_ti = 1.0f / eta_it;
 	float ct2 = 1.0f - (1.0f - cos_i * cos_i) * eta_ti * eta_ti;
 	float w = eta_it > 1.0f ? schlick_weight(fabsf(cos_i)) :
-	    schlick_weight(sqrtf(fmaxf(ct2, 0.0f)));
+	    schlick_weight(sqrtf(pm_fmaxf(ct2, 0.0f)));
 
 	return lerp(w, 1.0f, r0);
 }
@@ -121,8 +121,8 @@ ggx_params(float roughness, float anisotropic)
 	struct ggx g;
 
 	aspect = sqrtf(1.0f - 0.9f * anisotropic);
-	g.ax = fmaxf(0.001f, r2 / aspect);
-	g.ay = fmaxf(0.001f, r2 * aspect);
+	g.ax = pm_fmaxf(0.001f, r2 / aspect);
+	g.ay = pm_fmaxf(0.001f, r2 * aspect);
 	return g;
 }
 
@@ -177,10 +177,10 @@ ggx_sample(struct ggx g, struct pm_vec3 wi, float u1, float u2)
 	p1 = r * cosf(phi);
 	p2 = r * sinf(phi);
 	s = 0.5f * (1.0f + vh.z);
-	p2 = (1.0f - s) * sqrtf(fmaxf(0.0f, 1.0f - p1 * p1)) + s * p2;
+	p2 = (1.0f - s) * sqrtf(pm_fmaxf(0.0f, 1.0f - p1 * p1)) + s * p2;
 	nh = pm_add(pm_add(pm_scale(t1, p1), pm_scale(t2, p2)),
-	    pm_scale(vh, sqrtf(fmaxf(0.0f, 1.0f - p1 * p1 - p2 * p2))));
-	return pm_normalize(pm_v3(g.ax * nh.x, g.ay * nh.y, fmaxf(0.0f, nh.z)));
+	    pm_scale(vh, sqrtf(pm_fmaxf(0.0f, 1.0f - p1 * p1 - p2 * p2))));
+	return pm_normalize(pm_v3(g.ax * nh.x, g.ay * nh.y, pm_fmaxf(0.0f, nh.z)));
 }
 
 /* ---- the clearcoat's GTR1 distribution and masking ---- */
@@ -205,7 +205,7 @@ gtr1_sample(float alpha, float u1, float u2)
 {
 	float a2 = alpha * alpha, phi = 2.0f * PM_PI * u1;
 	float c2 = (1.0f - powf(a2, 1.0f - u2)) / (1.0f - a2);
-	float st = sqrtf(fmaxf(0.0f, 1.0f - c2)), ct = sqrtf(fmaxf(0.0f, c2));
+	float st = sqrtf(pm_fmaxf(0.0f, 1.0f - c2)), ct = sqrtf(pm_fmaxf(0.0f, c2));
 
 	return pm_v3(cosf(phi) * st, sinf(phi) * st, ct);
 }

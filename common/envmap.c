@@ -113,7 +113,7 @@ locate(const struct pm_envmap *e, struct pm_vec3 d, int *cx, int *cy,
     float *fx, float *fy)
 {
 	float u = atan2f(d.x, -d.z) * (float)(1.0 / TWO_PI_D);
-	float v = acosf(fminf(fmaxf(d.y, -1.0f), 1.0f)) * (float)(1.0 / PM_PI);
+	float v = acosf(pm_fminf(pm_fmaxf(d.y, -1.0f), 1.0f)) * (float)(1.0 / PM_PI);
 	float x, y;
 
 	/* half a texel: texel x's centre is at u = (x + 1/2) / W */

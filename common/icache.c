@@ -110,7 +110,7 @@ build_point(struct icache_job *j, int gx, int gy)
 			sum[1] += L.g;
 			sum[2] += L.b;
 			if (isfinite(t) && t > 0.0f)
-				inv_t += 1.0 / (double)fmaxf(t, j->r_min);
+				inv_t += 1.0 / (double)pm_fmaxf(t, j->r_min);
 		}
 	/* Cosine-distributed rays: E = pi * mean radiance. */
 	nrays = j->k * j->k;
@@ -264,7 +264,7 @@ pm_icache_lookup(const struct pm_icache *c, float fx, float fy,
 			/* In front: the surface curves towards the point. */
 			if (pm_dot(dv, pm_add(n, q->n)) * 0.5f * q->inv_r < -0.05f)
 				continue;
-			eps = pm_length(dv) * q->inv_r + sqrtf(fmaxf(0.0f,
+			eps = pm_length(dv) * q->inv_r + sqrtf(pm_fmaxf(0.0f,
 			    1.0f - cosn));
 			if (!(eps < c->a))
 				continue;

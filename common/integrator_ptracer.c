@@ -401,7 +401,7 @@ light_path(const struct job *j, struct film *f, uint64_t index)
 		if (depth >= HARD_MAX_DEPTH)
 			return;
 		if (depth > ctx->rr_depth) {
-			q = fminf(pm_rgb_max(beta) * eta * eta, 0.95f);
+			q = pm_fminf(pm_rgb_max(beta) * eta * eta, 0.95f);
 			if (!(pm_rng_float(&rng) < q))
 				return;
 			beta = pm_rgb_scale(beta, 1.0f / q);

@@ -202,7 +202,7 @@ pm_volume_step(const struct pm_render_ctx *ctx, struct pm_path *pa,
 	pa->tmin = 0.0f;
 	pa->tmax = INFINITY;
 	if (depth >= ctx->rr_depth) {
-		float q = fminf(pm_rgb_max(pa->beta) * pa->eta_scale, 0.95f);
+		float q = pm_fminf(pm_rgb_max(pa->beta) * pa->eta_scale, 0.95f);
 
 		if (!(pm_rng_float(rng) < q))
 			return PM_VOL_END;

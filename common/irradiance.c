@@ -217,9 +217,9 @@ pm_irr_grid_build(struct pm_irr_grid *g, const struct pm_photon *r, size_t n,
 			samples++;
 		}
 	}
-	ext = fmaxf(fmaxf(hi[0] - g->lo[0], hi[1] - g->lo[1]), hi[2] - g->lo[2]);
+	ext = pm_fmaxf(pm_fmaxf(hi[0] - g->lo[0], hi[1] - g->lo[1]), hi[2] - g->lo[2]);
 	spacing = samples > 0 ? (float)(dsum / (double)samples) : ext;
-	cell = fmaxf(2.0f * spacing, 1e-6f * fmaxf(ext, 1e-30f));
+	cell = pm_fmaxf(2.0f * spacing, 1e-6f * pm_fmaxf(ext, 1e-30f));
 	for (;;) {
 		vol = 1.0f;
 		for (a = 0; a < 3; a++)

@@ -116,7 +116,7 @@ compare(const struct pm_photon *p, size_t n, const float q[3],
 	for (i = 1; i < kk; i++)
 		if (sa[i].idx == sa[i - 1].idx || sb[i].idx == sb[i - 1].idx)
 			return MISMATCH;	/* a photon returned twice */
-	d = fmaxf(sa[kk - 1].d2, sb[kk - 1].d2);
+	d = pm_fmaxf(sa[kk - 1].d2, sb[kk - 1].d2);
 	tol = d * CHECK_TOL;
 	for (i = 0; i < kk; i++) {
 		if (fabsf(sa[i].d2 - sb[i].d2) > tol)
@@ -143,11 +143,11 @@ pm_knn_offset_scale(const struct pm_photon *p, size_t n)
 		mn[a] = mx[a] = p[0].pos[a];
 	for (i = 1; i < n; i++)
 		for (a = 0; a < 3; a++) {
-			mn[a] = fminf(mn[a], p[i].pos[a]);
-			mx[a] = fmaxf(mx[a], p[i].pos[a]);
+			mn[a] = pm_fminf(mn[a], p[i].pos[a]);
+			mx[a] = pm_fmaxf(mx[a], p[i].pos[a]);
 		}
 	for (a = 0; a < 3; a++)
-		e = fmaxf(e, mx[a] - mn[a]);
+		e = pm_fmaxf(e, mx[a] - mn[a]);
 	return e / cbrtf((float)n);
 }
 

@@ -325,7 +325,7 @@ pm_spot_falloff(const struct pm_light *l, struct pm_vec3 w)
 		return 0.0f;
 	if (cos_t >= cosf(beam))
 		return 1.0f;
-	theta = acosf(fminf(cos_t, 1.0f));
+	theta = acosf(pm_fminf(cos_t, 1.0f));
 	return (cutoff - theta) / (cutoff - beam);
 }
 

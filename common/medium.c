@@ -24,7 +24,7 @@ pm_phase_eval(const struct pm_phase *ph, struct pm_vec3 d, struct pm_vec3 wo)
 		return INV_4PI;
 	g = ph->g;
 	den = 1.0f + g * g - 2.0f * g * pm_dot(d, wo);
-	den = fmaxf(den, 1e-12f);
+	den = pm_fmaxf(den, 1e-12f);
 	return INV_4PI * (1.0f - g * g) / (den * sqrtf(den));
 }
 
@@ -43,8 +43,8 @@ pm_phase_sample(const struct pm_phase *ph, struct pm_vec3 d, float u1,
 		q = (1.0f - g * g) / (1.0f - g + 2.0f * g * u1);
 		c = (1.0f + g * g - q * q) / (2.0f * g);
 	}
-	c = fminf(fmaxf(c, -1.0f), 1.0f);
-	s = sqrtf(fmaxf(0.0f, 1.0f - c * c));
+	c = pm_fminf(pm_fmaxf(c, -1.0f), 1.0f);
+	s = sqrtf(pm_fmaxf(0.0f, 1.0f - c * c));
 	phi = 2.0f * PM_PI * u2;
 	wo = pm_normalize(pm_to_world(fr, pm_v3(s * cosf(phi), s * sinf(phi), c)));
 	*pdf = pm_phase_eval(ph, d, wo);
@@ -332,13 +332,13 @@ pm_hetero_prepare(struct pm_hetero *h)
 							    wrap_index(y, g->ny, v->wrap),
 							    wrap_index(z, g->nz, v->wrap));
 
-							mx = fmaxf(mx, pm_rgb_max(q));
-							cmin[0] = fminf(cmin[0], q.r);
-							cmin[1] = fminf(cmin[1], q.g);
-							cmin[2] = fminf(cmin[2], q.b);
-							cmax[0] = fmaxf(cmax[0], q.r);
-							cmax[1] = fmaxf(cmax[1], q.g);
-							cmax[2] = fmaxf(cmax[2], q.b);
+							mx = pm_fmaxf(mx, pm_rgb_max(q));
+							cmin[0] = pm_fminf(cmin[0], q.r);
+							cmin[1] = pm_fminf(cmin[1], q.g);
+							cmin[2] = pm_fminf(cmin[2], q.b);
+							cmax[0] = pm_fmaxf(cmax[0], q.r);
+							cmax[1] = pm_fmaxf(cmax[1], q.g);
+							cmax[2] = pm_fmaxf(cmax[2], q.b);
 						}
 				ci = ((size_t)c[2] * (size_t)n[1] + (size_t)c[1]) *
 				    (size_t)n[0] + (size_t)c[0];
@@ -350,7 +350,7 @@ pm_hetero_prepare(struct pm_hetero *h)
 					 * combinations of voxels */
 					h->mino[3 * ci + (size_t)k] = h->scale *
 					    cmin[k];
-					r = fmaxf(r, h->scale * cmax[k] -
+					r = pm_fmaxf(r, h->scale * cmax[k] -
 					    h->scale * cmin[k]);
 				}
 				/* rounding of the interpolation: a hair of
@@ -473,8 +473,8 @@ chan_of(struct pm_rgb c, int i)
 static inline struct pm_rgb
 null_ratio(struct pm_rgb st, float maj)
 {
-	return pm_rgb(fmaxf(0.0f, 1.0f - st.r / maj),
-	    fmaxf(0.0f, 1.0f - st.g / maj), fmaxf(0.0f, 1.0f - st.b / maj));
+	return pm_rgb(pm_fmaxf(0.0f, 1.0f - st.r / maj),
+	    pm_fmaxf(0.0f, 1.0f - st.g / maj), pm_fmaxf(0.0f, 1.0f - st.b / maj));
 }
 
 void
@@ -582,9 +582,9 @@ pm_medium_transmittance_ray(const struct pm_medium *m, struct pm_vec3 o,
 			/* sigma_t is never below the control but for
 			 * rounding (and a point rounded out of the box,
 			 * where it reads 0): such a ratio stays 1 */
-			tr = pm_rgb_mul(tr, null_ratio(pm_rgb(fmaxf(0.0f,
-			    st.r - ctl.r), fmaxf(0.0f, st.g - ctl.g),
-			    fmaxf(0.0f, st.b - ctl.b)), maj));
+			tr = pm_rgb_mul(tr, null_ratio(pm_rgb(pm_fmaxf(0.0f,
+			    st.r - ctl.r), pm_fmaxf(0.0f, st.g - ctl.g),
+			    pm_fmaxf(0.0f, st.b - ctl.b)), maj));
 			/* Russian roulette once little is left (weights 1/q
 			 * keep the estimate unbiased). */
 			mx = pm_rgb_max(tr);

@@ -126,7 +126,7 @@ void
 pm_merl_index(float theta_h, float theta_d, float phi_d, int *ith, int *itd,
     int *ipd)
 {
-	*ith = clampi(sqrtf(fmaxf(theta_h, 0.0f) * (float)(1.0 / HALF_PI)) *
+	*ith = clampi(sqrtf(pm_fmaxf(theta_h, 0.0f) * (float)(1.0 / HALF_PI)) *
 	    PM_MERL_NTH, PM_MERL_NTH);
 	*itd = clampi(theta_d * (float)(PM_MERL_NTD / HALF_PI), PM_MERL_NTD);
 	*ipd = clampi(phi_d * (float)(PM_MERL_NPD / (2.0 * HALF_PI)),
@@ -328,15 +328,15 @@ pm_merl_sample(const struct pm_merl *m, struct pm_vec3 wi, float u1,
 		rc = m->row_cdf + (size_t)k * (PM_MERL_NTH + 1);
 		i = find(rc, PM_MERL_NTH + 1, u2);
 		w = rc[i + 1] - rc[i];
-		u2 = w > 0.0f ? fminf((u2 - rc[i]) / w, 0x1.fffffep-1f) : 0.5f;
+		u2 = w > 0.0f ? pm_fminf((u2 - rc[i]) / w, 0x1.fffffep-1f) : 0.5f;
 		cc = m->col_cdf + cell(k, i);
 		j = find(cc, PM_MERL_NPH + 1, u3);
 		w = cc[j + 1] - cc[j];
-		u3 = w > 0.0f ? fminf((u3 - cc[j]) / w, 0x1.fffffep-1f) : 0.5f;
+		u3 = w > 0.0f ? pm_fminf((u3 - cc[j]) / w, 0x1.fffffep-1f) : 0.5f;
 		/* uniform in solid angle within the cell: 1 - cos theta
 		 * uniform, kept as such for precision near the pole */
 		x = m->edge_omc[i] + u2 * (m->edge_omc[i + 1] - m->edge_omc[i]);
-		sin_t = sqrtf(fmaxf(x * (2.0f - x), 0.0f));
+		sin_t = sqrtf(pm_fmaxf(x * (2.0f - x), 0.0f));
 		phi = ((float)j + u3) * (2.0f * PM_PI / PM_MERL_NPH);
 		hx = sin_t * cosf(phi);
 		hy = sin_t * sinf(phi);

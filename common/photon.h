@@ -59,7 +59,7 @@ enum {
  * u = 0.5 rounds to nearest.
  */
 /* A dithered channel x = c * m + u to a byte: floor for x >= 0 (truncation
- * is floor there), 0 for x < 0 or NaN, 255 at most; fminf(fmaxf(floorf()))
+ * is floor there), 0 for x < 0 or NaN, 255 at most; pm_fminf(pm_fmaxf(floorf()))
  * bit for bit, without the three libm calls. */
 static inline uint8_t pm_rgbe_chan(float x)
 {
@@ -124,8 +124,8 @@ static inline void pm_dir_pack(struct pm_vec3 d, uint8_t out[2])
 		u = tu;
 		v = tv;
 	}
-	out[0] = (uint8_t)fminf(fmaxf((u * 0.5f + 0.5f) * 255.0f + 0.5f, 0.0f), 255.0f);
-	out[1] = (uint8_t)fminf(fmaxf((v * 0.5f + 0.5f) * 255.0f + 0.5f, 0.0f), 255.0f);
+	out[0] = (uint8_t)pm_fminf(pm_fmaxf((u * 0.5f + 0.5f) * 255.0f + 0.5f, 0.0f), 255.0f);
+	out[1] = (uint8_t)pm_fminf(pm_fmaxf((v * 0.5f + 0.5f) * 255.0f + 0.5f, 0.0f), 255.0f);
 }
 
 static inline struct pm_vec3 pm_dir_unpack(const uint8_t in[2])

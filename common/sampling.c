@@ -26,7 +26,7 @@ struct pm_vec3
 pm_square_to_uniform_hemisphere(float u1, float u2)
 {
 	float z = u1;
-	float r = sqrtf(fmaxf(0.0f, 1.0f - z * z));
+	float r = sqrtf(pm_fmaxf(0.0f, 1.0f - z * z));
 	float phi = 2.0f * PM_PI * u2;
 
 	return pm_v3(r * cosf(phi), r * sinf(phi), z);
@@ -44,7 +44,7 @@ struct pm_vec3
 pm_square_to_uniform_sphere(float u1, float u2)
 {
 	float z = 1.0f - 2.0f * u1;
-	float r = sqrtf(fmaxf(0.0f, 1.0f - z * z));
+	float r = sqrtf(pm_fmaxf(0.0f, 1.0f - z * z));
 	float phi = 2.0f * PM_PI * u2;
 
 	return pm_v3(r * cosf(phi), r * sinf(phi), z);
@@ -66,7 +66,7 @@ pm_square_to_uniform_cone(float u1, float u2, float cos_max)
 {
 	float one_minus_z = u1 * (1.0f - cos_max);
 	float z = 1.0f - one_minus_z;
-	float r = sqrtf(fmaxf(0.0f, one_minus_z * (2.0f - one_minus_z)));
+	float r = sqrtf(pm_fmaxf(0.0f, one_minus_z * (2.0f - one_minus_z)));
 	float phi = 2.0f * PM_PI * u2;
 
 	return pm_v3(r * cosf(phi), r * sinf(phi), z);

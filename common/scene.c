@@ -195,8 +195,8 @@ scene_bsphere(struct pm_scene *s)
 			float c[3] = {sh->center.x, sh->center.y, sh->center.z};
 
 			for (a = 0; a < 3; a++) {
-				lo[a] = fminf(lo[a], c[a] - sh->radius);
-				hi[a] = fmaxf(hi[a], c[a] + sh->radius);
+				lo[a] = pm_fminf(lo[a], c[a] - sh->radius);
+				hi[a] = pm_fmaxf(hi[a], c[a] + sh->radius);
 			}
 			continue;
 		}
@@ -206,8 +206,8 @@ scene_bsphere(struct pm_scene *s)
 				    (size_t)sh->mesh.idx[3 * t + (size_t)k]];
 
 				for (a = 0; a < 3; a++) {
-					lo[a] = fminf(lo[a], p[a]);
-					hi[a] = fmaxf(hi[a], p[a]);
+					lo[a] = pm_fminf(lo[a], p[a]);
+					hi[a] = pm_fmaxf(hi[a], p[a]);
 				}
 			}
 	}

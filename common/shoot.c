@@ -241,12 +241,12 @@ pm_shooter_init(struct pm_shooter *sh, const struct pm_scene *s,
 			for (v = 1; v < shp->mesh.nverts; v++) {
 				struct pm_vec3 p = pm_mesh_vertex(&shp->mesh, v);
 
-				lo = pm_v3(fminf(lo.x, p.x), fminf(lo.y, p.y), fminf(lo.z, p.z));
-				hi = pm_v3(fmaxf(hi.x, p.x), fmaxf(hi.y, p.y), fmaxf(hi.z, p.z));
+				lo = pm_v3(pm_fminf(lo.x, p.x), pm_fminf(lo.y, p.y), pm_fminf(lo.z, p.z));
+				hi = pm_v3(pm_fmaxf(hi.x, p.x), pm_fmaxf(hi.y, p.y), pm_fmaxf(hi.z, p.z));
 			}
 			c = pm_scale(pm_add(lo, hi), 0.5f);
 			for (v = 0; v < shp->mesh.nverts; v++)
-				r = fmaxf(r, pm_length(pm_sub(pm_mesh_vertex(&shp->mesh, v), c)));
+				r = pm_fmaxf(r, pm_length(pm_sub(pm_mesh_vertex(&shp->mesh, v), c)));
 		}
 		/* A little margin so that rounding never leaves a sliver out. */
 		sh->aim_center[sh->naim] = c;
@@ -325,7 +325,7 @@ light_medium(const struct pm_shooter *sh, size_t li)
 			return s->shapes[l->shape].exterior - 1;
 		sample_shape_point(sh, (int)li, 0.5f, 0.5f, &p, &ng, &ns, &lh);
 		return medium_at(s, sh->accel, pm_madd(p, ng,
-		    1e-4f * fmaxf(s->radius, 1e-3f)));
+		    1e-4f * pm_fmaxf(s->radius, 1e-3f)));
 	default:
 		return -1;
 	}
@@ -342,7 +342,7 @@ aim_cos(const struct pm_shooter *sh, int j, struct pm_vec3 x, struct pm_vec3 *ax
 	if (dist <= r)
 		return -1.0f;
 	s = r / dist;
-	return sqrtf(fmaxf(0.0f, 1.0f - s * s));
+	return sqrtf(pm_fmaxf(0.0f, 1.0f - s * s));
 }
 
 /* Density of the aiming mixture for direction w leaving x. */
@@ -532,7 +532,7 @@ emit(const struct pm_shooter *sh, enum pm_map_pass pass, struct pm_rng *rng,
 		} else {
 			w = pm_to_world(pm_frame_from_normal(ng),
 			    pm_square_to_cosine_hemisphere(u3, u4));
-			pdf_dir = fmaxf(pm_dot(w, ng), 0.0f) * PM_INV_PI;
+			pdf_dir = pm_fmaxf(pm_dot(w, ng), 0.0f) * PM_INV_PI;
 		}
 		if (pm_dot(w, ng) <= 0.0f || pm_dot(w, ns) <= 0.0f || pdf_dir <= 0.0f)
 			return false;
@@ -708,7 +708,7 @@ medium_flight(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 		return 0;
 	/* Russian roulette on the scatter's weight (the albedo, in a grey
 	 * medium), as at a surface. */
-	q = fminf(pm_rgb_max(w), 1.0f);
+	q = pm_fminf(pm_rgb_max(w), 1.0f);
 	if (!(q > 0.0f) || pm_rng_float(rng) >= q)
 		return 0;
 	*flux = pm_rgb_scale(*flux, 1.0f / q);
@@ -820,7 +820,7 @@ trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 			break;
 		/* Russian roulette: survive with the probability the surface
 		 * scatters this photon, so survivors keep their flux. */
-		q = fminf(pm_rgb_max(bs.weight), 1.0f);
+		q = pm_fminf(pm_rgb_max(bs.weight), 1.0f);
 		if (!(q > 0.0f) || pm_rng_float(&rng) >= q)
 			break;
 		flux = pm_rgb_scale(pm_rgb_mul(flux, bs.weight), 1.0f / q);

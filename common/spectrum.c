@@ -222,13 +222,13 @@ finish(double xyz[3], bool bounded, bool *clamped)
 	if (bounded && (c.r > 1.0f || c.g > 1.0f || c.b > 1.0f))
 		cl = true;
 	if (cl) {
-		c.r = fmaxf(c.r, 0.0f);
-		c.g = fmaxf(c.g, 0.0f);
-		c.b = fmaxf(c.b, 0.0f);
+		c.r = pm_fmaxf(c.r, 0.0f);
+		c.g = pm_fmaxf(c.g, 0.0f);
+		c.b = pm_fmaxf(c.b, 0.0f);
 		if (bounded) {
-			c.r = fminf(c.r, 1.0f);
-			c.g = fminf(c.g, 1.0f);
-			c.b = fminf(c.b, 1.0f);
+			c.r = pm_fminf(c.r, 1.0f);
+			c.g = pm_fminf(c.g, 1.0f);
+			c.b = pm_fminf(c.b, 1.0f);
 		}
 	}
 	if (clamped != NULL)

@@ -328,7 +328,7 @@ pm_hit_uv(const struct pm_scene *s, const struct pm_hit *h, float *u, float *v)
 			l = d;
 		r = pm_length(l);
 		ct = r > 0.0f ? l.z / r : 1.0f;
-		ct = fminf(fmaxf(ct, -1.0f), 1.0f);
+		ct = pm_fminf(pm_fmaxf(ct, -1.0f), 1.0f);
 		phi = atan2f(l.y, l.x);
 		if (phi < 0.0f)
 			phi += 2.0f * PM_PI;

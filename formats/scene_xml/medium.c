@@ -160,14 +160,14 @@ volume_range(const struct pm_volume *v, float *lo, float *hi)
 	    (size_t)v->grid.nz * (size_t)v->grid.nch;
 
 	if (v->grid.data == NULL) {
-		*lo = fminf(v->value.r, fminf(v->value.g, v->value.b));
-		*hi = fmaxf(v->value.r, fmaxf(v->value.g, v->value.b));
+		*lo = pm_fminf(v->value.r, pm_fminf(v->value.g, v->value.b));
+		*hi = pm_fmaxf(v->value.r, pm_fmaxf(v->value.g, v->value.b));
 		return;
 	}
 	*lo = *hi = v->grid.data[0];
 	for (i = 1; i < nv; i++) {
-		*lo = fminf(*lo, v->grid.data[i]);
-		*hi = fmaxf(*hi, v->grid.data[i]);
+		*lo = pm_fminf(*lo, v->grid.data[i]);
+		*hi = pm_fmaxf(*hi, v->grid.data[i]);
 	}
 }
 
@@ -238,10 +238,10 @@ build_hetero(struct ld *ld, struct xnode *n, struct plist *pl,
 		struct pm_vec3 q = pm_xform_point(&to_world, pm_v3((float)(c & 1),
 		    (float)(c >> 1 & 1), (float)(c >> 2 & 1)));
 
-		h->lo = pm_v3(fminf(h->lo.x, q.x), fminf(h->lo.y, q.y),
-		    fminf(h->lo.z, q.z));
-		h->hi = pm_v3(fmaxf(h->hi.x, q.x), fmaxf(h->hi.y, q.y),
-		    fmaxf(h->hi.z, q.z));
+		h->lo = pm_v3(pm_fminf(h->lo.x, q.x), pm_fminf(h->lo.y, q.y),
+		    pm_fminf(h->lo.z, q.z));
+		h->hi = pm_v3(pm_fmaxf(h->hi.x, q.x), pm_fmaxf(h->hi.y, q.y),
+		    pm_fmaxf(h->hi.z, q.z));
 	}
 	if (!pm_hetero_prepare(h))
 		return sx_nomem(ld);
