@@ -13,7 +13,10 @@
  * densities, stratified over the n points).  At each point
  *   - single scattering (light that arrives straight from an emitter,
  *     through media and index-matched boundaries) is computed exactly
- *     by a light sample, as the path tracer's next-event estimation;
+ *     by a light sample, as the path tracer's next-event estimation,
+ *     here and at a second point drawn by equiangular sampling toward
+ *     a light point (equi_scatter), the two weighted by the balance
+ *     heuristic;
  *   - everything else (multiple scattering, light from surfaces,
  *     volumetric caustics through glass) comes from the volume photon
  *     map: the photons of depth >= 1 among the k nearest (or, in a

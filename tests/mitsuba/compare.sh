@@ -34,7 +34,7 @@
 # (1000000 global and as many caustic photon paths per map) for the
 # photon-mapped renders, PM_THREADS (pm-render's -t, unset: its default),
 # MEDIA_PHOTON_SPP (pm-render's spp for fog-box, glass-medium and
-# spot-haze in photon mode, PM_SPP / 4 unset, 16 for spot-haze),
+# spot-haze in photon mode, PM_SPP / 4 unset, 64 for spot-haze),
 # SPOT_RES (128), SPOT_MITSUBA_SPP (4096) and SPOT_PM_SPP (1024, path
 # mode) for spot-haze,
 # MITSUBA_VARIANT, PM_VENV (build/venv), SMOKE_MITSUBA_SPP (smoke's
@@ -332,7 +332,7 @@ PM_SPP=$_pm_spp
 # they failed the block test in every dim block that held one.  So this
 # scene is checked at 128x128 (SPOT_RES) with 4096 spp per Mitsuba render
 # (SPOT_MITSUBA_SPP), pm's path mode with 1024 (SPOT_PM_SPP) and its
-# photon mode with MEDIA_PHOTON_SPP (16 unset); the photon check reuses
+# photon mode with MEDIA_PHOTON_SPP (64 unset); the photon check reuses
 # the path check's Mitsuba renders (the cache).
 if [ -f data/spot-haze.xml ]; then
 	_res=$RES _mi_spp=$MI_SPP _pm_spp=$PM_SPP
@@ -340,7 +340,7 @@ if [ -f data/spot-haze.xml ]; then
 	MI_SPP=${SPOT_MITSUBA_SPP:-4096}
 	PM_SPP=${SPOT_PM_SPP:-1024}
 	run spot-haze data/spot-haze.xml
-	PM_SPP=${MEDIA_PHOTON_SPP:-16}
+	PM_SPP=${MEDIA_PHOTON_SPP:-64}
 	[ "$selftest" = 0 ] && wanted spot-haze-photon &&
 	    against spot-haze-photon data/spot-haze.xml photon
 	RES=$_res MI_SPP=$_mi_spp PM_SPP=$_pm_spp
