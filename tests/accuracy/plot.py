@@ -251,7 +251,7 @@ def main(argv):
                           r["volume_photons"], r["map_bytes"] / 1024.0,
                           r["volume_bytes"] / 1024.0, r["shoot_s"],
                           r["balance_s"], r["render_s"],
-                          r.get("render_maxrss_kb", 0) / 1024.0))
+                          (r.get("render_maxrss_kb") or 0) / 1024.0))
         md.append("")
     floors = {}
     for r in runs:

@@ -32,6 +32,7 @@ import os
 import shutil
 import subprocess
 import sys
+import tempfile
 import time
 
 import numpy as np
@@ -113,18 +114,30 @@ def sh(cmd):
 
 
 def sh_rss(cmd):
-    """Runs cmd (a list) with its output discarded; returns (wall time,
-    peak resident memory of that process in KiB, from wait4); raises on
-    failure."""
+    """Runs cmd (a list); returns (wall time, peak resident memory of that
+    process in KiB, or None).  The peak comes from GNU time (-f %M): the
+    kernel's own (wait4's ru_maxrss) keeps, across exec, the high-water
+    mark of the forked Python that holds Mitsuba (~110 MiB), so it would
+    report that instead of pm-render's."""
+    gtime = "/usr/bin/time"
+    have = os.access(gtime, os.X_OK)
+    fd, rss = tempfile.mkstemp(prefix="study-rss-")
+    os.close(fd)
     t0 = time.perf_counter()
-    p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL,
-                         stderr=subprocess.DEVNULL)
-    _, status, ru = os.wait4(p.pid, 0)
+    r = subprocess.run(([gtime, "-f", "%M", "-o", rss] if have else []) +
+                       cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     dt = time.perf_counter() - t0
-    p.returncode = os.waitstatus_to_exitcode(status)
-    if p.returncode != 0:
-        raise RuntimeError("%s: exit %d" % (" ".join(cmd), p.returncode))
-    return dt, ru.ru_maxrss
+    kb = None
+    try:
+        with open(rss) as f:
+            kb = int(f.read().split()[-1])
+    except (OSError, ValueError, IndexError):
+        kb = None
+    os.remove(rss)
+    if r.returncode != 0:
+        raise RuntimeError("%s: exit %d: %s" % (" ".join(cmd), r.returncode,
+                                                r.stderr.decode()[-2000:]))
+    return dt, kb
 
 
 def file_hash(paths):
