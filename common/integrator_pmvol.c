@@ -13,7 +13,10 @@
  * densities, stratified over the n points).  At each point
  *   - single scattering (light that arrives straight from an emitter,
  *     through media and index-matched boundaries) is computed exactly
- *     by a light sample, as the path tracer's next-event estimation;
+ *     by a light sample, as the path tracer's next-event estimation,
+ *     here and at a second point drawn by equiangular sampling toward
+ *     a light point (equi_scatter), the two weighted by the balance
+ *     heuristic;
  *   - everything else (multiple scattering, light from surfaces,
  *     volumetric caustics through glass) comes from the volume photon
  *     map: the photons of depth >= 1 among the k nearest (or, in a
@@ -146,8 +149,8 @@ beam_meets(const struct beam *b, const struct box *bx)
 			ta = tb;
 			tb = t;
 		}
-		t0 = fmaxf(t0, ta);
-		t1 = fminf(t1, tb);
+		t0 = pm_fmaxf(t0, ta);
+		t1 = pm_fminf(t1, tb);
 		if (t0 > t1)
 			return false;
 	}
@@ -227,19 +230,37 @@ pm_volume_beam_estimate(const struct pm_photon_maps *m,
 	    (float)(b.sum[2] * w));
 }
 
-/* Single scattering at p toward -d: one light sample, through media. */
+/* Single scattering at p toward -d: one light sample, through media.
+ * With y, the light point sampled (when it lies at a finite distance,
+ * else *finite false), for equiangular sampling's weight; u, when not
+ * NULL, the light sample's three numbers instead of fresh ones. */
 static struct pm_rgb
 single_scatter(const struct pm_render_ctx *ctx, int medium, struct pm_vec3 p,
-    struct pm_vec3 d, struct pm_rng *rng)
+    struct pm_vec3 d, struct pm_rng *rng, const float *u, struct pm_vec3 *y,
+    bool *finite)
 {
 	const struct pm_medium *m = &ctx->scene->media[medium];
 	struct pm_light_sample ls;
 	struct pm_rgb tr;
-	float u0 = pm_rng_float(rng), u1 = pm_rng_float(rng);
-	float u2 = pm_rng_float(rng), ph;
+	float u0, u1, u2, ph;
 
+	if (u != NULL) {
+		u0 = u[0];
+		u1 = u[1];
+		u2 = u[2];
+	} else {
+		u0 = pm_rng_float(rng);
+		u1 = pm_rng_float(rng);
+		u2 = pm_rng_float(rng);
+	}
+	if (finite != NULL)
+		*finite = false;
 	if (!pm_lights_sample(ctx->lights, ctx->scene, p, u0, u1, u2, &ls))
 		return pm_rgb1(0.0f);
+	if (finite != NULL && isfinite(ls.dist)) {
+		*finite = true;
+		*y = ls.p;
+	}
 	ph = pm_phase_eval(&m->phase, d, ls.wi);
 	if (!(ph > 0.0f))
 		return pm_rgb1(0.0f);
@@ -396,13 +417,143 @@ hetero_inscatter(const struct pm_render_ctx *ctx, int medium,
 		    st.g > 0.0f ? ms.pdf.g / (st.g * q) : 0.0f,
 		    st.b > 0.0f ? ms.pdf.b / (st.b * q) : 0.0f);
 		Ls = pm_rgb_mul(pm_rgb_mul(st, pm_medium_albedo_at(m, p)),
-		    single_scatter(ctx, medium, p, d, rng));
+		    single_scatter(ctx, medium, p, d, rng, NULL, NULL, NULL));
 		if (dcap != 0)
 			Ls = pm_rgb_add(Ls, hetero_map_estimate(maps, m, p, d,
 			    dcap));
 		L = pm_rgb_madd(L, w, Ls);
 	}
 	return pm_rgb_scale(L, 1.0f / (float)n);
+}
+
+/*
+ * Equiangular sampling (Kulla and Fajardo 2012) of a point on the segment
+ * [a, b] of the ray o + t d toward a light point y: density proportional
+ * to 1 / |y - x(t)|^2, which follows the 1 / r^2 of single scattering from
+ * a small light.  Transmittance sampling alone puts the segment's one
+ * point anywhere along a camera ray that crosses a narrow beam; this puts
+ * it near the lamp.  The two are combined by the balance heuristic.
+ */
+struct equi {
+	float tc, h, th0, th1;	/* foot of y on the ray, distance, angles */
+};
+
+static bool
+equi_setup(struct pm_vec3 o, struct pm_vec3 d, float a, float b,
+    struct pm_vec3 y, struct equi *e)
+{
+	struct pm_vec3 v = pm_sub(y, o);
+
+	if (!isfinite(b) || !(b > a))
+		return false;
+	e->tc = pm_dot(v, d);
+	e->h = pm_length(pm_sub(v, pm_scale(d, e->tc)));
+	/* on the ray's line: the density is a delta, no use */
+	if (!(e->h > 1e-5f * (b - a)))
+		return false;
+	e->th0 = atan2f(a - e->tc, e->h);
+	e->th1 = atan2f(b - e->tc, e->h);
+	return e->th1 > e->th0;
+}
+
+static inline float
+equi_sample(const struct equi *e, float u)
+{
+	return e->tc + e->h * tanf(e->th0 + u * (e->th1 - e->th0));
+}
+
+static inline float
+equi_pdf(const struct equi *e, float t)
+{
+	float x = t - e->tc;
+
+	return e->h / ((e->th1 - e->th0) * (e->h * e->h + x * x));
+}
+
+/* The light point that pm_lights_sample picks with u, whatever the
+ * reference point (area lights are sampled by area, point lights are one
+ * point); false for lights at infinity. */
+static bool
+light_point(const struct pm_render_ctx *ctx, struct pm_vec3 ref,
+    const float *u, struct pm_vec3 *y)
+{
+	struct pm_light_sample ls;
+	const struct pm_light *l;
+
+	ls.light = -1;
+	ls.dist = INFINITY;
+	(void)pm_lights_sample(ctx->lights, ctx->scene, ref, u[0], u[1], u[2],
+	    &ls);
+	if (ls.light < 0)
+		return false;
+	l = &ctx->scene->lights[ls.light];
+	switch (l->type) {
+	case PM_LIGHT_AREA:
+		*y = ls.p;
+		return true;
+	case PM_LIGHT_POINT:
+	case PM_LIGHT_SPOT:
+	case PM_LIGHT_PROJECTOR:
+		*y = l->position;
+		return true;
+	default:
+		return false;
+	}
+}
+
+/* The transmittance sampler's density at t (from the segment's start):
+ * the mixture of the channels' truncated exponentials, as
+ * pm_volume_inscatter draws it. */
+static float
+tr_pdf(const struct pm_medium *m, const float *norm, float s, float t)
+{
+	float pdf = 0.0f;
+	int c;
+
+	for (c = 0; c < 3; c++) {
+		float sk = chan(m->sigma_t, c);
+
+		if (sk > 0.0f && norm[c] > 0.0f)
+			pdf += sk * expf(-sk * t) / norm[c];
+		else if (isfinite(s))
+			pdf += 1.0f / s;
+	}
+	return pdf / 3.0f;
+}
+
+/* Single scattering at one point of the segment drawn by equiangular
+ * sampling about a light point, balance-weighted against transmittance
+ * sampling; black where the light is at infinity or the segment is. */
+static struct pm_rgb
+equi_scatter(const struct pm_render_ctx *ctx, int medium, struct pm_vec3 o,
+    struct pm_vec3 d, float tmin, float t_end, const float *norm,
+    struct pm_rng *rng)
+{
+	const struct pm_medium *m = &ctx->scene->media[medium];
+	float u[3], ut = pm_rng_float(rng), t, pe, pt;
+	struct pm_vec3 y, p;
+	struct equi e;
+	struct pm_rgb f;
+
+	u[0] = pm_rng_float(rng);
+	u[1] = pm_rng_float(rng);
+	u[2] = pm_rng_float(rng);
+	if (!light_point(ctx, o, u, &y) || !equi_setup(o, d, tmin, t_end, y, &e))
+		return pm_rgb1(0.0f);
+	t = equi_sample(&e, ut);
+	if (!(t >= tmin && t <= t_end))
+		return pm_rgb1(0.0f);
+	pe = equi_pdf(&e, t);
+	pt = tr_pdf(m, norm, t_end - tmin, t - tmin);
+	if (!(pe > 0.0f))
+		return pm_rgb1(0.0f);
+	p = pm_madd(o, d, t);
+	f = single_scatter(ctx, medium, p, d, rng, u, NULL, NULL);
+	if (pm_rgb_is_black(f))
+		return f;
+	f = pm_rgb_mul(f, pm_rgb_mul(pm_rgb_mul(m->sigma_t, m->albedo),
+	    pm_medium_transmittance(m, t - tmin)));
+	return pm_rgb_scale(f, 1.0f / (pe + pt));
 }
 
 struct pm_rgb
@@ -449,7 +600,7 @@ pm_volume_inscatter(const struct pm_render_ctx *ctx, int medium,
 			t = u * s;	/* clear channel: uniform */
 		else
 			continue;
-		t = fminf(t, s);
+		t = pm_fminf(t, s);
 		for (c = 0; c < 3; c++) {
 			float sk = chan(m->sigma_t, c);
 
@@ -463,11 +614,26 @@ pm_volume_inscatter(const struct pm_render_ctx *ctx, int medium,
 			continue;
 		w = pm_rgb_scale(pm_medium_transmittance(m, t), 1.0f / pdf);
 		p = pm_madd(o, d, tmin + t);
-		Ls = pm_rgb_mul(sigma_s, single_scatter(ctx, medium, p, d, rng));
+		{
+			/* single scattering here, weighted against the
+			 * equiangular sample about its light point */
+			struct pm_vec3 y;
+			struct equi e;
+			bool fin;
+			float pe = 0.0f;
+
+			Ls = pm_rgb_mul(sigma_s, single_scatter(ctx, medium, p,
+			    d, rng, NULL, &y, &fin));
+			if (fin && equi_setup(o, d, tmin, t_end, y, &e))
+				pe = equi_pdf(&e, tmin + t);
+			Ls = pm_rgb_scale(Ls, pdf / (pdf + pe));
+		}
 		if (dcap != 0 && !maps->volume_beam)
 			Ls = pm_rgb_add(Ls, pm_volume_map_estimate(maps,
 			    &m->phase, p, d, dcap));
 		L = pm_rgb_madd(L, w, Ls);
+		L = pm_rgb_add(L, equi_scatter(ctx, medium, o, d, tmin, t_end,
+		    norm, rng));
 	}
 	L = pm_rgb_scale(L, 1.0f / (float)n);
 	if (dcap != 0 && maps->volume_beam)

@@ -4,7 +4,8 @@
 #                        at 128x128 (about 10 minutes on 2 cores, cached
 #                        in build/mitsuba-cache/ by the scenes' content)
 #   make accuracy        the study: pm's knobs swept on cornell-box,
-#                        caustics and bunny-glass, each stage timed, error
+#                        caustics, bunny-glass, bunny and spot-haze (media,
+#                        against Mitsuba's volpath), each stage timed, error
 #                        against the references; Mitsuba 3's path tracer at
 #                        the same budgets; the plots under docs/accuracy/
 #                        and the tables in out/accuracy/summary.md (about

@@ -31,7 +31,8 @@ METHODS = [
     ("pm", "pm, one knob moved", "tab:blue", "o"),
     ("pm-global-map", "pm, global map shown directly (v1)", "tab:gray", "v"),
     ("pm-progressive", "pm, progressive passes", "tab:orange", "^"),
-    ("mitsuba-path", "Mitsuba 3 path tracer", "tab:red", "D"),
+    ("mitsuba-path", "Mitsuba 3 path tracer (volpath in media)", "tab:red",
+     "D"),
 ]
 NAMES = {m[0]: m[1] for m in METHODS}
 THRESHOLDS = (0.01, 0.001)
@@ -232,6 +233,26 @@ def main(argv):
                       "%.3f" % r["flip"] if "flip" in r else "-",
                       100 * r["mean_err"]))
     md.append("")
+    # What the volume map costs (scenes with media): pm's documented
+    # defaults at each spp, the map's photons and bytes, pm-render's peak
+    # memory.
+    vol = [r for r in runs if r.get("volume_photons") and
+           r["method"] == "pm-recommended"]
+    if vol:
+        md.append("### What the volume map costs\n")
+        md.append("| scene | run | photons in all | volume photons | "
+                  "map file, KiB | volume map in memory, KiB | shoot, s | "
+                  "balance, s | render, s | pm-render peak memory, MiB |")
+        md.append("|---|---|---|---|---|---|---|---|---|---|")
+        for r in vol:
+            md.append("| %s | %s | %d | %d | %.0f | %.0f | %.2f | %.2f | "
+                      "%.2f | %.1f |" % (
+                          r["scene"], r["label"], r["photons"],
+                          r["volume_photons"], r["map_bytes"] / 1024.0,
+                          r["volume_bytes"] / 1024.0, r["shoot_s"],
+                          r["balance_s"], r["render_s"],
+                          (r.get("render_maxrss_kb") or 0) / 1024.0))
+        md.append("")
     floors = {}
     for r in runs:
         floors[r["scene"]] = r["floor"]

@@ -54,6 +54,7 @@ spp_for() {
 	bunny-glass) d=16384 ;;
 	cornell-box) d=3072 ;;
 	bunny) d=4096 ;;
+	spot-haze) d=16384 ;;
 	*) d=${REF_SPP:-512} ;;
 	esac
 	v=$(eval "printf '%s' \"\${REF_SPP_$(printf '%s' "$1" | tr -c 'A-Za-z0-9\n' _):-}\"")
