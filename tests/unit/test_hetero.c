@@ -45,6 +45,7 @@
 #include "../../formats/file.h"
 #include "../../formats/scene_xml.h"
 #include "../../formats/vol.h"
+#include "tmpdir.h"
 
 static double
 chan(struct pm_rgb c, int i)
@@ -62,11 +63,11 @@ assert_within(double got, double want, double se, double k, const char *what)
 	assert_true(fabs(got - want) <= tol);
 }
 
-/* A temporary file name under /tmp, removed by the caller. */
+/* A grid file's name in the test's scratch directory (tmpdir.h). */
 static void
 tmp_name(char *buf, size_t n, const char *tag)
 {
-	snprintf(buf, n, "/tmp/pm-test-hetero-%ld-%s.vol", (long)getpid(), tag);
+	snprintf(buf, n, "%s/%s.vol", pm_test_dir, tag);
 }
 
 static struct pm_grid
@@ -956,5 +957,5 @@ main(void)
 		cmocka_unit_test(test_load),
 	};
 
-	return cmocka_run_group_tests(tests, NULL, NULL);
+	return cmocka_run_group_tests(tests, pm_tmpdir_setup, pm_tmpdir_teardown);
 }

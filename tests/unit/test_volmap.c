@@ -39,6 +39,7 @@
 #include "../../formats/scene_xml.h"
 #include "../../formats/vol.h"
 #include "stats.h"
+#include "tmpdir.h"
 
 #define PI 3.14159265358979323846
 
@@ -115,8 +116,7 @@ grid_volume(char *path, size_t npath, char *xml, size_t nxml, int nx,
 	g.nch = nch;
 	g.bbox[3] = g.bbox[4] = g.bbox[5] = 1.0f;
 	g.data = (float *)v;
-	snprintf(path, npath, "/tmp/pm-test-volmap-%ld-%d.vol",
-	    (long)getpid(), nx);
+	snprintf(path, npath, "%s/grid-%d.vol", pm_test_dir, nx);
 	assert_int_equal(pm_vol_write(path, &g, &err), PM_OK);
 	snprintf(xml, nxml, "<volume type=\"gridvolume\" name=\"sigma_t\">"
 	    "<string name=\"filename\" value=\"%s\"/>"
@@ -660,5 +660,5 @@ main(void)
 		cmocka_unit_test(test_inscatter_single_scattering),
 	};
 
-	return cmocka_run_group_tests(tests, NULL, NULL);
+	return cmocka_run_group_tests(tests, pm_tmpdir_setup, pm_tmpdir_teardown);
 }
