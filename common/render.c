@@ -185,6 +185,64 @@ camera_sample(const struct job *j, const struct strata *st, int x, int y,
  * rays fill Embree's packets, few enough to stay in the L1 cache. */
 #define PATH_CHUNK 64
 
+/* A chunked tile's sums: per pixel of the tile, the radiance and (with
+ * moments) its moments, and the samples dropped as non-finite. */
+struct tile_acc {
+	double acc[TILE * TILE][3], mom[TILE * TILE][6];
+	uint64_t dropped;
+};
+
+static void
+tile_acc_init(const struct job *j, struct tile_acc *t)
+{
+	memset(t->acc, 0, sizeof(t->acc));
+	if (j->moments)
+		memset(t->mom, 0, sizeof(t->mom));
+	t->dropped = 0;
+}
+
+static inline void
+tile_acc_add(const struct job *j, struct tile_acc *t, int slot,
+    struct pm_rgb L)
+{
+	if (!pm_rgb_is_finite(L)) {
+		t->dropped++;
+		return;
+	}
+	t->acc[slot][0] += L.r;
+	t->acc[slot][1] += L.g;
+	t->acc[slot][2] += L.b;
+	if (j->moments)
+		moment_add(t->mom[slot], L);
+}
+
+/* The tile's pixels into the image; dropped samples count as zero, as
+ * in render_tile. */
+static void
+tile_acc_store(struct job *j, const struct tile_acc *t, int x0, int y0,
+    int x1, int y1)
+{
+	const struct pm_camera *cam = j->cam;
+	int spp = j->opts->spp, x, y;
+
+	for (y = y0; y < y1; y++) {
+		for (x = x0; x < x1; x++) {
+			size_t pix = (size_t)y * (size_t)cam->width + (size_t)x;
+			float *dst = &j->out->rgb[3 * pix];
+			int slot = (y - y0) * TILE + (x - x0);
+			const double *a = t->acc[slot];
+
+			dst[0] = (float)(a[0] / spp);
+			dst[1] = (float)(a[1] / spp);
+			dst[2] = (float)(a[2] / spp);
+			if (j->moments)
+				moment_store(j, pix, t->mom[slot], spp);
+		}
+	}
+	if (t->dropped)
+		atomic_fetch_add(&j->dropped, t->dropped);
+}
+
 /* render_tile for the path tracer: the tile's samples, in the order
  * render_tile takes them, go to pm_path_li_batch in chunks, and each
  * pixel sums its own in sample order, so the image is the same bit for
@@ -196,13 +254,10 @@ render_tile_paths(struct job *j, struct strata *st, int x0, int y0, int x1,
 	const struct pm_camera *cam = j->cam;
 	struct pm_path_sample smp[PATH_CHUNK];
 	uint16_t slot[PATH_CHUNK];
-	double acc[TILE * TILE][3], mom[TILE * TILE][6];
+	struct tile_acc t;
 	int spp = j->opts->spp, x, y, i, n = 0, k;
-	uint64_t dropped = 0;
 
-	memset(acc, 0, sizeof(acc));
-	if (j->moments)
-		memset(mom, 0, sizeof(mom));
+	tile_acc_init(j, &t);
 	for (y = y0; y < y1; y++) {
 		for (x = x0; x < x1; x++) {
 			pixel_cells(j, (uint64_t)y * (uint64_t)cam->width +
@@ -217,41 +272,13 @@ render_tile_paths(struct job *j, struct strata *st, int x0, int y0, int x1,
 				    !(y == y1 - 1 && x == x1 - 1 && i == spp - 1))
 					continue;
 				pm_path_li_batch(j->ctx, smp, (size_t)n);
-				for (k = 0; k < n; k++) {
-					struct pm_rgb L = smp[k].L;
-
-					if (!pm_rgb_is_finite(L)) {
-						dropped++;
-						continue;
-					}
-					acc[slot[k]][0] += L.r;
-					acc[slot[k]][1] += L.g;
-					acc[slot[k]][2] += L.b;
-					if (j->moments)
-						moment_add(mom[slot[k]], L);
-				}
+				for (k = 0; k < n; k++)
+					tile_acc_add(j, &t, slot[k], smp[k].L);
 				n = 0;
 			}
 		}
 	}
-	for (y = y0; y < y1; y++) {
-		for (x = x0; x < x1; x++) {
-			float *dst = &j->out->rgb[3 * ((size_t)y *
-			    (size_t)cam->width + (size_t)x)];
-			const double *a = acc[(y - y0) * TILE + (x - x0)];
-
-			/* Dropped samples count as zero, as in render_tile. */
-			dst[0] = (float)(a[0] / spp);
-			dst[1] = (float)(a[1] / spp);
-			dst[2] = (float)(a[2] / spp);
-			if (j->moments)
-				moment_store(j, (size_t)y * (size_t)cam->width +
-				    (size_t)x, mom[(y - y0) * TILE + (x - x0)],
-				    spp);
-		}
-	}
-	if (dropped)
-		atomic_fetch_add(&j->dropped, dropped);
+	tile_acc_store(j, &t, x0, y0, x1, y1);
 }
 
 /*
@@ -274,13 +301,10 @@ render_tile_photon(struct job *j, struct strata *st, int x0, int y0, int x1,
 	struct pm_hit hit[PATH_CHUNK];
 	bool hitf[PATH_CHUNK];
 	uint16_t slot[PATH_CHUNK];
-	double acc[TILE * TILE][3], mom[TILE * TILE][6];
+	struct tile_acc t;
 	int spp = j->opts->spp, x, y, i, n = 0, k;
-	uint64_t dropped = 0;
 
-	memset(acc, 0, sizeof(acc));
-	if (j->moments)
-		memset(mom, 0, sizeof(mom));
+	tile_acc_init(j, &t);
 	for (y = y0; y < y1; y++) {
 		for (x = x0; x < x1; x++) {
 			pixel_cells(j, (uint64_t)y * (uint64_t)cam->width +
@@ -294,44 +318,16 @@ render_tile_photon(struct job *j, struct strata *st, int x0, int y0, int x1,
 					continue;
 				pm_accel_intersect_n(j->ctx->accel, ray, (size_t)n,
 				    hit, hitf);
-				for (k = 0; k < n; k++) {
-					struct pm_rgb L = pm_photon_li_px_hit(j->ctx,
-					    ray[k].o, ray[k].d, ray[k].tmin,
-					    ray[k].tmax, &cs[k], &rng[k], hitf[k],
-					    &hit[k]);
-
-					if (!pm_rgb_is_finite(L)) {
-						dropped++;
-						continue;
-					}
-					acc[slot[k]][0] += L.r;
-					acc[slot[k]][1] += L.g;
-					acc[slot[k]][2] += L.b;
-					if (j->moments)
-						moment_add(mom[slot[k]], L);
-				}
+				for (k = 0; k < n; k++)
+					tile_acc_add(j, &t, slot[k],
+					    pm_photon_li_px_hit(j->ctx, ray[k].o,
+					    ray[k].d, ray[k].tmin, ray[k].tmax,
+					    &cs[k], &rng[k], hitf[k], &hit[k]));
 				n = 0;
 			}
 		}
 	}
-	for (y = y0; y < y1; y++) {
-		for (x = x0; x < x1; x++) {
-			float *dst = &j->out->rgb[3 * ((size_t)y *
-			    (size_t)cam->width + (size_t)x)];
-			const double *a = acc[(y - y0) * TILE + (x - x0)];
-
-			/* Dropped samples count as zero, as in render_tile. */
-			dst[0] = (float)(a[0] / spp);
-			dst[1] = (float)(a[1] / spp);
-			dst[2] = (float)(a[2] / spp);
-			if (j->moments)
-				moment_store(j, (size_t)y * (size_t)cam->width +
-				    (size_t)x, mom[(y - y0) * TILE + (x - x0)],
-				    spp);
-		}
-	}
-	if (dropped)
-		atomic_fetch_add(&j->dropped, dropped);
+	tile_acc_store(j, &t, x0, y0, x1, y1);
 }
 
 static void
