@@ -347,6 +347,39 @@ done:
 /* --- Balancing --------------------------------------------------------- */
 
 /*
+ * American flag sort's pass: reorders p[0..n) into 256 buckets by byte
+ * `byte` of the records, in place; bucket b is [start[b], start[b + 1]).
+ */
+static void
+byte_partition(struct pm_photon *p, size_t n, size_t byte, size_t start[257])
+{
+	size_t count[256], next[256], i;
+	struct pm_photon t;
+	unsigned v;
+
+	memset(count, 0, sizeof(count));
+	for (i = 0; i < n; i++)
+		count[((const unsigned char *)&p[i])[byte]]++;
+	start[0] = 0;
+	for (i = 0; i < 256; i++) {
+		next[i] = start[i];
+		start[i + 1] = start[i] + count[i];
+	}
+	/* Each swap puts one record into its bucket for good. */
+	for (i = 0; i < 256; i++)
+		while (next[i] < start[i + 1]) {
+			v = ((const unsigned char *)&p[next[i]])[byte];
+			if (v == i) {
+				next[i]++;
+				continue;
+			}
+			t = p[next[v]];
+			p[next[v]++] = p[next[i]];
+			p[next[i]] = t;
+		}
+}
+
+/*
  * Sorts p[0..n) into the canonical order: by the bytes of the records
  * (split-axis bits already cleared), as memcmp orders them, looking only at
  * bytes [byte, 24) since the earlier ones are equal throughout.  An
@@ -357,10 +390,9 @@ done:
 static void
 canonical_sort(struct pm_photon *p, size_t n, size_t byte)
 {
-	size_t count[256], next[256], end[256], i, j, at;
+	size_t start[257], i, j;
 	const size_t len = sizeof(struct pm_photon);
 	struct pm_photon t;
-	unsigned v;
 
 	if (byte >= len)
 		return;
@@ -375,31 +407,11 @@ canonical_sort(struct pm_photon *p, size_t n, size_t byte)
 		}
 		return;
 	}
-	memset(count, 0, sizeof(count));
-	for (i = 0; i < n; i++)
-		count[((const unsigned char *)&p[i])[byte]]++;
-	for (at = 0, i = 0; i < 256; i++) {
-		next[i] = at;
-		at += count[i];
-		end[i] = at;
-	}
-	/* Each swap puts one record into its bucket for good. */
+	byte_partition(p, n, byte, start);
 	for (i = 0; i < 256; i++)
-		while (next[i] < end[i]) {
-			v = ((const unsigned char *)&p[next[i]])[byte];
-			if (v == i) {
-				next[i]++;
-				continue;
-			}
-			t = p[next[v]];
-			p[next[v]++] = p[next[i]];
-			p[next[i]] = t;
-		}
-	for (at = 0, i = 0; i < 256; i++) {
-		if (count[i] > 1)
-			canonical_sort(p + at, count[i], byte + 1);
-		at += count[i];
-	}
+		if (start[i + 1] - start[i] > 1)
+			canonical_sort(p + start[i], start[i + 1] - start[i],
+			    byte + 1);
 }
 
 /*
@@ -431,10 +443,9 @@ bucket_worker(void *arg)
 void
 pm_map_canonical_order(struct pm_map *m, int threads)
 {
-	struct pm_photon *p = m->photons, t;
-	size_t n = (size_t)m->count, count[256], next[256], i;
+	struct pm_photon *p = m->photons;
+	size_t n = (size_t)m->count, i;
 	struct bucket_sort bs;
-	unsigned v;
 
 	for (i = 0; i < n; i++)
 		p[i].flags &= (uint8_t)~PM_KD_AXIS_MASK;
@@ -444,25 +455,7 @@ pm_map_canonical_order(struct pm_map *m, int threads)
 		return;
 	}
 	/* canonical_sort's first pass, then its recursion on threads. */
-	memset(count, 0, sizeof(count));
-	for (i = 0; i < n; i++)
-		count[((const unsigned char *)&p[i])[0]]++;
-	bs.start[0] = 0;
-	for (i = 0; i < 256; i++) {
-		next[i] = bs.start[i];
-		bs.start[i + 1] = bs.start[i] + count[i];
-	}
-	for (i = 0; i < 256; i++)
-		while (next[i] < bs.start[i + 1]) {
-			v = ((const unsigned char *)&p[next[i]])[0];
-			if (v == i) {
-				next[i]++;
-				continue;
-			}
-			t = p[next[v]];
-			p[next[v]++] = p[next[i]];
-			p[next[i]] = t;
-		}
+	byte_partition(p, n, 0, bs.start);
 	bs.p = p;
 	atomic_init(&bs.next, 0);
 	pm_parallel(threads, bucket_worker, &bs);
