@@ -40,36 +40,64 @@ chan(struct pm_rgb c, int i)
 	return i == 0 ? c.r : i == 1 ? c.g : c.b;
 }
 
-struct pm_rgb
-pm_volume_map_estimate(const struct pm_photon_maps *m,
-    const struct pm_phase *ph, struct pm_vec3 p, struct pm_vec3 d,
-    int max_depth)
+/* One volume photon's phase-weighted power into sum; with a
+ * heterogeneous medium het, over sigma_s of het where the photon lies
+ * (hetero_map_estimate says why), photons where het does not scatter left
+ * out.  Depth-0 photons (single scattering, computed exactly) and those
+ * past max_depth are left out too. */
+static inline void
+volume_add(double sum[3], const struct pm_photon *x, const struct pm_phase *ph,
+    const struct pm_medium *het, struct pm_vec3 d, int max_depth)
 {
-	float q[3] = {p.x, p.y, p.z}, r2, w;
-	double sum[3] = {0, 0, 0};
+	struct pm_rgb c;
+	float w;
 
+	if (x->depth == 0 || (max_depth >= 0 && x->depth > max_depth))
+		return;
+	w = pm_phase_eval(ph, pm_dir_unpack(x->dir), d);
+	c = pm_rgbe_unpack(x->power);
+	if (het == NULL) {
+		sum[0] += (double)(c.r * w);
+		sum[1] += (double)(c.g * w);
+		sum[2] += (double)(c.b * w);
+	} else {
+		struct pm_vec3 y = pm_v3(x->pos[0], x->pos[1], x->pos[2]);
+		struct pm_rgb sy = pm_rgb_mul(pm_medium_sigma_t_at(het, y),
+		    pm_medium_albedo_at(het, y));
+
+		sum[0] += sy.r > 0.0f ? (double)(c.r * w / sy.r) : 0.0;
+		sum[1] += sy.g > 0.0f ? (double)(c.g * w / sy.g) : 0.0;
+		sum[2] += sy.b > 0.0f ? (double)(c.b * w / sy.b) : 0.0;
+	}
+}
+
+/*
+ * The volume map's photons about p, summed by volume_add: all within the
+ * fixed radius in a progressive pass, else the k nearest within the
+ * map's radius.  Returns the squared radius of the sphere they were
+ * gathered in, 0 when there is nothing to divide by; the caller divides
+ * the sum by its volume.
+ */
+static float
+volume_sum(const struct pm_photon_maps *m, const struct pm_phase *ph,
+    const struct pm_medium *het, struct pm_vec3 p, struct pm_vec3 d,
+    int max_depth, double sum[3])
+{
+	float q[3] = {p.x, p.y, p.z};
+
+	sum[0] = sum[1] = sum[2] = 0.0;
 	if (m->nvolume == 0 || !(m->volume_r2 > 0.0f))
-		return pm_rgb1(0.0f);
+		return 0.0f;
 	if (m->fixed_radius) {
 		struct pm_kd_range it;
 		uint32_t idx;
 		float d2;
 
-		r2 = m->volume_r2;
-		pm_kdtree_range_init(&it, m->volume, m->nvolume, q, r2, 0, 0);
-		while (pm_kdtree_range_next(&it, &idx, &d2)) {
-			const struct pm_photon *x = &m->volume[idx];
-			struct pm_rgb c;
-
-			if (x->depth == 0 || (max_depth >= 0 &&
-			    x->depth > max_depth))
-				continue;
-			w = pm_phase_eval(ph, pm_dir_unpack(x->dir), d);
-			c = pm_rgbe_unpack(x->power);
-			sum[0] += (double)(c.r * w);
-			sum[1] += (double)(c.g * w);
-			sum[2] += (double)(c.b * w);
-		}
+		pm_kdtree_range_init(&it, m->volume, m->nvolume, q,
+		    m->volume_r2, 0, 0);
+		while (pm_kdtree_range_next(&it, &idx, &d2))
+			volume_add(sum, &m->volume[idx], ph, het, d, max_depth);
+		return m->volume_r2;
 	} else {
 		struct pm_knn nb[PM_MAX_LOOKUP];
 		size_t found, i, k = (size_t)m->lookup_size;
@@ -81,22 +109,22 @@ pm_volume_map_estimate(const struct pm_photon_maps *m,
 		found = pm_kdtree_knn(m->volume, m->nvolume, q, k,
 		    m->volume_r2, 0, 0, nb);
 		if (found == 0)
-			return pm_rgb1(0.0f);
-		r2 = found == k ? nb[0].d2 : m->volume_r2;
-		for (i = 0; i < found; i++) {
-			const struct pm_photon *x = &m->volume[nb[i].idx];
-			struct pm_rgb c;
-
-			if (x->depth == 0 || (max_depth >= 0 &&
-			    x->depth > max_depth))
-				continue;
-			w = pm_phase_eval(ph, pm_dir_unpack(x->dir), d);
-			c = pm_rgbe_unpack(x->power);
-			sum[0] += (double)(c.r * w);
-			sum[1] += (double)(c.g * w);
-			sum[2] += (double)(c.b * w);
-		}
+			return 0.0f;
+		for (i = 0; i < found; i++)
+			volume_add(sum, &m->volume[nb[i].idx], ph, het, d,
+			    max_depth);
+		return found == k ? nb[0].d2 : m->volume_r2;
 	}
+}
+
+struct pm_rgb
+pm_volume_map_estimate(const struct pm_photon_maps *m,
+    const struct pm_phase *ph, struct pm_vec3 p, struct pm_vec3 d,
+    int max_depth)
+{
+	double sum[3];
+	float r2 = volume_sum(m, ph, NULL, p, d, max_depth, sum), w;
+
 	if (!(r2 > 0.0f))
 		return pm_rgb1(0.0f);
 	w = m->volume_scale / (4.0f / 3.0f * PM_PI * r2 * sqrtf(r2));
@@ -288,72 +316,16 @@ hetero_map_estimate(const struct pm_photon_maps *maps,
     const struct pm_medium *m, struct pm_vec3 p, struct pm_vec3 d,
     int max_depth)
 {
-	float q[3] = {p.x, p.y, p.z}, r2, w;
-	double sum[3] = {0, 0, 0};
 	struct pm_rgb ss;
-	uint32_t idx[PM_MAX_LOOKUP];
-	size_t found = 0, i;
+	double sum[3];
+	float r2, w;
 
 	if (maps->nvolume == 0 || !(maps->volume_r2 > 0.0f))
 		return pm_rgb1(0.0f);
 	ss = pm_rgb_mul(pm_medium_sigma_t_at(m, p), pm_medium_albedo_at(m, p));
 	if (pm_rgb_is_black(ss))
 		return pm_rgb1(0.0f);
-	if (maps->fixed_radius) {
-		struct pm_kd_range it;
-		uint32_t k;
-		float d2;
-
-		r2 = maps->volume_r2;
-		pm_kdtree_range_init(&it, maps->volume, maps->nvolume, q, r2,
-		    0, 0);
-		while (pm_kdtree_range_next(&it, &k, &d2)) {
-			const struct pm_photon *x = &maps->volume[k];
-			struct pm_vec3 y = pm_v3(x->pos[0], x->pos[1], x->pos[2]);
-			struct pm_rgb c, sy;
-
-			if (x->depth == 0 || (max_depth >= 0 &&
-			    x->depth > max_depth))
-				continue;
-			sy = pm_rgb_mul(pm_medium_sigma_t_at(m, y),
-			    pm_medium_albedo_at(m, y));
-			w = pm_phase_eval(&m->phase, pm_dir_unpack(x->dir), d);
-			c = pm_rgbe_unpack(x->power);
-			sum[0] += sy.r > 0.0f ? (double)(c.r * w / sy.r) : 0.0;
-			sum[1] += sy.g > 0.0f ? (double)(c.g * w / sy.g) : 0.0;
-			sum[2] += sy.b > 0.0f ? (double)(c.b * w / sy.b) : 0.0;
-		}
-	} else {
-		struct pm_knn nb[PM_MAX_LOOKUP];
-		size_t k = (size_t)maps->lookup_size;
-
-		if (k < 1)
-			k = 1;
-		if (k > PM_MAX_LOOKUP)
-			k = PM_MAX_LOOKUP;
-		found = pm_kdtree_knn(maps->volume, maps->nvolume, q, k,
-		    maps->volume_r2, 0, 0, nb);
-		if (found == 0)
-			return pm_rgb1(0.0f);
-		r2 = found == k ? nb[0].d2 : maps->volume_r2;
-		for (i = 0; i < found; i++)
-			idx[i] = nb[i].idx;
-	}
-	for (i = 0; i < found; i++) {
-		const struct pm_photon *x = &maps->volume[idx[i]];
-		struct pm_vec3 y = pm_v3(x->pos[0], x->pos[1], x->pos[2]);
-		struct pm_rgb c, sy;
-
-		if (x->depth == 0 || (max_depth >= 0 && x->depth > max_depth))
-			continue;
-		sy = pm_rgb_mul(pm_medium_sigma_t_at(m, y),
-		    pm_medium_albedo_at(m, y));
-		w = pm_phase_eval(&m->phase, pm_dir_unpack(x->dir), d);
-		c = pm_rgbe_unpack(x->power);
-		sum[0] += sy.r > 0.0f ? (double)(c.r * w / sy.r) : 0.0;
-		sum[1] += sy.g > 0.0f ? (double)(c.g * w / sy.g) : 0.0;
-		sum[2] += sy.b > 0.0f ? (double)(c.b * w / sy.b) : 0.0;
-	}
+	r2 = volume_sum(maps, &m->phase, m, p, d, max_depth, sum);
 	if (!(r2 > 0.0f))
 		return pm_rgb1(0.0f);
 	w = maps->volume_scale / (4.0f / 3.0f * PM_PI * r2 * sqrtf(r2));
