@@ -30,6 +30,7 @@
 #include <unistd.h>
 #include <zlib.h>
 
+#include "crc32.h"
 #include "endian.h"
 #include "pmap.h"
 #include "file.h"
@@ -495,7 +496,7 @@ read_header(struct pmap_in *in, unsigned char **hp, uint32_t *hsp)
 	}
 	in->pos = hs;
 	stored = pm_get_le32(h + hs - 4);
-	computed = (uint32_t)crc32_z(0, h, hs - 4);
+	computed = pm_crc32(0, h, hs - 4);
 	if (stored != computed) {
 		free(h);
 		return pm_fail(in->err, PM_ERR_FORMAT, "%s: header checksum "
@@ -801,7 +802,7 @@ inflate_map(struct pmap_in *in, const struct pmap_entry *me,
 			src = iobuf;
 		}
 		left -= n;
-		crc = (uint32_t)crc32_z(crc, src, n);
+		crc = pm_crc32(crc, src, n);
 		z.next_in = (Bytef *)(uintptr_t)src;
 		z.avail_in = (uInt)n;
 		while (z.avail_in > 0 && problem[0] == '\0') {
@@ -869,19 +870,19 @@ check_span(const unsigned char *rec, uint64_t raw, bool strict, uint64_t *badp)
 {
 	const size_t block = (size_t)PMAP_CHECK_RECS * PMAP_REC;
 	uint64_t at, bad = UINT64_MAX;
-	uLong crc = 0;
+	uint32_t crc = 0;
 	size_t n, j;
 
 	for (at = 0; at < raw; at += n) {
 		n = raw - at < block ? (size_t)(raw - at) : block;
-		crc = crc32_z(crc, rec + at, n);
+		crc = pm_crc32(crc, rec + at, n);
 		if (strict && bad == UINT64_MAX &&
 		    (j = first_reserved(rec + at, n / PMAP_REC)) <
 		    n / PMAP_REC)
 			bad = at / PMAP_REC + j;
 	}
 	*badp = bad;
-	return (uint32_t)crc;
+	return crc;
 }
 
 /* Pieces of a parallel check: fixed by the size alone, so that threads
@@ -1353,11 +1354,11 @@ records_crc(const struct pm_photon *p, uint64_t count, unsigned char *scratch,
     size_t per)
 {
 	uint64_t i, n;
-	uLong crc = 0;
+	uint32_t crc = 0;
 
 	for (i = 0; i < count; i += n) {
 		n = count - i < per ? count - i : per;
-		crc = crc32_z(crc, records_to_file(p + i, (size_t)n, scratch),
+		crc = pm_crc32(crc, records_to_file(p + i, (size_t)n, scratch),
 		    (size_t)n * PMAP_REC);
 	}
 	return (uint32_t)crc;
@@ -1425,7 +1426,7 @@ deflate_map(const char *name, const struct pm_map *a, struct pmap_out *o,
 		out = grown;
 	o->z = out;
 	o->stored = done;
-	o->crc = (uint32_t)crc32_z(0, out, (size_t)done);
+	o->crc = pm_crc32(0, out, (size_t)done);
 	return PM_OK;
 }
 
@@ -1512,7 +1513,7 @@ build_header(unsigned char *h, uint32_t hs, const struct pm_pmap *m,
 	}
 	if (isize > 0)
 		memcpy(h + PMAP_FIXED + m->nmaps * PMAP_ENTRY, m->info, isize);
-	pm_put_le32(h + hs - 4, (uint32_t)crc32_z(0, h, hs - 4));
+	pm_put_le32(h + hs - 4, pm_crc32(0, h, hs - 4));
 }
 
 /* Writes the header and payloads to fd. */
