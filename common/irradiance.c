@@ -179,32 +179,163 @@ cell_coord(float x, float lo, float inv_cell, int n)
 	return i < n ? i : n - 1;
 }
 
+/*
+ * The grid's build in parts, for threads: records are split into index
+ * ranges for the passes over records (bounds, cell keys), cells into
+ * ranges for the counting sort, each part counting and placing only the
+ * records of its own cells (reading every key, which is cheap next to
+ * the scattered writes).  A cell's records land where the serial sort
+ * put them, so the grid is the same whatever the thread count.
+ */
+#define GRID_PARTS_MAX	64
+/* Below this many records, one part: threads would cost more than the
+ * build. */
+#define GRID_PART_RECS	32768
+
+struct grid_job {
+	struct pm_irr_grid *g;
+	const struct pm_photon *r;
+	uint32_t *key;
+	size_t n, ncell;
+	int parts, phase;
+	_Atomic int next;
+	float lo[GRID_PARTS_MAX][3], hi[GRID_PARTS_MAX][3];
+	size_t total[GRID_PARTS_MAX];	/* records in a cell range */
+};
+
+enum { GRID_BOUNDS, GRID_KEYS, GRID_COUNT, GRID_PLACE };
+
+static void
+grid_part(struct grid_job *j, int p)
+{
+	struct pm_irr_grid *g = j->g;
+	const struct pm_photon *r = j->r;
+	size_t i, a, b, sum, c0, c1;
+	int ax;
+
+	a = j->n * (size_t)p / (size_t)j->parts;
+	b = j->n * (size_t)(p + 1) / (size_t)j->parts;
+	c0 = j->ncell * (size_t)p / (size_t)j->parts;
+	c1 = j->ncell * (size_t)(p + 1) / (size_t)j->parts;
+	switch (j->phase) {
+	case GRID_BOUNDS:
+		/* pm_fminf / pm_fmaxf: libm's calls were a third of this
+		 * serial set-up of every photon render */
+		for (ax = 0; ax < 3; ax++) {
+			j->lo[p][ax] = INFINITY;
+			j->hi[p][ax] = -INFINITY;
+		}
+		for (i = a; i < b; i++)
+			for (ax = 0; ax < 3; ax++) {
+				j->lo[p][ax] = pm_fminf(j->lo[p][ax], r[i].pos[ax]);
+				j->hi[p][ax] = pm_fmaxf(j->hi[p][ax], r[i].pos[ax]);
+			}
+		break;
+	case GRID_KEYS:
+		for (i = a; i < b; i++)
+			j->key[i] = (uint32_t)(((size_t)cell_coord(r[i].pos[2],
+			    g->lo[2], g->inv_cell, g->nz) * (size_t)g->ny +
+			    (size_t)cell_coord(r[i].pos[1], g->lo[1], g->inv_cell,
+			    g->ny)) * (size_t)g->nx + (size_t)cell_coord(
+			    r[i].pos[0], g->lo[0], g->inv_cell, g->nx));
+		break;
+	case GRID_COUNT:
+		/* The counts' running sums end each cell (within the part's
+		 * range; GRID_PLACE adds the parts before). */
+		for (i = 0; i < j->n; i++)
+			if (j->key[i] >= c0 && j->key[i] < c1)
+				g->start[j->key[i]]++;
+		for (i = c0, sum = 0; i < c1; i++) {
+			sum += g->start[i];
+			g->start[i] = (uint32_t)sum;
+		}
+		j->total[p] = sum;
+		break;
+	case GRID_PLACE:
+		for (i = 0, sum = 0; i < (size_t)p; i++)
+			sum += j->total[i];
+		for (i = c0; i < c1; i++)
+			g->start[i] += (uint32_t)sum;
+		/* The records placed from the last down leave each start at
+		 * its cell's first, in the records' order, without a pass
+		 * to shift the starts back. */
+		for (i = j->n; i-- > 0;) {
+			struct pm_irr_rec *x;
+			struct pm_vec3 nv;
+
+			if (j->key[i] < c0 || j->key[i] >= c1)
+				continue;
+			x = &g->rec[--g->start[j->key[i]]];
+			nv = pm_dir_unpack(r[i].normal);
+			memcpy(x->p, r[i].pos, sizeof(x->p));
+			x->n[0] = nv.x;
+			x->n[1] = nv.y;
+			x->n[2] = nv.z;
+			memcpy(x->E, r[i].power, sizeof(x->E));
+			x->pad = 0.0f;
+		}
+		break;
+	}
+}
+
+static void *
+grid_worker(void *arg)
+{
+	struct grid_job *j = arg;
+	int p;
+
+	while ((p = atomic_fetch_add(&j->next, 1)) < j->parts)
+		grid_part(j, p);
+	return NULL;
+}
+
+/* Runs one phase of the build on every part. */
+static void
+grid_phase(struct grid_job *j, int phase, int threads)
+{
+	j->phase = phase;
+	atomic_store(&j->next, 0);
+	if (threads > 1 && j->parts > 1)
+		pm_parallel(threads < j->parts ? threads : j->parts,
+		    grid_worker, j);
+	else
+		grid_worker(j);
+}
+
 enum pm_err
 pm_irr_grid_build(struct pm_irr_grid *g, const struct pm_photon *r, size_t n,
-    struct pm_error *err)
+    int threads, struct pm_error *err)
 {
 	float hi[3], ext, cell, vol, spacing;
-	size_t i, ncell, samples = 0;
-	uint32_t *key;
+	size_t i, samples = 0;
+	struct grid_job *j;
 	double dsum = 0.0;
-	int a;
+	int a, p;
 
 	memset(g, 0, sizeof(*g));
 	if (n == 0)
 		return PM_OK;
 	if (n >= UINT32_MAX)
 		return pm_fail(err, PM_ERR_INVALID, "too many irradiance records");
+	if ((j = calloc(1, sizeof(*j))) == NULL)
+		return pm_fail(err, PM_ERR_NOMEM, "no memory for the irradiance grid");
+	j->g = g;
+	j->r = r;
+	j->n = n;
+	if (threads < 1)
+		threads = 1;
+	j->parts = threads < GRID_PARTS_MAX ? threads : GRID_PARTS_MAX;
+	if (n < GRID_PART_RECS)
+		j->parts = 1;
+	grid_phase(j, GRID_BOUNDS, threads);
 	for (a = 0; a < 3; a++) {
-		g->lo[a] = INFINITY;
-		hi[a] = -INFINITY;
-	}
-	/* pm_fminf / pm_fmaxf: libm's calls were a third of this serial
-	 * set-up of every photon render */
-	for (i = 0; i < n; i++)
-		for (a = 0; a < 3; a++) {
-			g->lo[a] = pm_fminf(g->lo[a], r[i].pos[a]);
-			hi[a] = pm_fmaxf(hi[a], r[i].pos[a]);
+		g->lo[a] = j->lo[0][a];
+		hi[a] = j->hi[0][a];
+		for (p = 1; p < j->parts; p++) {
+			g->lo[a] = pm_fminf(g->lo[a], j->lo[p][a]);
+			hi[a] = pm_fmaxf(hi[a], j->hi[p][a]);
 		}
+	}
 	/* The records' spacing: the mean distance to the nearest other
 	 * record, from up to 256 of them (records are in kd-tree order, so
 	 * pm_kdtree_knn works on them). */
@@ -233,42 +364,24 @@ pm_irr_grid_build(struct pm_irr_grid *g, const struct pm_photon *r, size_t n,
 	g->nx = (int)((hi[0] - g->lo[0]) / cell) + 1;
 	g->ny = (int)((hi[1] - g->lo[1]) / cell) + 1;
 	g->nz = (int)((hi[2] - g->lo[2]) / cell) + 1;
-	ncell = (size_t)g->nx * (size_t)g->ny * (size_t)g->nz;
-	g->start = calloc(ncell + 1, sizeof(*g->start));
+	j->ncell = (size_t)g->nx * (size_t)g->ny * (size_t)g->nz;
+	g->start = calloc(j->ncell + 1, sizeof(*g->start));
 	g->rec = malloc(n * sizeof(*g->rec));
-	key = malloc(n * sizeof(*key));
-	if (g->start == NULL || g->rec == NULL || key == NULL) {
-		free(key);
+	j->key = malloc(n * sizeof(*j->key));
+	if (g->start == NULL || g->rec == NULL || j->key == NULL) {
+		free(j->key);
+		free(j);
 		pm_irr_grid_free(g);
 		return pm_fail(err, PM_ERR_NOMEM, "no memory for the irradiance grid");
 	}
 	/* Counting sort of the records by cell, each record's cell computed
-	 * once.  The counts' running sums end each cell; the records placed
-	 * from the last down then leave each start at its cell's first, in
-	 * the records' order, without a pass to shift the starts back. */
-	for (i = 0; i < n; i++) {
-		key[i] = (uint32_t)(((size_t)cell_coord(r[i].pos[2], g->lo[2],
-		    g->inv_cell, g->nz) * (size_t)g->ny +
-		    (size_t)cell_coord(r[i].pos[1], g->lo[1], g->inv_cell, g->ny)) *
-		    (size_t)g->nx + (size_t)cell_coord(r[i].pos[0], g->lo[0],
-		    g->inv_cell, g->nx));
-		g->start[key[i]]++;
-	}
-	for (i = 1; i < ncell; i++)
-		g->start[i] += g->start[i - 1];
-	g->start[ncell] = (uint32_t)n;
-	for (i = n; i-- > 0;) {
-		struct pm_irr_rec *x = &g->rec[--g->start[key[i]]];
-		struct pm_vec3 nv = pm_dir_unpack(r[i].normal);
-
-		memcpy(x->p, r[i].pos, sizeof(x->p));
-		x->n[0] = nv.x;
-		x->n[1] = nv.y;
-		x->n[2] = nv.z;
-		memcpy(x->E, r[i].power, sizeof(x->E));
-		x->pad = 0.0f;
-	}
-	free(key);
+	 * once. */
+	grid_phase(j, GRID_KEYS, threads);
+	grid_phase(j, GRID_COUNT, threads);
+	g->start[j->ncell] = (uint32_t)n;
+	grid_phase(j, GRID_PLACE, threads);
+	free(j->key);
+	free(j);
 	return PM_OK;
 }
 

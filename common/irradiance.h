@@ -90,9 +90,10 @@ struct pm_irr_rec {
 };
 
 /* Builds g over the balanced records r[0..n) (copied: r need not
- * outlive g); free with pm_irr_grid_free. */
+ * outlive g) on up to `threads` threads, the same grid for any count;
+ * free with pm_irr_grid_free. */
 enum pm_err pm_irr_grid_build(struct pm_irr_grid *g, const struct pm_photon *r,
-    size_t n, struct pm_error *err);
+    size_t n, int threads, struct pm_error *err);
 void pm_irr_grid_free(struct pm_irr_grid *g);
 
 /*

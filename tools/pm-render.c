@@ -751,7 +751,7 @@ main(int argc, char **argv)
 		}
 		if (maps.nirradiance > 0) {
 			if (pm_irr_grid_build(&irr_grid, maps.irradiance,
-			    maps.nirradiance, &err) != PM_OK) {
+			    maps.nirradiance, (int)threads, &err) != PM_OK) {
 				fprintf(stderr, PROG ": %s: %s\n", map_path, err.msg);
 				status = 1;
 				goto out;

@@ -189,7 +189,7 @@ test_grid_lookup(void **state)
 
 	(void)state;
 	assert_int_equal(pm_kdtree_build(p, n, 1, &err), PM_OK);
-	assert_int_equal(pm_irr_grid_build(&g, p, n, &err), PM_OK);
+	assert_int_equal(pm_irr_grid_build(&g, p, n, 1, &err), PM_OK);
 	/* At a record's own position, that record. */
 	for (i = 0; i < n; i += 37) {
 		struct pm_rgb E, want = pm_rgbe_unpack(p[i].power);
@@ -257,6 +257,47 @@ photon_ctx(struct pm_render_ctx *ctx, const struct pm_scene *s,
 }
 
 /* Inside a sphere of radius 10 that emits Le inward and reflects rho. */
+/* The grid built on 1, 2, 3 and 7 threads: the same cells, the same
+ * records in each, byte for byte (enough records that the build splits
+ * into parts; some coincident, so that ties keep their order). */
+static void
+test_grid_threads(void **state)
+{
+	const size_t n = 150000;
+	struct pm_photon *p = corner_set(n, 21);
+	struct pm_irr_grid g1, gt;
+	struct pm_error err;
+	const int threads[] = {2, 3, 7};
+	size_t i, ncell;
+	int t;
+
+	(void)state;
+	for (i = 0; i < n; i += 97)
+		memcpy(p[i].pos, p[i / 2].pos, sizeof(p[i].pos));
+	assert_int_equal(pm_kdtree_build(p, n, 2, &err), PM_OK);
+	assert_int_equal(pm_irr_grid_build(&g1, p, n, 1, &err), PM_OK);
+	ncell = (size_t)g1.nx * (size_t)g1.ny * (size_t)g1.nz;
+	assert_true(ncell > 1000);
+	assert_int_equal(g1.start[0], 0);
+	assert_int_equal(g1.start[ncell], n);
+	for (i = 0; i < ncell; i++)
+		assert_true(g1.start[i] <= g1.start[i + 1]);
+	for (t = 0; t < 3; t++) {
+		assert_int_equal(pm_irr_grid_build(&gt, p, n, threads[t], &err),
+		    PM_OK);
+		assert_int_equal(gt.nx, g1.nx);
+		assert_int_equal(gt.ny, g1.ny);
+		assert_int_equal(gt.nz, g1.nz);
+		assert_memory_equal(gt.lo, g1.lo, sizeof(g1.lo));
+		assert_memory_equal(gt.start, g1.start,
+		    (ncell + 1) * sizeof(*g1.start));
+		assert_memory_equal(gt.rec, g1.rec, n * sizeof(*g1.rec));
+		pm_irr_grid_free(&gt);
+	}
+	pm_irr_grid_free(&g1);
+	free(p);
+}
+
 static void
 test_furnace_final_gather(void **state)
 {
@@ -311,7 +352,7 @@ test_furnace_final_gather(void **state)
 	assert_int_equal(pm_irradiance_records(buf.p, buf.n, 1.0f / 100000.0f,
 	    &io, &rec, &nrec, &err), PM_OK);
 	assert_int_equal(pm_kdtree_build(rec, nrec, 2, &err), PM_OK);
-	assert_int_equal(pm_irr_grid_build(&grid, rec, nrec, &err), PM_OK);
+	assert_int_equal(pm_irr_grid_build(&grid, rec, nrec, 2, &err), PM_OK);
 
 	memset(&maps, 0, sizeof(maps));
 	maps.global = buf.p;
@@ -556,6 +597,7 @@ main(void)
 		cmocka_unit_test(test_records_knn),
 		cmocka_unit_test(test_records_fixed_radius),
 		cmocka_unit_test(test_grid_lookup),
+		cmocka_unit_test(test_grid_threads),
 		cmocka_unit_test(test_furnace_final_gather),
 		cmocka_unit_test(test_stratified_light_points),
 		cmocka_unit_test(test_photon_first_hits),
