@@ -1,5 +1,5 @@
 /*
- * render.c: the camera pass.  Threads take 16x16 tiles from a shared atomic
+ * render.c: the camera pass.  Threads take 8x8 tiles from a shared atomic
  * counter, so a costly region (glass, the bunny) never leaves a thread
  * idle while another grinds through a fixed half of the image.  Each pixel
  * writes only its own slot, and its random numbers depend only on (seed,
@@ -14,7 +14,7 @@
 
 #include "render.h"
 
-#define TILE 16
+#define TILE 8
 
 /*
  * What a watcher sees of the running render: the image and one flag per
