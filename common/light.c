@@ -458,12 +458,10 @@ pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
 	}
 	{
 		const struct pm_shape *sh = &s->shapes[l->shape];
-		struct pm_hit lh;	/* the light point, for its uv */
 		struct pm_vec3 ns;
+		uint32_t prim = 0;	/* the light point's triangle and */
+		float bu = 0.0f, bv = 0.0f;	/* barycentrics, for a texture */
 
-		lh.shape = l->shape;
-		lh.prim = 0;
-		lh.u = lh.v = 0.0f;
 		if (sh->type == PM_SHAPE_SPHERE) {
 			struct pm_vec3 u = pm_square_to_uniform_sphere(u1, u2);
 
@@ -479,9 +477,9 @@ pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
 			float b1, b2;
 
 			pm_square_to_triangle(u1, u2, &b1, &b2);
-			lh.prim = lt->prim;
-			lh.u = b1;
-			lh.v = b2;
+			prim = lt->prim;
+			bu = b1;
+			bv = b2;
 			o->p = pm_madd(pm_madd(lt->p0, lt->e1, b1), lt->e2, b2);
 			o->n = lt->n;
 			ns = lt->ns;
@@ -509,11 +507,22 @@ pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
 		 * light shines this way is decided by the shading normal, as
 		 * when a ray hits the light. */
 		cos_l = fabsf(pm_dot(o->n, o->wi));
-		lh.p = o->p;
-		lh.ns = ns;
-		o->value = l->tex == 0 ? (pm_dot(ns, o->wi) < 0.0f ?
-		    l->radiance : pm_rgb1(0.0f)) :
-		    pm_area_emitted_at(s, l, &lh, pm_neg(o->wi));
+		if (l->tex == 0) {
+			o->value = pm_dot(ns, o->wi) < 0.0f ? l->radiance :
+			    pm_rgb1(0.0f);
+		} else {
+			/* the light point as a hit, for its uv: only a
+			 * textured light needs it */
+			struct pm_hit lh;
+
+			lh.shape = l->shape;
+			lh.prim = prim;
+			lh.u = bu;
+			lh.v = bv;
+			lh.p = o->p;
+			lh.ns = ns;
+			o->value = pm_area_emitted_at(s, l, &lh, pm_neg(o->wi));
+		}
 		if (cos_l <= 0.0f || pm_rgb_is_black(o->value))
 			return false;
 		o->pdf = psel * d2 / (cos_l * (float)l->area);

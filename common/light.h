@@ -85,13 +85,24 @@ enum pm_err pm_alias_build(struct pm_alias *t, const double *w, size_t n,
 static inline size_t pm_alias_sample(const struct pm_alias *t, size_t n,
     float u, float *u_reuse)
 {
-	double x = (double)u * (double)n;	/* exact: u has 24 bits */
-	size_t i = (size_t)x;
+	double x;
+	int64_t i;
 	double f, q;
 	float r;
 
-	if (i >= n)
-		i = n - 1;
+	if (n == 1) {
+		/* one bin keeps itself (q = 1, inv_q = 1): u is its own
+		 * remainder, as below, without the arithmetic */
+		if (u_reuse != NULL)
+			*u_reuse = u < 0x1.fffffep-1f ? u : 0x1.fffffep-1f;
+		return 0;
+	}
+	x = (double)u * (double)(int64_t)n;	/* exact: u has 24 bits */
+	/* signed 64-bit conversions (n < 2^32): one instruction each,
+	 * where size_t's take a branch and several on x86-64 */
+	i = (int64_t)x;
+	if (i >= (int64_t)n)
+		i = (int64_t)n - 1;
 	f = x - (double)i;
 	q = (double)t[i].q;
 	if (f < q) {
@@ -102,7 +113,7 @@ static inline size_t pm_alias_sample(const struct pm_alias *t, size_t n,
 	}
 	if (u_reuse != NULL)
 		*u_reuse = r < 0x1.fffffep-1f ? r : 0x1.fffffep-1f;
-	return i;
+	return (size_t)i;
 }
 
 struct pm_light_sample {

@@ -251,7 +251,6 @@ static void
 render_tile_paths(struct job *j, struct strata *st, int x0, int y0, int x1,
     int y1)
 {
-	const struct pm_camera *cam = j->cam;
 	struct pm_path_sample smp[PATH_CHUNK];
 	uint16_t slot[PATH_CHUNK];
 	struct tile_acc t;
@@ -260,8 +259,6 @@ render_tile_paths(struct job *j, struct strata *st, int x0, int y0, int x1,
 	tile_acc_init(j, &t);
 	for (y = y0; y < y1; y++) {
 		for (x = x0; x < x1; x++) {
-			pixel_cells(j, (uint64_t)y * (uint64_t)cam->width +
-			    (uint64_t)x, st);
 			for (i = 0; i < spp; i++) {
 				struct pm_camera_sample cs;
 
@@ -358,6 +355,11 @@ render_tile(struct job *j, int tile)
 	st.lx = kx < LIGHT_STRATA ? kx : LIGHT_STRATA;
 	st.ly = ky < LIGHT_STRATA ? ky : LIGHT_STRATA;
 	if (j->opts->method == PM_METHOD_PATH) {
+		/* the path tracer draws its light samples from the path's
+		 * own stream and never reads the light cells: no cells, so
+		 * that no pixel shuffles them and no sample seeds their
+		 * stream */
+		st.lx = st.ly = 0;
 		render_tile_paths(j, &st, x0, y0, x1, y1);
 		return;
 	}

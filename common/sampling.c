@@ -79,16 +79,6 @@ pm_uniform_cone_pdf(float cos_max)
 	return 1.0f / (2.0f * PM_PI * (1.0f - cos_max));
 }
 
-/* The square-root map: b0 = 1 - sqrt(u1) makes the area uniform. */
-void
-pm_square_to_triangle(float u1, float u2, float *b1, float *b2)
-{
-	float t = sqrtf(u1);
-
-	*b1 = 1.0f - t;
-	*b2 = u2 * t;
-}
-
 /* Builds the normalised cdf; rejects empty, negative or all-zero weights. */
 enum pm_err
 pm_distrib_init(struct pm_distrib *d, const double *w, size_t n,

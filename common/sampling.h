@@ -96,8 +96,17 @@ float pm_uniform_sphere_pdf(void);
 struct pm_vec3 pm_square_to_uniform_cone(float u1, float u2, float cos_max);
 float pm_uniform_cone_pdf(float cos_max);
 
-/* Barycentric (b1, b2) uniform over a triangle (b0 = 1 - b1 - b2). */
-void pm_square_to_triangle(float u1, float u2, float *b1, float *b2);
+/* Barycentric (b1, b2) uniform over a triangle (b0 = 1 - b1 - b2): the
+ * square-root map, b0 = 1 - sqrt(u1), makes the area uniform.  Inline:
+ * every area-light sample of the path tracer takes it. */
+static inline void pm_square_to_triangle(float u1, float u2, float *b1,
+    float *b2)
+{
+	float t = sqrtf(u1);
+
+	*b1 = 1.0f - t;
+	*b2 = u2 * t;
+}
 
 /*
  * A discrete distribution over n weights (n >= 1, weights >= 0, sum > 0):
