@@ -14,7 +14,7 @@
 
 #include "render.h"
 
-#define TILE 8
+#define TILE PM_RENDER_TILE
 
 /*
  * What a watcher sees of the running render: the image and one flag per

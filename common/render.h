@@ -14,6 +14,11 @@
 #include "image.h"
 #include "integrator.h"
 
+/* The side of a tile in pixels: the unit of work a thread takes, of the
+ * progress counts and of what a watch sees finished (8x8: at 16x16 the
+ * 64 tiles of a 128x128 render left a thread idle at the end). */
+#define PM_RENDER_TILE	8
+
 enum pm_method {
 	PM_METHOD_PATH,
 	PM_METHOD_PHOTON,

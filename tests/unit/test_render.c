@@ -456,11 +456,13 @@ test_watch_sees_finished_tiles_only(void **state)
 	struct pm_error err;
 	_Atomic long done, total;
 	pthread_t tid;
-	int i, tx, ty, x, y, w = 72, h = 40;
+	int i, tx, ty, x, y, w = 76, h = 44;
+	const int T = PM_RENDER_TILE;
 
 	(void)state;
 	furnace_build(&f, 0.5f, 0.7f, -1);
-	f.scene.camera.width = w;	/* 5 x 3 tiles, the last ones partial */
+	f.scene.camera.width = w;	/* the last column and row of tiles
+					 * partial, at a side of 8 or 16 */
 	f.scene.camera.height = h;
 	memset(&wa, 0, sizeof(wa));
 	wa.w = pm_render_watch_new();
@@ -482,8 +484,10 @@ test_watch_sees_finished_tiles_only(void **state)
 	    PM_OK);
 	atomic_store(&wa.stop, 1);
 	pthread_join(tid, NULL);
-	assert_int_equal(atomic_load(&total), 15);
-	assert_int_equal(atomic_load(&done), 15);
+	/* T: the tile's side */
+	assert_int_equal(atomic_load(&total), ((w + T - 1) / T) *
+	    ((h + T - 1) / T));
+	assert_int_equal(atomic_load(&done), atomic_load(&total));
 	assert_false(pm_render_snapshot(wa.w, &none));	/* over */
 	/* Every tile of every snapshot is black or exactly as it ended. */
 	for (i = 0; i < wa.nsnaps; i++) {
@@ -491,12 +495,12 @@ test_watch_sees_finished_tiles_only(void **state)
 
 		assert_int_equal(s->width, w);
 		assert_int_equal(s->height, h);
-		for (ty = 0; ty < h; ty += 16)
-			for (tx = 0; tx < w; tx += 16) {
+		for (ty = 0; ty < h; ty += T)
+			for (tx = 0; tx < w; tx += T) {
 				int black = 0, same = 0, n = 0;
 
-				for (y = ty; y < ty + 16 && y < h; y++)
-					for (x = tx; x < tx + 16 && x < w; x++) {
+				for (y = ty; y < ty + T && y < h; y++)
+					for (x = tx; x < tx + T && x < w; x++) {
 						const float *a = &s->rgb[3 * (y * w + x)];
 						const float *b = &im.rgb[3 * (y * w + x)];
 
