@@ -19,6 +19,72 @@
 #include "frame.h"
 #include "texture.h"
 
+/*
+ * A plain diffuse BSDF (no map, no lobe selection), the commonest at a
+ * path's vertices: its eval, pdf and sample in line, with bsdf.c's own
+ * arithmetic for it (the same bits), without the calls and dispatch;
+ * every other BSDF goes through bsdf.c.  Diffuse reflection transmits
+ * nothing, so twosided's flip needs only wi below the surface.
+ */
+static inline bool
+plain_diffuse(const struct pm_bsdf *b)
+{
+	return b->type == PM_BSDF_DIFFUSE && !b->perturbed && b->only == 0;
+}
+
+static inline struct pm_rgb
+bsdf_eval(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo)
+{
+	if (!plain_diffuse(b))
+		return pm_bsdf_eval(b, wi, wo, PM_RADIANCE);
+	if (b->twosided && wi.z < 0.0f) {
+		wi.z = -wi.z;
+		wo.z = -wo.z;
+	}
+	if (wi.z <= 0.0f || wo.z <= 0.0f)
+		return pm_rgb1(0.0f);
+	return pm_rgb_scale(b->diffuse, wo.z * PM_INV_PI);
+}
+
+static inline float
+bsdf_pdf(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo)
+{
+	if (!plain_diffuse(b))
+		return pm_bsdf_pdf(b, wi, wo);
+	if (b->twosided && wi.z < 0.0f) {
+		wi.z = -wi.z;
+		wo.z = -wo.z;
+	}
+	if (wi.z <= 0.0f || wo.z <= 0.0f)
+		return 0.0f;
+	return wo.z * PM_INV_PI;
+}
+
+static inline bool
+bsdf_sample(const struct pm_bsdf *b, struct pm_vec3 wi, float u1, float u2,
+    float u3, struct pm_bsdf_sample *bs)
+{
+	bool flip;
+
+	if (!plain_diffuse(b))
+		return pm_bsdf_sample(b, wi, u1, u2, u3, PM_RADIANCE, bs);
+	flip = b->twosided && wi.z < 0.0f;
+	if (flip)
+		wi.z = -wi.z;
+	if (wi.z <= 0.0f)
+		return false;
+	bs->wo = pm_square_to_cosine_hemisphere(u2, u3);
+	bs->pdf = pm_cosine_hemisphere_pdf(bs->wo);
+	if (!(bs->pdf > 0.0f))
+		return false;
+	bs->weight = b->diffuse;
+	bs->eta = 1.0f;
+	bs->lobe = PM_LOBE_DIFFUSE;
+	if (flip)
+		bs->wo.z = -bs->wo.z;
+	return true;
+}
+
 /* A light sample for direct_light: the BSDF's value f for it (false
  * when there is none or f is black, and then nothing arrives). */
 static bool
@@ -33,7 +99,7 @@ light_sample(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 	if (!pm_lights_sample(ctx->lights, ctx->scene, h->p, u0, u1, u2, ls))
 		return false;
 	*wo_local = pm_to_local(fr, ls->wi);
-	*f = pm_bsdf_eval(b, wi_local, *wo_local, PM_RADIANCE);
+	*f = bsdf_eval(b, wi_local, *wo_local);
 	return !pm_rgb_is_black(*f);
 }
 
@@ -44,7 +110,7 @@ light_weighted(const struct pm_bsdf *b, struct pm_vec3 wi_local,
     struct pm_vec3 wo_local, const struct pm_light_sample *ls, struct pm_rgb f)
 {
 	float w = ls->delta ? 1.0f :
-	    pm_power_heuristic(ls->pdf, pm_bsdf_pdf(b, wi_local, wo_local));
+	    pm_power_heuristic(ls->pdf, bsdf_pdf(b, wi_local, wo_local));
 
 	return pm_rgb_scale(pm_rgb_mul(f, ls->value), w / ls->pdf);
 }
@@ -136,7 +202,7 @@ pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 			float u1 = pm_rng_float(rng), u2 = pm_rng_float(rng);
 			float u3 = pm_rng_float(rng);
 
-			if (!pm_bsdf_sample(b, wi_local, u1, u2, u3, PM_RADIANCE, &bs))
+			if (!bsdf_sample(b, wi_local, u1, u2, u3, &bs))
 				break;
 		}
 		if (!pm_path_continue(&pa, &h, fr, &bs, depth, ctx->rr_depth, rng))
@@ -144,6 +210,34 @@ pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 		medium = pm_medium_after(s, &h, pa.d, medium);	/* media */
 	}
 	return L;
+}
+
+/* pm_path_continue, in line for path_li_batch (the frame by pointer,
+ * not copied through the stack for each call) */
+static inline bool
+path_continue(struct pm_path *pa, const struct pm_hit *h,
+    const struct pm_frame *fr, const struct pm_bsdf_sample *bs, int depth,
+    int rr_depth, struct pm_rng *rng)
+{
+	pa->beta = pm_rgb_mul(pa->beta, bs->weight);
+	if (pm_rgb_is_black(pa->beta))
+		return false;
+	pa->eta_scale *= bs->eta * bs->eta;
+	pa->prev_p = h->p;
+	pa->prev_pdf = bs->pdf;
+	pa->prev_delta = (bs->lobe & PM_LOBE_DELTA) != 0;
+	pa->d = pm_normalize(pm_to_world(*fr, bs->wo));
+	pa->o = pm_hit_origin(h, pa->d);
+	pa->tmin = 0.0f;
+	pa->tmax = INFINITY;
+	if (depth >= rr_depth) {
+		float q = pm_fminf(pm_rgb_max(pa->beta) * pa->eta_scale, 0.95f);
+
+		if (!(pm_rng_float(rng) < q))
+			return false;
+		pa->beta = pm_rgb_scale(pa->beta, 1.0f / q);
+	}
+	return true;
 }
 
 /*
@@ -250,13 +344,12 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 				float u1 = pm_rng_float(rng), u2 = pm_rng_float(rng);
 				float u3 = pm_rng_float(rng);
 
-				if (!pm_bsdf_sample(b, wi_local, u1, u2, u3,
-				    PM_RADIANCE, &bs)) {
+				if (!bsdf_sample(b, wi_local, u1, u2, u3, &bs)) {
 					q->alive = false;
 					continue;
 				}
 			}
-			if (!pm_path_continue(&q->pa, h, fr, &bs, q->depth,
+			if (!path_continue(&q->pa, h, &fr, &bs, q->depth,
 			    ctx->rr_depth, rng)) {
 				q->alive = false;
 				continue;
@@ -315,23 +408,5 @@ bool
 pm_path_continue(struct pm_path *pa, const struct pm_hit *h, struct pm_frame fr,
     const struct pm_bsdf_sample *bs, int depth, int rr_depth, struct pm_rng *rng)
 {
-	pa->beta = pm_rgb_mul(pa->beta, bs->weight);
-	if (pm_rgb_is_black(pa->beta))
-		return false;
-	pa->eta_scale *= bs->eta * bs->eta;
-	pa->prev_p = h->p;
-	pa->prev_pdf = bs->pdf;
-	pa->prev_delta = (bs->lobe & PM_LOBE_DELTA) != 0;
-	pa->d = pm_normalize(pm_to_world(fr, bs->wo));
-	pa->o = pm_hit_origin(h, pa->d);
-	pa->tmin = 0.0f;
-	pa->tmax = INFINITY;
-	if (depth >= rr_depth) {
-		float q = pm_fminf(pm_rgb_max(pa->beta) * pa->eta_scale, 0.95f);
-
-		if (!(pm_rng_float(rng) < q))
-			return false;
-		pa->beta = pm_rgb_scale(pa->beta, 1.0f / q);
-	}
-	return true;
+	return path_continue(pa, h, &fr, bs, depth, rr_depth, rng);
 }
