@@ -680,11 +680,6 @@ heap_replace(struct pm_knn *h, size_t cnt, float d2, uint32_t idx)
 	h[i].idx = idx;
 }
 
-/* A deferred far child of a radius query. */
-struct kd_frame {
-	uint32_t lo, hi;
-};
-
 /*
  * A deferred far child of a k-nearest query, with the distances from q to
  * its cell along each axis (each one a lower bound on |q - photon| there,
@@ -1170,67 +1165,26 @@ pm_knn_sort(struct pm_knn *r, size_t count)
 	}
 }
 
-/* Every photon within max_d2 of q passing the filter; the total count. */
+/* Every photon within max_d2 of q passing the filter; the total count.
+ * The range walk's, so that one walk is kept fast, not two. */
 size_t
 pm_kdtree_radius(const struct pm_photon *p, size_t n, const float q[3],
     float max_d2, uint8_t mask, uint8_t want, struct pm_knn *out, size_t cap)
 {
-	struct kd_frame st[KD_STACK];
-	size_t sp = 0, cnt = 0;
-	uint32_t lo, hi, i;
+	struct pm_kd_range it;
+	size_t cnt = 0;
+	uint32_t idx;
+	float d2;
 
-	if (n == 0 || (uint64_t)n > UINT32_MAX || !(max_d2 >= 0.0f))
-		return 0;
-	lo = 0;
-	hi = (uint32_t)n;
-	for (;;) {
-		while (hi - lo > KD_BUCKET) {
-			uint32_t m = lo + (hi - lo) / 2;
-			const struct pm_photon *ph = &p[m];
-			int ax = ph->flags & PM_KD_AXIS_MASK;
-			float d2 = kd_dist2(ph->pos, q), diff, dd;
-
-			if (d2 <= max_d2 && (ph->flags & mask) == want) {
-				if (cnt < cap) {
-					out[cnt].d2 = d2;
-					out[cnt].idx = m;
-				}
-				cnt++;
-			}
-			ax = ax > 2 ? 2 : ax;
-			diff = q[ax] - ph->pos[ax];
-			dd = diff * diff;
-			if (diff < 0.0f) {
-				if (dd <= max_d2) {
-					st[sp].lo = m + 1;
-					st[sp++].hi = hi;
-				}
-				hi = m;
-			} else {
-				if (dd <= max_d2) {
-					st[sp].lo = lo;
-					st[sp++].hi = m;
-				}
-				lo = m + 1;
-			}
+	pm_kdtree_range_init(&it, p, n, q, max_d2, mask, want);
+	while (pm_kdtree_range_next(&it, &idx, &d2)) {
+		if (cnt < cap) {
+			out[cnt].d2 = d2;
+			out[cnt].idx = idx;
 		}
-		for (i = lo; i < hi; i++) {
-			float d2 = kd_dist2(p[i].pos, q);
-
-			if (d2 <= max_d2 && (p[i].flags & mask) == want) {
-				if (cnt < cap) {
-					out[cnt].d2 = d2;
-					out[cnt].idx = i;
-				}
-				cnt++;
-			}
-		}
-		if (sp == 0)
-			return cnt;
-		sp--;
-		lo = st[sp].lo;
-		hi = st[sp].hi;
+		cnt++;
 	}
+	return cnt;
 }
 
 _Static_assert(sizeof(((struct pm_kd_range *)0)->st) /
@@ -1238,10 +1192,53 @@ _Static_assert(sizeof(((struct pm_kd_range *)0)->st) /
     "struct pm_kd_range's stack must hold KD_STACK subtrees");
 
 /* A descent of the range walk finds at most one match per level (the
- * tree is at most 33 deep) and then a bucket. */
-_Static_assert(33 + KD_BUCKET <= PM_KD_RANGE_BUF &&
+ * tree is at most 33 deep) and then a bucket; the vector scans may write
+ * up to 8 entries past their last match. */
+#define KD_RANGE_DESCENT	(33 + KD_RBUCKET + 8)
+_Static_assert(KD_RANGE_DESCENT <= PM_KD_RANGE_BUF &&
     KD_RBUCKET <= KD_BUCKET,
     "struct pm_kd_range's buffer must hold one descent's matches");
+
+/* The bucket scans of the range walk, by instruction set (kd_isa_force). */
+enum {
+	KD_ISA_BEST = 0,
+	KD_ISA_C = 1,
+	KD_ISA_SSE2 = 2,
+	KD_ISA_AVX2 = 3,
+};
+
+#if (defined(__x86_64__) || defined(__i386__)) && defined(__SSE2__) && \
+    (defined(__GNUC__) || defined(__clang__))
+#define KD_X86	1
+#include <immintrin.h>
+#else
+#define KD_X86	0
+#endif
+
+/* The instruction set tests force; 0: the best the CPU has. */
+static atomic_int kd_isa_force;
+
+/* The best instruction set this CPU runs, at most the forced one. */
+static int
+kd_isa_pick(void)
+{
+	int f = atomic_load_explicit(&kd_isa_force, memory_order_relaxed);
+	int best = KD_ISA_C;
+
+#if KD_X86
+	best = __builtin_cpu_supports("avx2") &&
+	    __builtin_cpu_supports("popcnt") ? KD_ISA_AVX2 : KD_ISA_SSE2;
+#endif
+	return f == KD_ISA_BEST || f > best ? best : f;
+}
+
+int
+pm_kdtree_range_isa(int isa)
+{
+	atomic_store_explicit(&kd_isa_force, isa < 0 || isa > KD_ISA_AVX2 ?
+	    KD_ISA_BEST : isa, memory_order_relaxed);
+	return kd_isa_pick();
+}
 
 /* Starts a radius query that yields photons one at a time. */
 void
@@ -1255,6 +1252,7 @@ pm_kdtree_range_init(struct pm_kd_range *r, const struct pm_photon *p,
 	r->max_d2 = max_d2;
 	r->mask = mask;
 	r->want = want;
+	r->isa = (uint8_t)kd_isa_pick();
 	r->nbuf = r->ibuf = 0;
 	/* Nothing to walk in trees a query cannot index, as
 	 * pm_kdtree_radius. */
@@ -1266,78 +1264,281 @@ pm_kdtree_range_init(struct pm_kd_range *r, const struct pm_photon *p,
 }
 
 /*
- * The traversal of a radius query, in steps: each step takes a deferred
- * subtree, descends it to a bucket and collects the matches of the way
- * down into the caller's struct, without a branch per photon (most
- * photons of a bucket fail the test, unpredictably); pm_kdtree_range_next
- * then hands them out one at a time.  A far child is deferred only when
- * its cell comes within the radius: the distance from q to the cell is
- * kept per axis as in the k-nearest walk (a tighter test than the
- * distance to the splitting plane alone, which visited a third more
- * buckets).
+ * One descent of the range walk: takes the last deferred subtree, walks
+ * down to the bucket of q, appending the nodes of the way that match to
+ * r's buffer at *c, and deferring each far child whose cell comes within
+ * the radius: the distance from q to the cell is kept per axis as in the
+ * k-nearest walk (a tighter test than the distance to the splitting plane
+ * alone, which visited a third more buckets).  No branch on the data: the
+ * match is written and counted or not, the far child pushed and kept or
+ * not (the push is always in bounds: the stack holds at most one subtree
+ * per level), the next range picked by selects.  The bucket reached goes
+ * to [*lo, *hi); false when there was nothing left to descend.
+ */
+KD_INLINE bool
+range_descend(struct pm_kd_range *r, uint32_t *plo, uint32_t *phi,
+    uint32_t *pc)
+{
+	const struct pm_photon *p = r->p;
+	float q0 = r->q[0], q1 = r->q[1], q2 = r->q[2], max_d2 = r->max_d2;
+	uint8_t mask = r->mask, want = r->want;
+	uint32_t sp = r->sp, lo, hi, c = *pc;
+	uint32_t *bidx = r->bidx;
+	float *bd2 = r->bd2, o0, o1, o2;
+
+	if (sp == 0)
+		return false;
+	sp--;
+	lo = r->st[sp].lo;
+	hi = r->st[sp].hi;
+	o0 = r->st[sp].off[0];
+	o1 = r->st[sp].off[1];
+	o2 = r->st[sp].off[2];
+	while (hi - lo > KD_RBUCKET) {
+		uint32_t m = lo + (hi - lo) / 2;
+		const struct pm_photon *ph = &p[m];
+		int ax = ph->flags & PM_KD_AXIS_MASK;
+		float dx = ph->pos[0] - q0, dy = ph->pos[1] - q1,
+		    dz = ph->pos[2] - q2;
+		float d = dx * dx + dy * dy + dz * dz, diff, ad, f0, f1, f2;
+		bool left;
+
+		/* As in knn_walk. */
+		KD_PREFETCH_CHILDREN_B(p, lo, m, hi, KD_RBUCKET);
+		bidx[c] = m;
+		bd2[c] = d;
+		c += (d <= max_d2) & ((ph->flags & mask) == want);
+		/* A leaf mark here means a corrupt tree: stay in bounds,
+		 * the answer is wrong anyway. */
+		diff = ax == 0 ? -dx : ax == 1 ? -dy : -dz;
+		ad = fabsf(diff);
+		f0 = ax == 0 ? ad : o0;
+		f1 = ax == 1 ? ad : o1;
+		f2 = ax >= 2 ? ad : o2;
+		left = diff < 0.0f;
+		r->st[sp].lo = left ? m + 1 : lo;
+		r->st[sp].hi = left ? hi : m;
+		r->st[sp].off[0] = f0;
+		r->st[sp].off[1] = f1;
+		r->st[sp].off[2] = f2;
+		sp += f0 * f0 + f1 * f1 + f2 * f2 <= max_d2;
+		lo = left ? lo : m + 1;
+		hi = left ? m : hi;
+	}
+	r->sp = sp;
+	*plo = lo;
+	*phi = hi;
+	*pc = c;
+	return true;
+}
+
+/*
+ * The bucket scans: the photons of p[lo, lo + nb) within lim that pass
+ * the filter, in order, their indices to oi[0..) and squared distances
+ * to od[0..); return how many.  Distances are computed as kd_dist2 does,
+ * the same products and sums in the same order (and no fused
+ * multiply-add), so the same floats.
+ */
+
+/* Plain C, without a branch per photon (most fail, unpredictably). */
+KD_INLINE uint32_t
+scan_c(const struct pm_photon *p, uint32_t lo, uint32_t nb, const float q[3],
+    float lim, uint8_t mask, uint8_t want, uint32_t *oi, float *od)
+{
+	uint32_t i, c = 0;
+
+	for (i = lo; i < lo + nb; i++) {
+		float d2 = kd_dist2(p[i].pos, q);
+
+		oi[c] = i;
+		od[c] = d2;
+		c += (d2 <= lim) & ((p[i].flags & mask) == want);
+	}
+	return c;
+}
+
+/* Bit j set if photon ph[j] (j < n) passes the filter. */
+KD_INLINE unsigned
+scan_flags(const struct pm_photon *ph, unsigned n, uint8_t mask, uint8_t want)
+{
+	unsigned j, in = 0;
+
+	for (j = 0; j < n; j++)
+		in |= (unsigned)((ph[j].flags & mask) == want) << j;
+	return in;
+}
+
+#if KD_X86
+/* SSE2: four photons at a time, their positions loaded as rows and
+ * transposed; the matches of each four, usually none or few, taken from
+ * the comparison's bits. */
+KD_INLINE uint32_t
+scan_sse2(const struct pm_photon *p, uint32_t lo, uint32_t nb,
+    const float q[3], float lim, uint8_t mask, uint8_t want, uint32_t *oi,
+    float *od)
+{
+	__m128 qx = _mm_set1_ps(q[0]), qy = _mm_set1_ps(q[1]),
+	    qz = _mm_set1_ps(q[2]), vl = _mm_set1_ps(lim);
+	/* Most lookups filter nothing (mask 0, want 0): then the flags'
+	 * bytes need not be read. */
+	bool filter = (mask | want) != 0;
+	uint32_t i = 0, c = 0;
+	float t[4];
+
+	for (; i + 4 <= nb; i += 4) {
+		const struct pm_photon *ph = &p[lo + i];
+		__m128 x = _mm_loadu_ps(ph[0].pos), y = _mm_loadu_ps(ph[1].pos),
+		    z = _mm_loadu_ps(ph[2].pos), w = _mm_loadu_ps(ph[3].pos);
+		__m128 dx, dy, dz, d2;
+		unsigned in;
+
+		_MM_TRANSPOSE4_PS(x, y, z, w);
+		dx = _mm_sub_ps(x, qx);
+		dy = _mm_sub_ps(y, qy);
+		dz = _mm_sub_ps(z, qz);
+		d2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx),
+		    _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
+		/* <= is false for NaN, as in the scalar test. */
+		in = (unsigned)_mm_movemask_ps(_mm_cmple_ps(d2, vl));
+		if (filter)
+			in &= scan_flags(ph, 4, mask, want);
+		_mm_storeu_ps(t, d2);
+		for (; in != 0; in &= in - 1) {
+			unsigned j = (unsigned)__builtin_ctz(in);
+
+			oi[c] = lo + i + j;
+			od[c++] = t[j];
+		}
+	}
+	return c + scan_c(p, lo + i, nb - i, q, lim, mask, want, oi + c,
+	    od + c);
+}
+
+/* The AVX2 scan, eight photons at a time: photons j and j + 4 share a
+ * row, the two 128-bit halves transposed side by side.  A bucket not a
+ * multiple of eight ends with the last eight photons again, the lanes
+ * already scanned masked off, rather than a slower tail. */
+__attribute__((target("avx2,popcnt")))
+KD_INLINE uint32_t
+scan_avx2(const struct pm_photon *p, uint32_t lo, uint32_t nb,
+    const float q[3], float lim, uint8_t mask, uint8_t want, uint32_t *oi,
+    float *od)
+{
+	__m256 qx = _mm256_set1_ps(q[0]), qy = _mm256_set1_ps(q[1]),
+	    qz = _mm256_set1_ps(q[2]), vl = _mm256_set1_ps(lim);
+	bool filter = (mask | want) != 0;
+	uint32_t i = 0, c = 0;
+	float t[8];
+
+	if (nb < 8)
+		return scan_c(p, lo, nb, q, lim, mask, want, oi, od);
+	for (;;) {
+		const struct pm_photon *ph;
+		__m256 r0, r1, r2, r3, t0, t1, t2, t3, dx, dy, dz, d2;
+		unsigned in, keep = 0xffu;
+
+		if (i + 8 > nb) {
+			if (i == nb)
+				break;
+			keep = 0xffu << (i + 8 - nb) & 0xffu;
+			i = nb - 8;
+		}
+		ph = &p[lo + i];
+		r0 = _mm256_insertf128_ps(_mm256_castps128_ps256(
+		    _mm_loadu_ps(ph[0].pos)), _mm_loadu_ps(ph[4].pos), 1);
+		r1 = _mm256_insertf128_ps(_mm256_castps128_ps256(
+		    _mm_loadu_ps(ph[1].pos)), _mm_loadu_ps(ph[5].pos), 1);
+		r2 = _mm256_insertf128_ps(_mm256_castps128_ps256(
+		    _mm_loadu_ps(ph[2].pos)), _mm_loadu_ps(ph[6].pos), 1);
+		r3 = _mm256_insertf128_ps(_mm256_castps128_ps256(
+		    _mm_loadu_ps(ph[3].pos)), _mm_loadu_ps(ph[7].pos), 1);
+		t0 = _mm256_unpacklo_ps(r0, r1);	/* x0 x1 y0 y1 */
+		t1 = _mm256_unpacklo_ps(r2, r3);	/* x2 x3 y2 y3 */
+		t2 = _mm256_unpackhi_ps(r0, r1);	/* z0 z1 .. */
+		t3 = _mm256_unpackhi_ps(r2, r3);	/* z2 z3 .. */
+		dx = _mm256_sub_ps(_mm256_shuffle_ps(t0, t1, 0x44), qx);
+		dy = _mm256_sub_ps(_mm256_shuffle_ps(t0, t1, 0xee), qy);
+		dz = _mm256_sub_ps(_mm256_shuffle_ps(t2, t3, 0x44), qz);
+		d2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx),
+		    _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz));
+		/* Ordered, quiet: false for NaN, as the scalar <=. */
+		in = (unsigned)_mm256_movemask_ps(_mm256_cmp_ps(d2, vl,
+		    _CMP_LE_OQ)) & keep;
+		if (filter)
+			in &= scan_flags(ph, 8, mask, want);
+		_mm256_storeu_ps(t, d2);
+		for (; in != 0; in &= in - 1) {
+			unsigned j = (unsigned)__builtin_ctz(in);
+
+			oi[c] = lo + i + j;
+			od[c++] = t[j];
+		}
+		i += 8;
+	}
+	return c;
+}
+#endif
+
+/*
+ * Fills r's buffer with the matches of as many descents as it has room
+ * for, each descent's nodes then its bucket, so the photons come in the
+ * same order whatever the scan.  One function per instruction set, the
+ * descent inlined in each.
+ */
+#define KD_RANGE_FILL(r, scan) do {					\
+	uint32_t lo_, hi_, c_ = 0;					\
+									\
+	while (c_ + KD_RANGE_DESCENT <= PM_KD_RANGE_BUF &&		\
+	    range_descend((r), &lo_, &hi_, &c_))			\
+		c_ += scan((r)->p, lo_, hi_ - lo_, (r)->q, (r)->max_d2,	\
+		    (r)->mask, (r)->want, (r)->bidx + c_, (r)->bd2 + c_);	\
+	(r)->nbuf = c_;							\
+	(r)->ibuf = 0;							\
+} while (0)
+
+static void
+range_fill_c(struct pm_kd_range *r)
+{
+	KD_RANGE_FILL(r, scan_c);
+}
+
+#if KD_X86
+static void
+range_fill_sse2(struct pm_kd_range *r)
+{
+	KD_RANGE_FILL(r, scan_sse2);
+}
+
+__attribute__((target("avx2,popcnt")))
+static void
+range_fill_avx2(struct pm_kd_range *r)
+{
+	KD_RANGE_FILL(r, scan_avx2);
+}
+#endif
+
+/*
+ * The traversal of a radius query, in steps: each step fills r's buffer
+ * with the matches of one or more descents (range_descend), which
+ * pm_kdtree_range_next then hands out one at a time.
  */
 bool
 pm_kdtree_range_refill(struct pm_kd_range *r)
 {
-	const struct pm_photon *p = r->p;
-	const float *q = r->q;
-	float max_d2 = r->max_d2, off[3];
-	uint8_t mask = r->mask, want = r->want;
-	uint32_t lo, hi, c, i, sp;
-	float dd[KD_RBUCKET];
-	uint32_t ci[KD_RBUCKET];
-
-	while (r->ibuf == r->nbuf) {
-		if (r->sp == 0)
-			return false;
-		sp = --r->sp;
-		lo = r->st[sp].lo;
-		hi = r->st[sp].hi;
-		off[0] = r->st[sp].off[0];
-		off[1] = r->st[sp].off[1];
-		off[2] = r->st[sp].off[2];
-		c = 0;
-		while (hi - lo > KD_RBUCKET) {
-			uint32_t m = lo + (hi - lo) / 2;
-			const struct pm_photon *ph = &p[m];
-			int ax = ph->flags & PM_KD_AXIS_MASK;
-			float d = kd_dist2(ph->pos, q), diff, dist, o[3];
-
-			/* As in knn_walk. */
-			KD_PREFETCH_CHILDREN_B(p, lo, m, hi, KD_RBUCKET);
-			r->bidx[c] = m;
-			r->bd2[c] = d;
-			c += (d <= max_d2) & ((ph->flags & mask) == want);
-			ax = ax > 2 ? 2 : ax;
-			diff = q[ax] - ph->pos[ax];
-			o[0] = off[0];
-			o[1] = off[1];
-			o[2] = off[2];
-			o[ax] = fabsf(diff);
-			dist = o[0] * o[0] + o[1] * o[1] + o[2] * o[2];
-			if (dist <= max_d2 && sp < KD_STACK) {
-				r->st[sp].lo = diff < 0.0f ? m + 1 : lo;
-				r->st[sp].hi = diff < 0.0f ? hi : m;
-				r->st[sp].off[0] = o[0];
-				r->st[sp].off[1] = o[1];
-				r->st[sp].off[2] = o[2];
-				sp++;
-			}
-			if (diff < 0.0f)
-				hi = m;
-			else
-				lo = m + 1;
-		}
-		i = bucket_scan(p, lo, hi - lo, q, max_d2, mask, want, dd, ci);
-		for (uint32_t j = 0; j < i; j++) {
-			r->bidx[c + j] = lo + ci[j];
-			r->bd2[c + j] = dd[ci[j]];
-		}
-		r->sp = sp;
-		r->nbuf = c + i;
-		r->ibuf = 0;
+	switch (r->isa) {
+#if KD_X86
+	case KD_ISA_AVX2:
+		range_fill_avx2(r);
+		break;
+	case KD_ISA_SSE2:
+		range_fill_sse2(r);
+		break;
+#endif
+	default:
+		range_fill_c(r);
+		break;
 	}
-	return true;
+	return r->nbuf > 0;
 }
 
 /*

@@ -88,6 +88,7 @@ struct pm_kd_range {
 	const struct pm_photon *p;
 	float q[3], max_d2;
 	uint8_t mask, want;
+	uint8_t isa;			/* the bucket scan's instruction set */
 	uint32_t sp;			/* deferred subtrees on the stack */
 	uint32_t nbuf, ibuf;		/* matches found, and returned */
 	/* Deferred subtrees: their index ranges and the distances from q
@@ -122,6 +123,15 @@ pm_kdtree_range_next(struct pm_kd_range *r, uint32_t *idx, float *d2)
 	*d2 = r->bd2[r->ibuf++];
 	return true;
 }
+
+/*
+ * For tests: the instruction set of the bucket scans of range (and
+ * radius) queries started from now on, 1 plain C, 2 SSE2, 3 AVX2, 0 (the
+ * default) the best the CPU runs; one the CPU lacks falls back to the best
+ * it has.  Returns the one queries will use.  Every choice yields the
+ * same photons in the same order with the same distances.
+ */
+int pm_kdtree_range_isa(int isa);
 
 /*
  * Checks the ordering invariant of every node; returns true if it holds,

@@ -220,29 +220,51 @@ check_radius(const struct pm_photon *p, size_t n, const float q[3],
 }
 
 /* The radius walk that yields photons one at a time (progressive
- * passes) finds the brute-force set too, each photon once. */
+ * passes) finds the brute-force set too, each photon once, with each of
+ * its bucket scans (plain C, SSE2, AVX2, where the CPU has them), and
+ * every scan yields the same photons in the same order (renders sum them
+ * in that order). */
 static void
 check_range(const struct pm_photon *p, size_t n, const float q[3],
     float max_d2, uint8_t mask, uint8_t want, struct pm_knn *all,
     struct pm_knn *out)
 {
-	size_t nb = brute(p, n, q, max_d2, mask, want, all), got = 0, i;
+	size_t nb = brute(p, n, q, max_d2, mask, want, all), got, i, first = 0;
 	struct pm_kd_range it;
-	uint32_t idx;
+	uint32_t idx, *order;
 	float d2;
+	int isa;
 
-	pm_kdtree_range_init(&it, p, n, q, max_d2, mask, want);
-	while (pm_kdtree_range_next(&it, &idx, &d2)) {
-		assert_true(got < nb);
-		out[got].idx = idx;
-		out[got++].d2 = d2;
+	order = malloc((nb + 1) * sizeof(*order));
+	assert_non_null(order);
+	for (isa = 1; isa <= 3; isa++) {
+		int used = pm_kdtree_range_isa(isa);
+
+		assert_true(used >= 1 && used <= isa);
+		got = 0;
+		pm_kdtree_range_init(&it, p, n, q, max_d2, mask, want);
+		while (pm_kdtree_range_next(&it, &idx, &d2)) {
+			assert_true(got < nb);
+			if (isa == 1)
+				order[got] = idx;
+			else
+				assert_int_equal(idx, order[got]);
+			out[got].idx = idx;
+			out[got++].d2 = d2;
+		}
+		assert_int_equal(got, nb);
+		if (isa == 1)
+			first = got;
+		assert_int_equal(got, first);
+		pm_knn_sort(out, got);
+		for (i = 0; i < got; i++) {
+			assert_int_equal(out[i].idx, all[i].idx);
+			assert_true(out[i].d2 == all[i].d2);
+		}
 	}
-	assert_int_equal(got, nb);
-	pm_knn_sort(out, got);
-	for (i = 0; i < got; i++) {
-		assert_int_equal(out[i].idx, all[i].idx);
-		assert_true(out[i].d2 == all[i].d2);
-	}
+	assert_int_equal(pm_kdtree_range_isa(0), pm_kdtree_range_isa(3));
+	pm_kdtree_range_isa(0);
+	free(order);
 }
 
 /*
