@@ -1277,14 +1277,13 @@ pm_kdtree_range_init(struct pm_kd_range *r, const struct pm_photon *p,
  */
 KD_INLINE bool
 range_descend(struct pm_kd_range *r, uint32_t *plo, uint32_t *phi,
-    uint32_t *pc)
+    uint32_t *bidx, float *bd2, uint32_t *pc)
 {
 	const struct pm_photon *p = r->p;
 	float q0 = r->q[0], q1 = r->q[1], q2 = r->q[2], max_d2 = r->max_d2;
 	uint8_t mask = r->mask, want = r->want;
 	uint32_t sp = r->sp, lo, hi, c = *pc;
-	uint32_t *bidx = r->bidx;
-	float *bd2 = r->bd2, o0, o1, o2;
+	float o0, o1, o2;
 
 	if (sp == 0)
 		return false;
@@ -1303,8 +1302,12 @@ range_descend(struct pm_kd_range *r, uint32_t *plo, uint32_t *phi,
 		float d = dx * dx + dy * dy + dz * dz, diff, ad, f0, f1, f2;
 		bool left;
 
-		/* As in knn_walk. */
-		KD_PREFETCH_CHILDREN_B(p, lo, m, hi, KD_RBUCKET);
+		/* The roots of both children, as in knn_walk; buckets
+		 * are fetched whole when reached (range_fill). */
+		if (m - lo > KD_RBUCKET) {
+			kd_prefetch_line(&p[lo + (m - lo) / 2]);
+			kd_prefetch_line(&p[m + 1 + (hi - m - 1) / 2]);
+		}
 		bidx[c] = m;
 		bd2[c] = d;
 		c += (d <= max_d2) & ((ph->flags & mask) == want);
@@ -1382,7 +1385,7 @@ scan_sse2(const struct pm_photon *p, uint32_t lo, uint32_t nb,
 	/* Most lookups filter nothing (mask 0, want 0): then the flags'
 	 * bytes need not be read. */
 	bool filter = (mask | want) != 0;
-	uint32_t i = 0, c = 0;
+	uint32_t i = 0, c = 0, j;
 	float t[4];
 
 	for (; i + 4 <= nb; i += 4) {
@@ -1403,16 +1406,27 @@ scan_sse2(const struct pm_photon *p, uint32_t lo, uint32_t nb,
 		if (filter)
 			in &= scan_flags(ph, 4, mask, want);
 		_mm_storeu_ps(t, d2);
-		for (; in != 0; in &= in - 1) {
-			unsigned j = (unsigned)__builtin_ctz(in);
-
+		/* Each photon written, the count moved past the matches:
+		 * no branch a match would mispredict. */
+		for (j = 0; j < 4; j++) {
 			oi[c] = lo + i + j;
-			od[c++] = t[j];
+			od[c] = t[j];
+			c += in >> j & 1;
 		}
 	}
 	return c + scan_c(p, lo + i, nb - i, q, lim, mask, want, oi + c,
 	    od + c);
 }
+
+/* For each 4-bit mask, the lanes of its set bits in order, a byte each
+ * (the rest 0): the permutation that moves a half's matches to its
+ * front. */
+static const uint32_t kd_compact4[16] = {
+	0x00000000, 0x00000000, 0x00000001, 0x00000100,
+	0x00000002, 0x00000200, 0x00000201, 0x00020100,
+	0x00000003, 0x00000300, 0x00000301, 0x00030100,
+	0x00000302, 0x00030200, 0x00030201, 0x03020100,
+};
 
 /* The AVX2 scan, eight photons at a time: photons j and j + 4 share a
  * row, the two 128-bit halves transposed side by side.  A bucket not a
@@ -1428,13 +1442,13 @@ scan_avx2(const struct pm_photon *p, uint32_t lo, uint32_t nb,
 	    qz = _mm256_set1_ps(q[2]), vl = _mm256_set1_ps(lim);
 	bool filter = (mask | want) != 0;
 	uint32_t i = 0, c = 0;
-	float t[8];
 
 	if (nb < 8)
 		return scan_c(p, lo, nb, q, lim, mask, want, oi, od);
 	for (;;) {
 		const struct pm_photon *ph;
 		__m256 r0, r1, r2, r3, t0, t1, t2, t3, dx, dy, dz, d2;
+		__m128i pl, ph_;
 		unsigned in, keep = 0xffu;
 
 		if (i + 8 > nb) {
@@ -1466,13 +1480,23 @@ scan_avx2(const struct pm_photon *p, uint32_t lo, uint32_t nb,
 		    _CMP_LE_OQ)) & keep;
 		if (filter)
 			in &= scan_flags(ph, 8, mask, want);
-		_mm256_storeu_ps(t, d2);
-		for (; in != 0; in &= in - 1) {
-			unsigned j = (unsigned)__builtin_ctz(in);
-
-			oi[c] = lo + i + j;
-			od[c++] = t[j];
-		}
+		/* Each half's matches moved to its front by a permutation
+		 * from the table and stored whole, the count moved past
+		 * them: no branch a match would mispredict. */
+		pl = _mm_cvtepu8_epi32(_mm_cvtsi32_si128(
+		    (int)kd_compact4[in & 15]));
+		ph_ = _mm_cvtepu8_epi32(_mm_cvtsi32_si128(
+		    (int)kd_compact4[in >> 4]));
+		_mm_storeu_ps(od + c, _mm_permutevar_ps(
+		    _mm256_castps256_ps128(d2), pl));
+		_mm_storeu_si128((__m128i *)(oi + c), _mm_add_epi32(pl,
+		    _mm_set1_epi32((int)(lo + i))));
+		c += (uint32_t)__builtin_popcount(in & 15);
+		_mm_storeu_ps(od + c, _mm_permutevar_ps(
+		    _mm256_extractf128_ps(d2, 1), ph_));
+		_mm_storeu_si128((__m128i *)(oi + c), _mm_add_epi32(ph_,
+		    _mm_set1_epi32((int)(lo + i + 4))));
+		c += (uint32_t)__builtin_popcount(in >> 4);
 		i += 8;
 	}
 	return c;
@@ -1485,13 +1509,45 @@ scan_avx2(const struct pm_photon *p, uint32_t lo, uint32_t nb,
  * same order whatever the scan.  One function per instruction set, the
  * descent inlined in each.
  */
+#ifndef KD_FILL_DESCENTS
+#define KD_FILL_DESCENTS	16
+#endif
 #define KD_RANGE_FILL(r, scan) do {					\
-	uint32_t lo_, hi_, c_ = 0;					\
+	uint32_t lo_[KD_FILL_DESCENTS], hi_[KD_FILL_DESCENTS];		\
+	uint32_t nm_[KD_FILL_DESCENTS], ti_[PM_KD_RANGE_BUF];		\
+	float td_[PM_KD_RANGE_BUF];					\
+	uint32_t nd_, nt_, used_, c_, i_, t_;				\
 									\
-	while (c_ + KD_RANGE_DESCENT <= PM_KD_RANGE_BUF &&		\
-	    range_descend((r), &lo_, &hi_, &c_))			\
-		c_ += scan((r)->p, lo_, hi_ - lo_, (r)->q, (r)->max_d2,	\
-		    (r)->mask, (r)->want, (r)->bidx + c_, (r)->bd2 + c_);	\
+	do {								\
+		nd_ = nt_ = used_ = c_ = 0;				\
+		while (nd_ < KD_FILL_DESCENTS && used_ +		\
+		    KD_RANGE_DESCENT <= PM_KD_RANGE_BUF) {		\
+			const char *x_, *e_;				\
+									\
+			t_ = nt_;					\
+			if (!range_descend((r), &lo_[nd_], &hi_[nd_],	\
+			    ti_, td_, &nt_))				\
+				break;					\
+			nm_[nd_] = nt_ - t_;				\
+			used_ += nm_[nd_] + hi_[nd_] - lo_[nd_];	\
+			x_ = (const char *)&(r)->p[lo_[nd_]];		\
+			e_ = (const char *)&(r)->p[hi_[nd_]];		\
+			for (; x_ < e_; x_ += 64)			\
+				kd_prefetch_line(x_);			\
+			nd_++;						\
+		}							\
+		for (i_ = t_ = 0; i_ < nd_; i_++) {			\
+			memcpy((r)->bidx + c_, ti_ + t_,		\
+			    nm_[i_] * sizeof(*ti_));			\
+			memcpy((r)->bd2 + c_, td_ + t_,			\
+			    nm_[i_] * sizeof(*td_));			\
+			c_ += nm_[i_];					\
+			t_ += nm_[i_];					\
+			c_ += scan((r)->p, lo_[i_], hi_[i_] - lo_[i_],	\
+			    (r)->q, (r)->max_d2, (r)->mask, (r)->want,	\
+			    (r)->bidx + c_, (r)->bd2 + c_);		\
+		}							\
+	} while (c_ == 0 && (r)->sp > 0);				\
 	(r)->nbuf = c_;							\
 	(r)->ibuf = 0;							\
 } while (0)

@@ -83,7 +83,9 @@ size_t pm_kdtree_radius(const struct pm_photon *p, size_t n, const float q[3],
  * Start it with pm_kdtree_range_init, then call pm_kdtree_range_next until
  * it returns false.  The tree must not change meanwhile.
  */
-#define PM_KD_RANGE_BUF	96
+#ifndef PM_KD_RANGE_BUF
+#define PM_KD_RANGE_BUF	256
+#endif
 struct pm_kd_range {
 	const struct pm_photon *p;
 	float q[3], max_d2;
