@@ -1299,7 +1299,7 @@ range_descend(struct pm_kd_range *r, uint32_t *plo, uint32_t *phi,
 		int ax = ph->flags & PM_KD_AXIS_MASK;
 		float dx = ph->pos[0] - q0, dy = ph->pos[1] - q1,
 		    dz = ph->pos[2] - q2;
-		float d = dx * dx + dy * dy + dz * dz, diff, ad, f0, f1, f2;
+		float d = dx * dx + dy * dy + dz * dz, diff, f[3];
 		bool left;
 
 		/* The roots of both children, as in knn_walk; buckets
@@ -1312,19 +1312,23 @@ range_descend(struct pm_kd_range *r, uint32_t *plo, uint32_t *phi,
 		bd2[c] = d;
 		c += (d <= max_d2) & ((ph->flags & mask) == want);
 		/* A leaf mark here means a corrupt tree: stay in bounds,
-		 * the answer is wrong anyway. */
-		diff = ax == 0 ? -dx : ax == 1 ? -dy : -dz;
-		ad = fabsf(diff);
-		f0 = ax == 0 ? ad : o0;
-		f1 = ax == 1 ? ad : o1;
-		f2 = ax >= 2 ? ad : o2;
+		 * the answer is wrong anyway.  The axis indexes, rather
+		 * than selects: GCC made branches of selects on it, which
+		 * the predictor missed (measured 1.4-1.5x on the whole
+		 * walk). */
+		ax = ax > 2 ? 2 : ax;
+		diff = r->q[ax] - ph->pos[ax];
+		f[0] = o0;
+		f[1] = o1;
+		f[2] = o2;
+		f[ax] = fabsf(diff);
 		left = diff < 0.0f;
 		r->st[sp].lo = left ? m + 1 : lo;
 		r->st[sp].hi = left ? hi : m;
-		r->st[sp].off[0] = f0;
-		r->st[sp].off[1] = f1;
-		r->st[sp].off[2] = f2;
-		sp += f0 * f0 + f1 * f1 + f2 * f2 <= max_d2;
+		r->st[sp].off[0] = f[0];
+		r->st[sp].off[1] = f[1];
+		r->st[sp].off[2] = f[2];
+		sp += f[0] * f[0] + f[1] * f[1] + f[2] * f[2] <= max_d2;
 		lo = left ? lo : m + 1;
 		hi = left ? m : hi;
 	}
