@@ -1314,8 +1314,7 @@ range_descend(struct pm_kd_range *r, uint32_t *plo, uint32_t *phi,
 		/* A leaf mark here means a corrupt tree: stay in bounds,
 		 * the answer is wrong anyway.  The axis indexes, rather
 		 * than selects: GCC made branches of selects on it, which
-		 * the predictor missed (measured 1.4-1.5x on the whole
-		 * walk). */
+		 * the predictor missed. */
 		ax = ax > 2 ? 2 : ax;
 		diff = r->q[ax] - ph->pos[ax];
 		f[0] = o0;
