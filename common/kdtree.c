@@ -22,7 +22,8 @@
  * and scan small ranges (contiguous records) linearly, which is faster than
  * branching on the last few levels; both children of each node are
  * prefetched while the node is decided, and buckets are scanned without a
- * branch per photon (four at a time with SSE).  Both kinds of query prune
+ * branch per photon (four at a time with SSE; the radius walk, eight at a
+ * time with AVX2 where the CPU has it, chosen at run time).  Both kinds of query prune
  * a far child by the squared distance from q to its cell, kept
  * incrementally per axis (Arya and Mount 1993).  Batches of k-nearest
  * queries are walked in Morton order, each bounded first by a guess at
@@ -1519,7 +1520,7 @@ scan_avx2(const struct pm_photon *p, uint32_t lo, uint32_t nb,
 	uint32_t lo_[KD_FILL_DESCENTS], hi_[KD_FILL_DESCENTS];		\
 	uint32_t nm_[KD_FILL_DESCENTS], ti_[PM_KD_RANGE_BUF];		\
 	float td_[PM_KD_RANGE_BUF];					\
-	uint32_t nd_, nt_, used_, c_, i_, t_;				\
+	uint32_t nd_, nt_, used_, c_, i_, t_, j_;				\
 									\
 	do {								\
 		nd_ = nt_ = used_ = c_ = 0;				\
@@ -1540,10 +1541,11 @@ scan_avx2(const struct pm_photon *p, uint32_t lo, uint32_t nb,
 			nd_++;						\
 		}							\
 		for (i_ = t_ = 0; i_ < nd_; i_++) {			\
-			memcpy((r)->bidx + c_, ti_ + t_,		\
-			    nm_[i_] * sizeof(*ti_));			\
-			memcpy((r)->bd2 + c_, td_ + t_,			\
-			    nm_[i_] * sizeof(*td_));			\
+			/* Mostly none or one: a loop, not memcpy. */	\
+			for (j_ = 0; j_ < nm_[i_]; j_++) {		\
+				(r)->bidx[c_ + j_] = ti_[t_ + j_];	\
+				(r)->bd2[c_ + j_] = td_[t_ + j_];	\
+			}						\
 			c_ += nm_[i_];					\
 			t_ += nm_[i_];					\
 			c_ += scan((r)->p, lo_[i_], hi_[i_] - lo_[i_],	\
