@@ -771,6 +771,26 @@ knn_offer(struct knn_state *s, float d2, uint32_t idx)
 	}								\
 } while (0)
 
+#if defined(__SSE2__)
+/* The squared distances to (qx, qy, qz) of the four photons at ph, their
+ * positions loaded as rows and transposed: kd_dist2's arithmetic, in its
+ * order, four at a time (the k-nearest and the range scans). */
+static inline __m128
+d2_sse2(const struct pm_photon *ph, __m128 qx, __m128 qy, __m128 qz)
+{
+	__m128 x = _mm_loadu_ps(ph[0].pos), y = _mm_loadu_ps(ph[1].pos),
+	    z = _mm_loadu_ps(ph[2].pos), w = _mm_loadu_ps(ph[3].pos);
+	__m128 dx, dy, dz;
+
+	_MM_TRANSPOSE4_PS(x, y, z, w);
+	dx = _mm_sub_ps(x, qx);
+	dy = _mm_sub_ps(y, qy);
+	dz = _mm_sub_ps(z, qz);
+	return _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)),
+	    _mm_mul_ps(dz, dz));
+}
+#endif
+
 /*
  * The squared distances from q of the bucket p[lo, lo + nb) into
  * dd[0..nb), and into ci[0..) the offsets of those within lim that pass
@@ -796,17 +816,9 @@ bucket_scan(const struct pm_photon *p, uint32_t lo, uint32_t nb,
 
 	for (; i + 4 <= nb; i += 4) {
 		const struct pm_photon *ph = &p[lo + i];
-		__m128 x = _mm_loadu_ps(ph[0].pos), y = _mm_loadu_ps(ph[1].pos),
-		    z = _mm_loadu_ps(ph[2].pos), w = _mm_loadu_ps(ph[3].pos);
-		__m128 dx, dy, dz, d2;
+		__m128 d2 = d2_sse2(ph, qx, qy, qz);
 		unsigned in;
 
-		_MM_TRANSPOSE4_PS(x, y, z, w);
-		dx = _mm_sub_ps(x, qx);
-		dy = _mm_sub_ps(y, qy);
-		dz = _mm_sub_ps(z, qz);
-		d2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx),
-		    _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
 		_mm_storeu_ps(&dd[i], d2);
 		/* <= is false for NaN, as in the scalar test. */
 		in = (unsigned)_mm_movemask_ps(_mm_cmple_ps(d2, vl));
@@ -1394,17 +1406,9 @@ scan_sse2(const struct pm_photon *p, uint32_t lo, uint32_t nb,
 
 	for (; i + 4 <= nb; i += 4) {
 		const struct pm_photon *ph = &p[lo + i];
-		__m128 x = _mm_loadu_ps(ph[0].pos), y = _mm_loadu_ps(ph[1].pos),
-		    z = _mm_loadu_ps(ph[2].pos), w = _mm_loadu_ps(ph[3].pos);
-		__m128 dx, dy, dz, d2;
+		__m128 d2 = d2_sse2(ph, qx, qy, qz);
 		unsigned in;
 
-		_MM_TRANSPOSE4_PS(x, y, z, w);
-		dx = _mm_sub_ps(x, qx);
-		dy = _mm_sub_ps(y, qy);
-		dz = _mm_sub_ps(z, qz);
-		d2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx),
-		    _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
 		/* <= is false for NaN, as in the scalar test. */
 		in = (unsigned)_mm_movemask_ps(_mm_cmple_ps(d2, vl));
 		if (filter)
