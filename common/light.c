@@ -582,29 +582,6 @@ pm_light_occluded(const struct pm_accel *a, const struct pm_hit *h,
 	return pm_accel_occluded(a, r.o, r.d, r.tmin, r.tmax);
 }
 
-bool
-pm_light_shadow_ray(const struct pm_hit *h, const struct pm_light_sample *ls,
-    struct pm_ray *r)
-{
-	struct pm_vec3 o = pm_hit_origin(h, ls->wi), d;
-	float dist;
-
-	r->o = o;
-	r->tmin = 0.0f;
-	if (isinf(ls->dist)) {
-		r->d = ls->wi;
-		r->tmax = INFINITY;
-		return true;
-	}
-	d = pm_sub(ls->p, o);
-	dist = pm_length(d);
-	if (!(dist > 0.0f))
-		return false;
-	r->d = pm_scale(d, 1.0f / dist);
-	r->tmax = dist * (1.0f - 1e-4f);
-	return true;
-}
-
 struct pm_rgb
 pm_lights_emitted(const struct pm_lights *ls, const struct pm_scene *s,
     const struct pm_hit *h, struct pm_vec3 d, struct pm_vec3 prev_p,

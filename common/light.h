@@ -146,9 +146,30 @@ bool pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
 bool pm_light_occluded(const struct pm_accel *a, const struct pm_hit *h,
     const struct pm_light_sample *ls);
 /* That shadow ray, for casting in a batch; false when there is none to
- * cast (the light point is the origin: nothing can block it). */
-bool pm_light_shadow_ray(const struct pm_hit *h, const struct pm_light_sample *ls,
-    struct pm_ray *r);
+ * cast (the light point is the origin: nothing can block it).  Inline:
+ * the path tracer makes one per light sample. */
+static inline bool
+pm_light_shadow_ray(const struct pm_hit *h,
+    const struct pm_light_sample *ls, struct pm_ray *r)
+{
+	struct pm_vec3 o = pm_hit_origin(h, ls->wi), d;
+	float dist;
+
+	r->o = o;
+	r->tmin = 0.0f;
+	if (isinf(ls->dist)) {
+		r->d = ls->wi;
+		r->tmax = INFINITY;
+		return true;
+	}
+	d = pm_sub(ls->p, o);
+	dist = pm_length(d);
+	if (!(dist > 0.0f))
+		return false;
+	r->d = pm_scale(d, 1.0f / dist);
+	r->tmax = dist * (1.0f - 1e-4f);
+	return true;
+}
 
 /* Solid-angle density with which pm_lights_sample picks the point p (normal
  * n) of area light `light` from ref. */
