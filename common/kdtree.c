@@ -81,124 +81,22 @@ kd_dist2(const float a[3], const float q[3])
 	return dx * dx + dy * dy + dz * dz;
 }
 
-static inline void
-ph_swap(struct pm_photon *a, struct pm_photon *b)
-{
-	struct pm_photon t = *a;
-
-	*a = *b;
-	*b = t;
-}
-
-/* Index of a median of three keys (any of the three when some are NaN). */
-static inline ptrdiff_t
-med3(const struct pm_photon *p, ptrdiff_t i, ptrdiff_t j, ptrdiff_t k,
-    int ax)
-{
-	float a = p[i].pos[ax], b = p[j].pos[ax], c = p[k].pos[ax];
-
-	if (a < b) {
-		if (b < c)
-			return j;
-		return a < c ? k : i;
-	}
-	if (a < c)
-		return i;
-	return b < c ? k : j;
-}
-
-static void
-insertion_sort(struct pm_photon *p, ptrdiff_t lo, ptrdiff_t hi, int ax)
-{
-	ptrdiff_t i, j;
-
-	for (i = lo + 1; i < hi; i++) {
-		struct pm_photon t = p[i];
-		float v = t.pos[ax];
-
-		for (j = i; j > lo && p[j - 1].pos[ax] > v; j--)
-			p[j] = p[j - 1];
-		p[j] = t;
-	}
-}
-
-static void
-sift_down_key(struct pm_photon *p, ptrdiff_t root, ptrdiff_t n, int ax)
-{
-	for (;;) {
-		ptrdiff_t c = 2 * root + 1;
-
-		if (c >= n)
-			return;
-		if (c + 1 < n && p[c + 1].pos[ax] > p[c].pos[ax])
-			c++;
-		if (!(p[c].pos[ax] > p[root].pos[ax]))
-			return;
-		ph_swap(&p[root], &p[c]);
-		root = c;
-	}
-}
-
-/* The introselect fallback: O(n log n) whatever the data. */
-static void
-heap_sort_key(struct pm_photon *p, ptrdiff_t n, int ax)
-{
-	ptrdiff_t i;
-
-	for (i = n / 2; i-- > 0;)
-		sift_down_key(p, i, n, ax);
-	for (i = n - 1; i > 0; i--) {
-		ph_swap(&p[0], &p[i]);
-		sift_down_key(p, 0, i, ax);
-	}
-}
-
-static void
-swap_blocks(struct pm_photon *p, ptrdiff_t a, ptrdiff_t b, ptrdiff_t len)
-{
-	while (len-- > 0)
-		ph_swap(&p[a++], &p[b++]);
-}
-
 /*
- * Bentley-McIlroy three-way partition of [lo, hi) around v: afterwards
- * [lo, *lt) < v, [*lt, *gt) == v, [*gt, hi) > v.  Equal keys are parked at
- * both ends during the scan and swapped to the middle at the end.
+ * Subtrees of up to RADIX_MAX photons -- the lower dozen and more levels
+ * of the tree, most of the build's passes -- are built on compact records
+ * instead, the position and the photon's index in 16 bytes rather than
+ * 24, and the photons permuted to their places once at the end: every
+ * pass moves two thirds of the bytes, and a whole subtree's records fit in
+ * the second-level cache.  The split axis goes in the index's top bits.
  */
-static void
-partition3(struct pm_photon *p, ptrdiff_t lo, ptrdiff_t hi, float v, int ax,
-    ptrdiff_t *lt, ptrdiff_t *gt)
-{
-	ptrdiff_t a = lo, b = lo, c = hi - 1, d = hi - 1, s, less, greater;
-	float x;
+struct kd_rec {
+	float pos[3];
+	uint32_t idx;		/* the photon's offset in the subtree, and its
+				 * split axis (or PM_KD_LEAF) from bit 30 */
+};
 
-	for (;;) {
-		while (b <= c && (x = p[b].pos[ax]) <= v) {
-			if (x == v)
-				ph_swap(&p[a++], &p[b]);
-			b++;
-		}
-		while (c >= b && (x = p[c].pos[ax]) >= v) {
-			if (x == v)
-				ph_swap(&p[c], &p[d--]);
-			c--;
-		}
-		if (b > c)
-			break;
-		ph_swap(&p[b++], &p[c--]);
-	}
-	/* Equal keys from both ends to the middle: [lo, a) swaps with the
-	 * tail of the "less" block [a, b), (d, hi) with the head of the
-	 * "greater" block [b, d]. */
-	less = b - a;
-	greater = d + 1 - b;
-	s = a - lo < less ? a - lo : less;
-	swap_blocks(p, lo, b - s, s);
-	s = hi - 1 - d < greater ? hi - 1 - d : greater;
-	swap_blocks(p, b, hi - s, s);
-	*lt = lo + less;
-	*gt = b + (hi - 1 - d);
-}
+#define REC_AXIS_SHIFT	30
+#define REC_IDX_MASK	((UINT32_C(1) << REC_AXIS_SHIFT) - 1)
 
 static int
 floor_log2(size_t x)
@@ -242,148 +140,105 @@ sort_floats(float *a, size_t n)
 	}
 }
 
-/* Narrows [*lo, *hi), which holds rank k, by a pass around two sampled
- * keys. */
-static void
-narrow_by_sample(struct pm_photon *p, ptrdiff_t *lo, ptrdiff_t *hi,
-    ptrdiff_t k, int ax)
-{
-	float smp[FR_SAMPLE], a, b;
-	ptrdiff_t n = *hi - *lo, i, lt, gt, r;
-
-	for (i = 0; i < FR_SAMPLE; i++)
-		smp[i] = p[*lo + (ptrdiff_t)((int64_t)i * n / FR_SAMPLE)].pos[ax];
-	sort_floats(smp, FR_SAMPLE);
-	r = (ptrdiff_t)((int64_t)(k - *lo) * FR_SAMPLE / n);
-	a = smp[r - FR_GAP < 0 ? 0 : r - FR_GAP];
-	b = smp[r + FR_GAP >= FR_SAMPLE ? FR_SAMPLE - 1 : r + FR_GAP];
-	/* [lo, lt) < a, [lt, i) in [a, b] (or NaN), [gt, hi) > b. */
-	lt = i = *lo;
-	gt = *hi;
-	while (i < gt) {
-		float x = p[i].pos[ax];
-
-		if (x < a)
-			ph_swap(&p[lt++], &p[i++]);
-		else if (x > b)
-			ph_swap(&p[i], &p[--gt]);
-		else
-			i++;
-	}
-	if (k < lt)
-		*hi = lt;
-	else if (k >= gt)
-		*lo = gt;
-	else {
-		*lo = lt;
-		*hi = gt;
-	}
-}
-
 /*
- * Rearranges [lo, hi) so that p[k] holds the key it would hold if sorted,
- * everything before it <= and everything after it >= (by pos[ax]).
- */
-static void
-select_kth(struct pm_photon *p, ptrdiff_t lo, ptrdiff_t hi, ptrdiff_t k,
-    int ax)
-{
-	int budget;
-
-	while (hi - lo >= FR_MIN) {
-		ptrdiff_t n = hi - lo;
-
-		narrow_by_sample(p, &lo, &hi, k, ax);
-		/* A bad sample (rare), or many equal keys: introselect takes
-		 * it from here. */
-		if (hi - lo > n / 2)
-			break;
-	}
-	budget = 2 * floor_log2((size_t)(hi - lo)) + 8;
-
-	while (hi - lo > SELECT_SMALL) {
-		ptrdiff_t n = hi - lo, mid = lo + n / 2, lt, gt, pv;
-
-		if (budget-- == 0) {
-			heap_sort_key(p + lo, n, ax);
-			return;
-		}
-		if (n >= 512) {
-			ptrdiff_t s = n / 8;
-
-			pv = med3(p, med3(p, lo, lo + s, lo + 2 * s, ax),
-			    med3(p, mid - s, mid, mid + s, ax),
-			    med3(p, hi - 1 - 2 * s, hi - 1 - s, hi - 1, ax), ax);
-		} else
-			pv = med3(p, lo, mid, hi - 1, ax);
-		partition3(p, lo, hi, p[pv].pos[ax], ax, &lt, &gt);
-		if (k < lt)
-			hi = lt;
-		else if (k >= gt)
-			lo = gt;
-		else
-			return;
-	}
-	insertion_sort(p, lo, hi, ax);
-}
-
-/*
- * The axis of largest extent of the bounding box of [lo, hi), or for a
- * range of more than 8 * AXIS_SAMPLE photons, of an evenly spaced sample
- * of AXIS_SAMPLE to 2 * AXIS_SAMPLE of them.  Cheaper (a pass over every
- * photon of every level was a fifth of the build), and better: a few
- * outliers (photons on another wall) no longer decide the axis of a range
- * that is mostly flat; measured, 1.15x the k-nearest queries per second
- * on 1M cornell-box photons against the exact box.
+ * The split axis is the one of largest extent of the bounding box of the
+ * range, or for a range of more than 8 * AXIS_SAMPLE photons, of an evenly
+ * spaced sample of AXIS_SAMPLE to 2 * AXIS_SAMPLE of them.  Cheaper (a
+ * pass over every photon of every level was a fifth of the build), and
+ * better: a few outliers (photons on another wall) no longer decide the
+ * axis of a range that is mostly flat; measured, 1.15x the k-nearest
+ * queries per second on 1M cornell-box photons against the exact box.
  */
 #ifndef AXIS_SAMPLE
 #define AXIS_SAMPLE	64
 #endif
 
-static int
-widest_axis(const struct pm_photon *p, size_t lo, size_t hi)
+static void sort_small_ph(struct pm_photon *, ptrdiff_t, ptrdiff_t, int);
+static void sort_small_rec(struct kd_rec *, ptrdiff_t, ptrdiff_t, int);
+
+#define KT	struct pm_photon
+#define KN(f)	f##_ph
+#include "kdtree_select.h"
+#undef KT
+#undef KN
+#define KT	struct kd_rec
+#define KN(f)	f##_rec
+#include "kdtree_select.h"
+#undef KT
+#undef KN
+
+static void
+sort_small_ph(struct pm_photon *p, ptrdiff_t lo, ptrdiff_t hi, int ax)
 {
-	float x0, x1, y0, y1, z0, z1, e0, e1, e2;
-	size_t i, step = 1;
-
-	if (hi - lo >= 8 * AXIS_SAMPLE)
-		step = (hi - lo) / AXIS_SAMPLE;
-	/* Locals, not arrays: the bounds stay in registers. */
-	x0 = x1 = p[lo].pos[0];
-	y0 = y1 = p[lo].pos[1];
-	z0 = z1 = p[lo].pos[2];
-	for (i = lo + step; i < hi; i += step) {
-		float x = p[i].pos[0], y = p[i].pos[1], z = p[i].pos[2];
-
-		x0 = x < x0 ? x : x0;
-		x1 = x > x1 ? x : x1;
-		y0 = y < y0 ? y : y0;
-		y1 = y > y1 ? y : y1;
-		z0 = z < z0 ? z : z0;
-		z1 = z > z1 ? z : z1;
-	}
-	e0 = x1 - x0;
-	e1 = y1 - y0;
-	e2 = z1 - z0;
-	if (e0 >= e1 && e0 >= e2)
-		return 0;
-	return e1 >= e2 ? 1 : 2;
-}
-
-static inline void
-set_axis(struct pm_photon *ph, int axis)
-{
-	ph->flags = (uint8_t)((ph->flags & ~PM_KD_AXIS_MASK) | axis);
+	insertion_sort_ph(p, lo, hi, ax);
 }
 
 /*
- * Ranges of RADIX_MIN to RADIX_MAX photons -- the lower dozen levels of
- * the tree, most of the build's passes -- are split by a radix select
+ * The last few records of a selection, sorted as the insertion sort
+ * would (stably): each record's place is its rank, the number of keys
+ * below it plus the number of equal ones before it, counted four at a
+ * time.  Insertion sort's branches are a coin toss to the predictor.
+ * NaN keys, which have no rank, go to the insertion sort.
+ */
+static void
+sort_small_rec(struct kd_rec *p, ptrdiff_t lo, ptrdiff_t hi, int ax)
+{
+#if defined(__SSE2__)
+	float k[SELECT_SMALL + 3];
+	struct kd_rec t[SELECT_SMALL];
+	ptrdiff_t n = hi - lo, i, j;
+	int nan = 0;
+
+	if (n < 2)
+		return;
+	for (i = 0; i < n; i++) {
+		k[i] = p[lo + i].pos[ax];
+		nan |= k[i] != k[i];
+	}
+	if (nan || n > SELECT_SMALL) {
+		insertion_sort_rec(p, lo, hi, ax);
+		return;
+	}
+	/* Padding that counts as neither below nor equal (NaN). */
+	for (i = n; i < SELECT_SMALL + 3; i++)
+		k[i] = NAN;
+	for (i = 0; i < n; i++) {
+		__m128 x = _mm_set1_ps(k[i]);
+		__m128i c = _mm_setzero_si128();
+
+		for (j = 0; j < n; j += 4) {
+			__m128 y = _mm_loadu_ps(&k[j]);
+			/* Equal keys count before i only: a lane mask of
+			 * j + lane < i. */
+			__m128i lane = _mm_add_epi32(_mm_set1_epi32((int)j),
+			    _mm_setr_epi32(0, 1, 2, 3));
+			__m128i before = _mm_cmplt_epi32(lane,
+			    _mm_set1_epi32((int)i));
+			__m128 below = _mm_cmplt_ps(y, x);
+			__m128 eq = _mm_and_ps(_mm_cmpeq_ps(y, x),
+			    _mm_castsi128_ps(before));
+
+			c = _mm_sub_epi32(c, _mm_castps_si128(_mm_or_ps(below,
+			    eq)));
+		}
+		c = _mm_add_epi32(c, _mm_shuffle_epi32(c, 0x4e));
+		c = _mm_add_epi32(c, _mm_shuffle_epi32(c, 0xb1));
+		t[_mm_cvtsi128_si32(c)] = p[lo + i];
+	}
+	memcpy(&p[lo], t, (size_t)n * sizeof(*t));
+#else
+	insertion_sort_rec(p, lo, hi, ax);
+#endif
+}
+
+/*
+ * Ranges of RADIX_MIN to RADIX_MAX photons are split by a radix select
  * instead: their keys as order-preserving integers, the median's key by
- * four counting passes of 8 bits (no branch on the data), then one pass
- * that copies the photons below, at and above it into a scratch range
- * and back.  Introselect's three-way partitions branch on every key, a
- * coin toss to the predictor; measured, the build took a third less time.
+ * counting passes of 8 bits (no branch on the data), then one pass that
+ * copies the records below, at and above it into a scratch range and
+ * back, in their order.  Introselect's three-way partitions branch on
+ * every key, a coin toss to the predictor; measured, the build took a
+ * third less time.
  */
 #ifndef RADIX_MIN
 #define RADIX_MIN	32
@@ -394,7 +249,9 @@ set_axis(struct pm_photon *ph, int axis)
 
 struct build_scratch {
 	size_t cap;
-	struct pm_photon *ph;	/* cap */
+	struct kd_rec *rec;	/* cap: the compact subtree */
+	void *buf;		/* cap photons: radix select's copy of the
+				 * records, then the permuted photons */
 	uint32_t *key;		/* 2 cap */
 	uint32_t cnt[4][256];	/* four histograms, so that runs of equal
 				 * digits do not wait on one counter */
@@ -410,13 +267,14 @@ key_bits(float f)
 	return u ^ ((uint32_t)-(int32_t)(u >> 31) | 0x80000000u);
 }
 
-/* select_kth for ranges of at most RADIX_MAX photons, with scratch. */
+/* select_kth for ranges of at most RADIX_MAX records, with scratch. */
 static void
-select_radix(struct pm_photon *p, size_t lo, size_t hi, size_t k, int ax,
+select_radix(struct kd_rec *p, size_t lo, size_t hi, size_t k, int ax,
     struct build_scratch *s)
 {
 	size_t m = hi - lo, r = k - lo, i, a, b, e, neq = m;
 	uint32_t prefix, mask, t, kmin = UINT32_MAX, kmax = 0, *key = s->key;
+	struct kd_rec *tmp = s->buf;
 	int sh;
 
 	for (i = 0; i < m; i++) {
@@ -443,7 +301,7 @@ select_radix(struct pm_photon *p, size_t lo, size_t hi, size_t k, int ax,
 
 		for (; sh >= 0; sh -= 8) {
 			size_t sum = 0, j;
-			uint32_t d, *tmp;
+			uint32_t d, *sw;
 
 			memset(s->cnt, 0, sizeof(s->cnt));
 			for (i = 0; i < nin; i++)
@@ -467,9 +325,9 @@ select_radix(struct pm_photon *p, size_t lo, size_t hi, size_t k, int ax,
 				j += ((in[i] >> sh) & 0xff) == d;
 			}
 			nin = j;
-			tmp = in;
+			sw = in;
 			in = out;
-			out = tmp;
+			out = sw;
 		}
 	}
 	t = prefix;
@@ -481,15 +339,15 @@ select_radix(struct pm_photon *p, size_t lo, size_t hi, size_t k, int ax,
 		uint32_t x = key_bits(p[lo + i].pos[ax]);
 		size_t lt = x < t, gt = x > t, eq = 1 - lt - gt;
 
-		s->ph[lt * a + eq * e + gt * b] = p[lo + i];
+		tmp[lt * a + eq * e + gt * b] = p[lo + i];
 		a += lt;
 		e += eq;
 		b += gt;
 	}
-	memcpy(&p[lo], s->ph, m * sizeof(*p));
+	memcpy(&p[lo], tmp, m * sizeof(*p));
 }
 
-/* Scratch for ranges of up to cap photons; NULL without memory. */
+/* Scratch for subtrees of up to cap photons; NULL without memory. */
 static struct build_scratch *
 scratch_new(size_t cap)
 {
@@ -498,10 +356,12 @@ scratch_new(size_t cap)
 	if (s == NULL)
 		return NULL;
 	s->cap = cap;
-	s->ph = malloc(cap * sizeof(*s->ph));
+	s->rec = malloc(cap * sizeof(*s->rec));
+	s->buf = malloc(cap * sizeof(struct pm_photon));
 	s->key = malloc(2 * cap * sizeof(*s->key));
-	if (s->ph == NULL || s->key == NULL) {
-		free(s->ph);
+	if (s->rec == NULL || s->buf == NULL || s->key == NULL) {
+		free(s->rec);
+		free(s->buf);
 		free(s->key);
 		free(s);
 		return NULL;
@@ -513,7 +373,8 @@ static void
 scratch_free(struct build_scratch *s)
 {
 	if (s != NULL) {
-		free(s->ph);
+		free(s->rec);
+		free(s->buf);
 		free(s->key);
 		free(s);
 	}
@@ -530,15 +391,17 @@ struct build_ctx {
 	atomic_int idle;
 };
 
-
-
 struct build_job {
 	struct build_ctx *ctx;
+	struct kd_rec *rec;	/* the compact subtree's records, or NULL
+				 * for a range of photons */
 	size_t lo, hi;
 	struct build_scratch *sc;	/* the thread's, freed by it */
 };
 
 static void build_range(struct build_ctx *, size_t, size_t,
+    struct build_scratch *);
+static void build_rec(struct build_ctx *, struct kd_rec *, size_t, size_t,
     struct build_scratch *);
 
 static bool
@@ -557,10 +420,107 @@ build_thread(void *arg)
 {
 	struct build_job *j = arg;
 
-	build_range(j->ctx, j->lo, j->hi, j->sc);
+	if (j->rec != NULL)
+		build_rec(j->ctx, j->rec, j->lo, j->hi, j->sc);
+	else
+		build_range(j->ctx, j->lo, j->hi, j->sc);
 	scratch_free(j->sc);
 	atomic_fetch_add(&j->ctx->idle, 1);
 	return NULL;
+}
+
+/*
+ * Hands [lo, m) (of the compact records rec, or of the photons when rec
+ * is NULL) to an idle thread and builds [m + 1, hi) meanwhile; false, and
+ * nothing done, when no thread is idle or none can be started.
+ */
+static bool
+build_lend(struct build_ctx *c, struct kd_rec *rec, size_t lo, size_t m,
+    size_t hi, struct build_scratch *sc)
+{
+	struct build_job j;
+	pthread_t t;
+
+	if (hi - lo < BUILD_SPAWN_MIN || !take_thread(c))
+		return false;
+	j.ctx = c;
+	j.rec = rec;
+	j.lo = lo;
+	j.hi = m;
+	/* The thread's scratch comes from here, so that a failure leaves
+	 * the range to this thread. */
+	j.sc = scratch_new(m - lo < RADIX_MAX ? m - lo : RADIX_MAX);
+	if (j.sc != NULL && pthread_create(&t, NULL, build_thread, &j) == 0) {
+		if (rec != NULL)
+			build_rec(c, rec, m + 1, hi, sc);
+		else
+			build_range(c, m + 1, hi, sc);
+		/* Idle while joining: lend this place. */
+		atomic_fetch_add(&c->idle, 1);
+		pthread_join(t, NULL);
+		atomic_fetch_sub(&c->idle, 1);
+		return true;
+	}
+	scratch_free(j.sc);
+	/* No thread after all: carry on alone. */
+	atomic_fetch_add(&c->idle, 1);
+	return false;
+}
+
+/*
+ * Builds the subtree over the compact records [lo, hi) of a subtree of at
+ * most RADIX_MAX photons, as build_range would over its photons.
+ */
+static void
+build_rec(struct build_ctx *c, struct kd_rec *r, size_t lo, size_t hi,
+    struct build_scratch *sc)
+{
+	while (hi - lo > 1) {
+		size_t m = lo + (hi - lo) / 2;
+		int ax = widest_axis_rec(r, lo, hi);
+
+		if (hi - lo >= RADIX_MIN)
+			select_radix(r, lo, hi, m, ax, sc);
+		else
+			select_kth_rec(r, (ptrdiff_t)lo, (ptrdiff_t)hi,
+			    (ptrdiff_t)m, ax);
+		r[m].idx |= (uint32_t)ax << REC_AXIS_SHIFT;
+		if (build_lend(c, r, lo, m, hi, sc))
+			return;
+		/* Recurse on the left, loop on the right. */
+		build_rec(c, r, lo, m, sc);
+		lo = m + 1;
+	}
+	if (hi - lo == 1)
+		r[lo].idx |= (uint32_t)PM_KD_LEAF << REC_AXIS_SHIFT;
+}
+
+static inline void
+set_axis(struct pm_photon *ph, int axis)
+{
+	ph->flags = (uint8_t)((ph->flags & ~PM_KD_AXIS_MASK) | axis);
+}
+
+/* The subtree over the photons [lo, hi), at most RADIX_MAX of them, built
+ * on compact records, then the photons moved to their places. */
+static void
+build_compact(struct build_ctx *c, size_t lo, size_t hi,
+    struct build_scratch *sc)
+{
+	struct pm_photon *p = c->p + lo, *out = sc->buf;
+	struct kd_rec *r = sc->rec;
+	size_t n = hi - lo, i;
+
+	for (i = 0; i < n; i++) {
+		memcpy(r[i].pos, p[i].pos, sizeof(r[i].pos));
+		r[i].idx = (uint32_t)i;
+	}
+	build_rec(c, r, 0, n, sc);
+	for (i = 0; i < n; i++) {
+		out[i] = p[r[i].idx & REC_IDX_MASK];
+		set_axis(&out[i], (int)(r[i].idx >> REC_AXIS_SHIFT));
+	}
+	memcpy(p, out, n * sizeof(*p));
 }
 
 /*
@@ -575,42 +535,20 @@ build_range(struct build_ctx *c, size_t lo, size_t hi,
 {
 	struct pm_photon *p = c->p;
 
-	while (hi - lo > 1) {
+	while (hi - lo > RADIX_MAX) {
 		size_t m = lo + (hi - lo) / 2;
-		int ax = widest_axis(p, lo, hi);
+		int ax = widest_axis_ph(p, lo, hi);
 
-		if (hi - lo >= RADIX_MIN && hi - lo <= RADIX_MAX)
-			select_radix(p, lo, hi, m, ax, sc);
-		else
-			select_kth(p, (ptrdiff_t)lo, (ptrdiff_t)hi,
-			    (ptrdiff_t)m, ax);
+		select_kth_ph(p, (ptrdiff_t)lo, (ptrdiff_t)hi, (ptrdiff_t)m,
+		    ax);
 		set_axis(&p[m], ax);
-		if (hi - lo >= BUILD_SPAWN_MIN && take_thread(c)) {
-			struct build_job j = { c, lo, m,
-			    scratch_new(m - lo < RADIX_MAX ? m - lo : RADIX_MAX) };
-			pthread_t t;
-
-			/* The thread's scratch comes from here, so that a
-			 * failure leaves the range to this thread. */
-			if (j.sc != NULL &&
-			    pthread_create(&t, NULL, build_thread, &j) == 0) {
-				build_range(c, m + 1, hi, sc);
-				/* Idle while joining: lend this place. */
-				atomic_fetch_add(&c->idle, 1);
-				pthread_join(t, NULL);
-				atomic_fetch_sub(&c->idle, 1);
-				return;
-			}
-			scratch_free(j.sc);
-			/* No thread after all: carry on alone. */
-			atomic_fetch_add(&c->idle, 1);
-		}
+		if (build_lend(c, NULL, lo, m, hi, sc))
+			return;
 		/* Recurse on the left, loop on the right. */
 		build_range(c, lo, m, sc);
 		lo = m + 1;
 	}
-	if (hi - lo == 1)
-		set_axis(&p[lo], PM_KD_LEAF);
+	build_compact(c, lo, hi, sc);
 }
 
 /* Balances p[0..n) in place into the implicit layout of kdtree.h. */
@@ -640,7 +578,6 @@ pm_kdtree_build(struct pm_photon *p, size_t n, int threads,
 	scratch_free(sc);
 	return PM_OK;
 }
-
 /*
  * The largest float strictly below w (w >= 0), so that "d2 < w" becomes
  * "d2 <= below(w)" and one inclusive test serves before and after the
