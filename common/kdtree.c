@@ -247,14 +247,18 @@ sort_small_rec(struct kd_rec *p, ptrdiff_t lo, ptrdiff_t hi, int ax)
 #define RADIX_MAX	65536
 #endif
 
+/* The widest digit of the radix select (select_radix). */
+#define RADIX_BITS	11
+
 struct build_scratch {
 	size_t cap;
 	struct kd_rec *rec;	/* cap: the compact subtree */
 	void *buf;		/* cap photons: radix select's copy of the
 				 * records, then the permuted photons */
-	uint32_t *key;		/* 2 cap */
-	uint32_t cnt[4][256];	/* four histograms, so that runs of equal
-				 * digits do not wait on one counter */
+	uint32_t *key;		/* 3 cap: the keys, and two of candidates */
+	uint32_t cnt[2][1 << RADIX_BITS];	/* two histograms, so that
+				 * runs of equal digits do not wait on one
+				 * counter */
 };
 
 /* A float's bits as an integer of the same order (-0 just below +0). */
@@ -267,15 +271,43 @@ key_bits(float f)
 	return u ^ ((uint32_t)-(int32_t)(u >> 31) | 0x80000000u);
 }
 
-/* select_kth for ranges of at most RADIX_MAX records, with scratch. */
+/* The highest set bit of x != 0. */
+static inline int
+top_bit(uint32_t x)
+{
+#if defined(__GNUC__) || defined(__clang__)
+	return 31 - __builtin_clz(x);
+#else
+	int r = 0;
+
+	while (x >>= 1)
+		r++;
+	return r;
+#endif
+}
+
+/*
+ * select_kth for ranges of at most RADIX_MAX records, with scratch.  The
+ * median's key t is found on the keys alone, a digit at a time from the
+ * highest bit in which the candidates differ (bits all of them share need
+ * no pass, and a range of nearby photons shares the sign, the exponent and
+ * more), with digits of RADIX_BITS bits for large ranges and fewer for
+ * small ones, whose histograms would cost more to clear and scan than to
+ * fill.  After each pass only the keys in the median's digit go on (copied
+ * without a branch), and the passes stop as soon as those are all equal.
+ * Then one pass copies the records below, at and above t to a scratch
+ * range, in their order, and back: the layout depends on t alone, not on
+ * how it was found.
+ */
 static void
 select_radix(struct kd_rec *p, size_t lo, size_t hi, size_t k, int ax,
     struct build_scratch *s)
 {
-	size_t m = hi - lo, r = k - lo, i, a, b, e, neq = m;
-	uint32_t prefix, mask, t, kmin = UINT32_MAX, kmax = 0, *key = s->key;
+	size_t m = hi - lo, r = k - lo, i, a, b, e, neq, nin = m;
+	uint32_t kmin = UINT32_MAX, kmax = 0, *key = s->key, *in = key,
+	    *out = key + s->cap, t;
 	struct kd_rec *tmp = s->buf;
-	int sh;
+	int bits = m >= 4096 ? RADIX_BITS : m >= 512 ? 8 : 6;
 
 	for (i = 0; i < m; i++) {
 		uint32_t x = key_bits(p[lo + i].pos[ax]);
@@ -284,59 +316,58 @@ select_radix(struct kd_rec *p, size_t lo, size_t hi, size_t k, int ax,
 		kmin = x < kmin ? x : kmin;
 		kmax = x > kmax ? x : kmax;
 	}
-	/* The bytes all keys share need no pass (a range of nearby photons
-	 * shares the sign, the exponent and more). */
-	for (sh = 24; sh >= 0 && ((kmin ^ kmax) >> sh) == 0; sh -= 8)
-		;
-	mask = sh >= 24 ? 0 : ~(uint32_t)0 << (sh + 8);
-	prefix = kmin & mask;
-	/* The r-th smallest key, 8 bits at a time; r becomes its rank
-	 * among the keys equal to it, neq their number.  After each pass
-	 * only the keys in the median's digit go on (copied, without a
-	 * branch, to the other half of key[]), so that the later passes
-	 * are short. */
-	{
-		uint32_t *in = s->key, *out = s->key + s->cap;
-		size_t nin = m;
+	/* The r-th smallest key; r becomes its rank among the candidates
+	 * left, nin their number. */
+	while (kmin != kmax) {
+		int hb = top_bit(kmin ^ kmax), w = hb + 1 < bits ? hb + 1 : bits;
+		int sh = hb + 1 - w;
+		uint32_t dmask = (UINT32_C(1) << w) - 1, d, sum = 0;
+		size_t j, nb = (size_t)1 << w;
+		uint32_t (*cnt)[1 << RADIX_BITS] = s->cnt;
 
-		for (; sh >= 0; sh -= 8) {
-			size_t sum = 0, j;
-			uint32_t d, *sw;
-
-			memset(s->cnt, 0, sizeof(s->cnt));
-			for (i = 0; i < nin; i++)
-				s->cnt[i & 3][(in[i] >> sh) & 0xff]++;
-			for (d = 0;; d++) {
-				size_t c = (size_t)s->cnt[0][d] + s->cnt[1][d] +
-				    s->cnt[2][d] + s->cnt[3][d];
-
-				if (sum + c > r) {
-					neq = c;
-					break;
-				}
-				sum += c;
-			}
-			r -= sum;
-			prefix |= d << sh;
-			if (sh == 0)
-				break;
-			for (i = j = 0; i < nin; i++) {
-				out[j] = in[i];
-				j += ((in[i] >> sh) & 0xff) == d;
-			}
-			nin = j;
-			sw = in;
-			in = out;
-			out = sw;
+		memset(cnt[0], 0, nb * sizeof(cnt[0][0]));
+		memset(cnt[1], 0, nb * sizeof(cnt[0][0]));
+		for (i = 0; i + 1 < nin; i += 2) {
+			cnt[0][(in[i] >> sh) & dmask]++;
+			cnt[1][(in[i + 1] >> sh) & dmask]++;
 		}
+		if (i < nin)
+			cnt[0][(in[i] >> sh) & dmask]++;
+		for (d = 0;; d++) {
+			uint32_t c = cnt[0][d] + cnt[1][d];
+
+			if (sum + c > r)
+				break;
+			sum += c;
+		}
+		r -= sum;
+		/* The candidates in digit d go on, with their bounds. */
+		kmin = UINT32_MAX;
+		kmax = 0;
+		for (i = j = 0; i < nin; i++) {
+			uint32_t x = in[i];
+
+			out[j] = x;
+			j += ((x >> sh) & dmask) == d;
+		}
+		nin = j;
+		for (i = 0; i < nin; i++) {
+			uint32_t x = out[i];
+
+			kmin = x < kmin ? x : kmin;
+			kmax = x > kmax ? x : kmax;
+		}
+		in = out;
+		out = s->key + s->cap + (in == s->key + s->cap ? s->cap : 0);
 	}
-	t = prefix;
+	t = kmin;
+	neq = nin;
 	/* Below t to the front, above it to the back, equal in between. */
 	a = 0;
 	e = k - lo - r;
 	b = e + neq;
 	for (i = 0; i < m; i++) {
-		uint32_t x = key_bits(p[lo + i].pos[ax]);
+		uint32_t x = key[i];
 		size_t lt = x < t, gt = x > t, eq = 1 - lt - gt;
 
 		tmp[lt * a + eq * e + gt * b] = p[lo + i];
@@ -358,7 +389,7 @@ scratch_new(size_t cap)
 	s->cap = cap;
 	s->rec = malloc(cap * sizeof(*s->rec));
 	s->buf = malloc(cap * sizeof(struct pm_photon));
-	s->key = malloc(2 * cap * sizeof(*s->key));
+	s->key = malloc(3 * cap * sizeof(*s->key));
 	if (s->rec == NULL || s->buf == NULL || s->key == NULL) {
 		free(s->rec);
 		free(s->buf);

@@ -152,6 +152,14 @@ KN(narrow_by_sample)(KT *p, ptrdiff_t *lo, ptrdiff_t *hi, ptrdiff_t k, int ax)
 	gt = *hi;
 	while (i < gt) {
 		float x = p[i].pos[ax];
+#ifdef KD_NARROW_BRANCHY
+		if (x < a)
+			KN(swap)(&p[lt++], &p[i++]);
+		else if (x > b)
+			KN(swap)(&p[i], &p[--gt]);
+		else
+			i++;
+#else
 		ptrdiff_t l = x < a, g = !(x < a) && x > b, d;
 
 		d = l ? lt : g ? gt - 1 : i;
@@ -159,6 +167,7 @@ KN(narrow_by_sample)(KT *p, ptrdiff_t *lo, ptrdiff_t *hi, ptrdiff_t k, int ax)
 		lt += l;
 		gt -= g;
 		i += 1 - g;
+#endif
 	}
 	if (k < lt)
 		*hi = lt;
