@@ -163,9 +163,44 @@ static void sort_small_rec(struct kd_rec *, ptrdiff_t, ptrdiff_t, int);
 #undef KN
 #define KT	struct kd_rec
 #define KN(f)	f##_rec
+#if defined(__SSE2__)
+#define KT_OWN_AXIS
+#endif
 #include "kdtree_select.h"
 #undef KT
 #undef KN
+#undef KT_OWN_AXIS
+
+#if defined(__SSE2__)
+/* widest_axis for records, a record's position (and index) one vector:
+ * _mm_min_ps(x, lo) is x < lo ? x : lo, the scalar code's choice, so the
+ * axis is the same whatever the keys, NaN included. */
+static int
+widest_axis_rec(const struct kd_rec *p, size_t lo, size_t hi)
+{
+	__m128 mn, mx;
+	float l[4], h[4], e0, e1, e2;
+	size_t i, step = 1;
+
+	if (hi - lo >= 8 * AXIS_SAMPLE)
+		step = (hi - lo) / AXIS_SAMPLE;
+	mn = mx = _mm_loadu_ps(p[lo].pos);
+	for (i = lo + step; i < hi; i += step) {
+		__m128 v = _mm_loadu_ps(p[i].pos);
+
+		mn = _mm_min_ps(v, mn);
+		mx = _mm_max_ps(v, mx);
+	}
+	_mm_storeu_ps(l, mn);
+	_mm_storeu_ps(h, mx);
+	e0 = h[0] - l[0];
+	e1 = h[1] - l[1];
+	e2 = h[2] - l[2];
+	if (e0 >= e1 && e0 >= e2)
+		return 0;
+	return e1 >= e2 ? 1 : 2;
+}
+#endif
 
 static void
 sort_small_ph(struct pm_photon *p, ptrdiff_t lo, ptrdiff_t hi, int ax)
@@ -253,8 +288,10 @@ sort_small_rec(struct kd_rec *p, ptrdiff_t lo, ptrdiff_t hi, int ax)
 struct build_scratch {
 	size_t cap;
 	struct kd_rec *rec;	/* cap: the compact subtree */
-	void *buf;		/* cap photons: radix select's copy of the
-				 * records, then the permuted photons */
+	void *buf;		/* cap photons: the compact subtree's second
+				 * buffer of records, then the permuted
+				 * photons */
+	uint32_t *fin;		/* cap: each place's record, when decided */
 	uint32_t *key;		/* 3 cap: the keys, and two of candidates */
 	uint32_t cnt[2][1 << RADIX_BITS];	/* two histograms, so that
 				 * runs of equal digits do not wait on one
@@ -300,13 +337,12 @@ top_bit(uint32_t x)
  * how it was found.
  */
 static void
-select_radix(struct kd_rec *p, size_t lo, size_t hi, size_t k, int ax,
-    struct build_scratch *s)
+select_radix(const struct kd_rec *p, struct kd_rec *tmp, size_t lo,
+    size_t hi, size_t k, int ax, struct build_scratch *s)
 {
 	size_t m = hi - lo, r = k - lo, i, a, b, e, neq, nin = m;
 	uint32_t kmin = UINT32_MAX, kmax = 0, *key = s->key, *in = key,
 	    *out = key + s->cap, t;
-	struct kd_rec *tmp = s->buf;
 	int bits = m >= 4096 ? RADIX_BITS : m >= 512 ? 8 : 6;
 
 	for (i = 0; i < m; i++) {
@@ -363,8 +399,8 @@ select_radix(struct kd_rec *p, size_t lo, size_t hi, size_t k, int ax,
 	t = kmin;
 	neq = nin;
 	/* Below t to the front, above it to the back, equal in between. */
-	a = 0;
-	e = k - lo - r;
+	a = lo;
+	e = k - r;
 	b = e + neq;
 	for (i = 0; i < m; i++) {
 		uint32_t x = key[i];
@@ -375,7 +411,6 @@ select_radix(struct kd_rec *p, size_t lo, size_t hi, size_t k, int ax,
 		e += eq;
 		b += gt;
 	}
-	memcpy(&p[lo], tmp, m * sizeof(*p));
 }
 
 /* Scratch for subtrees of up to cap photons; NULL without memory. */
@@ -389,9 +424,12 @@ scratch_new(size_t cap)
 	s->cap = cap;
 	s->rec = malloc(cap * sizeof(*s->rec));
 	s->buf = malloc(cap * sizeof(struct pm_photon));
+	s->fin = malloc(cap * sizeof(*s->fin));
 	s->key = malloc(3 * cap * sizeof(*s->key));
-	if (s->rec == NULL || s->buf == NULL || s->key == NULL) {
+	if (s->rec == NULL || s->buf == NULL || s->fin == NULL ||
+	    s->key == NULL) {
 		free(s->rec);
+		free(s->fin);
 		free(s->buf);
 		free(s->key);
 		free(s);
@@ -405,6 +443,7 @@ scratch_free(struct build_scratch *s)
 {
 	if (s != NULL) {
 		free(s->rec);
+		free(s->fin);
 		free(s->buf);
 		free(s->key);
 		free(s);
@@ -422,18 +461,29 @@ struct build_ctx {
 	atomic_int idle;
 };
 
+/*
+ * A compact subtree: its records in two buffers, a radix select copying
+ * each range from one to the other, and the record each place ends with
+ * (its index and split axis) in fin.
+ */
+struct kd_sub {
+	struct kd_rec *rec[2];
+	uint32_t *fin;
+};
+
 struct build_job {
 	struct build_ctx *ctx;
-	struct kd_rec *rec;	/* the compact subtree's records, or NULL
-				 * for a range of photons */
+	struct kd_sub *sub;	/* the compact subtree, or NULL for a range
+				 * of photons */
+	int side;		/* which of sub's buffers holds the range */
 	size_t lo, hi;
 	struct build_scratch *sc;	/* the thread's, freed by it */
 };
 
 static void build_range(struct build_ctx *, size_t, size_t,
     struct build_scratch *);
-static void build_rec(struct build_ctx *, struct kd_rec *, size_t, size_t,
-    struct build_scratch *);
+static void build_rec(struct build_ctx *, struct kd_sub *, int, size_t,
+    size_t, struct build_scratch *);
 
 static bool
 take_thread(struct build_ctx *c)
@@ -451,8 +501,8 @@ build_thread(void *arg)
 {
 	struct build_job *j = arg;
 
-	if (j->rec != NULL)
-		build_rec(j->ctx, j->rec, j->lo, j->hi, j->sc);
+	if (j->sub != NULL)
+		build_rec(j->ctx, j->sub, j->side, j->lo, j->hi, j->sc);
 	else
 		build_range(j->ctx, j->lo, j->hi, j->sc);
 	scratch_free(j->sc);
@@ -461,13 +511,14 @@ build_thread(void *arg)
 }
 
 /*
- * Hands [lo, m) (of the compact records rec, or of the photons when rec
- * is NULL) to an idle thread and builds [m + 1, hi) meanwhile; false, and
- * nothing done, when no thread is idle or none can be started.
+ * Hands [lo, m) (of the compact subtree sub's buffer side, or of the
+ * photons when sub is NULL) to an idle thread and builds [m + 1, hi)
+ * meanwhile; false, and nothing done, when no thread is idle or none can
+ * be started.
  */
 static bool
-build_lend(struct build_ctx *c, struct kd_rec *rec, size_t lo, size_t m,
-    size_t hi, struct build_scratch *sc)
+build_lend(struct build_ctx *c, struct kd_sub *sub, int side, size_t lo,
+    size_t m, size_t hi, struct build_scratch *sc)
 {
 	struct build_job j;
 	pthread_t t;
@@ -475,15 +526,16 @@ build_lend(struct build_ctx *c, struct kd_rec *rec, size_t lo, size_t m,
 	if (hi - lo < BUILD_SPAWN_MIN || !take_thread(c))
 		return false;
 	j.ctx = c;
-	j.rec = rec;
+	j.sub = sub;
+	j.side = side;
 	j.lo = lo;
 	j.hi = m;
 	/* The thread's scratch comes from here, so that a failure leaves
 	 * the range to this thread. */
 	j.sc = scratch_new(m - lo < RADIX_MAX ? m - lo : RADIX_MAX);
 	if (j.sc != NULL && pthread_create(&t, NULL, build_thread, &j) == 0) {
-		if (rec != NULL)
-			build_rec(c, rec, m + 1, hi, sc);
+		if (sub != NULL)
+			build_rec(c, sub, side, m + 1, hi, sc);
 		else
 			build_range(c, m + 1, hi, sc);
 		/* Idle while joining: lend this place. */
@@ -499,31 +551,36 @@ build_lend(struct build_ctx *c, struct kd_rec *rec, size_t lo, size_t m,
 }
 
 /*
- * Builds the subtree over the compact records [lo, hi) of a subtree of at
- * most RADIX_MAX photons, as build_range would over its photons.
+ * Builds the subtree over the compact records [lo, hi) (in sub's buffer
+ * side) of a subtree of at most RADIX_MAX photons, as build_range would
+ * over its photons.
  */
 static void
-build_rec(struct build_ctx *c, struct kd_rec *r, size_t lo, size_t hi,
-    struct build_scratch *sc)
+build_rec(struct build_ctx *c, struct kd_sub *sub, int side, size_t lo,
+    size_t hi, struct build_scratch *sc)
 {
 	while (hi - lo > 1) {
 		size_t m = lo + (hi - lo) / 2;
+		struct kd_rec *r = sub->rec[side];
 		int ax = widest_axis_rec(r, lo, hi);
 
-		if (hi - lo >= RADIX_MIN)
-			select_radix(r, lo, hi, m, ax, sc);
-		else
+		if (hi - lo >= RADIX_MIN) {
+			side = !side;
+			select_radix(r, sub->rec[side], lo, hi, m, ax, sc);
+			r = sub->rec[side];
+		} else
 			select_kth_rec(r, (ptrdiff_t)lo, (ptrdiff_t)hi,
 			    (ptrdiff_t)m, ax);
-		r[m].idx |= (uint32_t)ax << REC_AXIS_SHIFT;
-		if (build_lend(c, r, lo, m, hi, sc))
+		sub->fin[m] = r[m].idx | (uint32_t)ax << REC_AXIS_SHIFT;
+		if (build_lend(c, sub, side, lo, m, hi, sc))
 			return;
 		/* Recurse on the left, loop on the right. */
-		build_rec(c, r, lo, m, sc);
+		build_rec(c, sub, side, lo, m, sc);
 		lo = m + 1;
 	}
 	if (hi - lo == 1)
-		r[lo].idx |= (uint32_t)PM_KD_LEAF << REC_AXIS_SHIFT;
+		sub->fin[lo] = sub->rec[side][lo].idx |
+		    (uint32_t)PM_KD_LEAF << REC_AXIS_SHIFT;
 }
 
 static inline void
@@ -539,17 +596,21 @@ build_compact(struct build_ctx *c, size_t lo, size_t hi,
     struct build_scratch *sc)
 {
 	struct pm_photon *p = c->p + lo, *out = sc->buf;
-	struct kd_rec *r = sc->rec;
+	struct kd_sub sub;
 	size_t n = hi - lo, i;
 
+	sub.rec[0] = sc->rec;
+	sub.rec[1] = sc->buf;
+	sub.fin = sc->fin;
 	for (i = 0; i < n; i++) {
-		memcpy(r[i].pos, p[i].pos, sizeof(r[i].pos));
-		r[i].idx = (uint32_t)i;
+		memcpy(sub.rec[0][i].pos, p[i].pos, sizeof(p[i].pos));
+		sub.rec[0][i].idx = (uint32_t)i;
 	}
-	build_rec(c, r, 0, n, sc);
+	build_rec(c, &sub, 0, 0, n, sc);
+	/* The records are done with: buf takes the photons. */
 	for (i = 0; i < n; i++) {
-		out[i] = p[r[i].idx & REC_IDX_MASK];
-		set_axis(&out[i], (int)(r[i].idx >> REC_AXIS_SHIFT));
+		out[i] = p[sub.fin[i] & REC_IDX_MASK];
+		set_axis(&out[i], (int)(sub.fin[i] >> REC_AXIS_SHIFT));
 	}
 	memcpy(p, out, n * sizeof(*p));
 }
@@ -573,7 +634,7 @@ build_range(struct build_ctx *c, size_t lo, size_t hi,
 		select_kth_ph(p, (ptrdiff_t)lo, (ptrdiff_t)hi, (ptrdiff_t)m,
 		    ax);
 		set_axis(&p[m], ax);
-		if (build_lend(c, NULL, lo, m, hi, sc))
+		if (build_lend(c, NULL, 0, lo, m, hi, sc))
 			return;
 		/* Recurse on the left, loop on the right. */
 		build_range(c, lo, m, sc);

@@ -152,14 +152,6 @@ KN(narrow_by_sample)(KT *p, ptrdiff_t *lo, ptrdiff_t *hi, ptrdiff_t k, int ax)
 	gt = *hi;
 	while (i < gt) {
 		float x = p[i].pos[ax];
-#ifdef KD_NARROW_BRANCHY
-		if (x < a)
-			KN(swap)(&p[lt++], &p[i++]);
-		else if (x > b)
-			KN(swap)(&p[i], &p[--gt]);
-		else
-			i++;
-#else
 		ptrdiff_t l = x < a, g = !(x < a) && x > b, d;
 
 		d = l ? lt : g ? gt - 1 : i;
@@ -167,7 +159,6 @@ KN(narrow_by_sample)(KT *p, ptrdiff_t *lo, ptrdiff_t *hi, ptrdiff_t k, int ax)
 		lt += l;
 		gt -= g;
 		i += 1 - g;
-#endif
 	}
 	if (k < lt)
 		*hi = lt;
@@ -226,6 +217,7 @@ KN(select_kth)(KT *p, ptrdiff_t lo, ptrdiff_t hi, ptrdiff_t k, int ax)
 	KN(sort_small)(p, lo, hi, ax);
 }
 
+#ifndef KT_OWN_AXIS
 /*
  * The axis of largest extent of the bounding box of [lo, hi), or for a
  * range of more than 8 * AXIS_SAMPLE photons, of an evenly spaced sample
@@ -260,3 +252,4 @@ KN(widest_axis)(const KT *p, size_t lo, size_t hi)
 		return 0;
 	return e1 >= e2 ? 1 : 2;
 }
+#endif
