@@ -281,18 +281,21 @@ sort_small_rec(struct kd_rec *p, ptrdiff_t lo, ptrdiff_t hi, int ax)
 #ifndef RADIX_MAX
 #define RADIX_MAX	65536
 #endif
+#ifndef COMPACT_MAX
+#define COMPACT_MAX	RADIX_MAX
+#endif
 
 /* The widest digit of the radix select (select_radix). */
 #define RADIX_BITS	11
 
 struct build_scratch {
-	size_t cap;
+	size_t cap, kcap;
 	struct kd_rec *rec;	/* cap: the compact subtree */
 	void *buf;		/* cap photons: the compact subtree's second
 				 * buffer of records, then the permuted
 				 * photons */
 	uint32_t *fin;		/* cap: each place's record, when decided */
-	uint32_t *key;		/* 3 cap: the keys, and two of candidates */
+	uint32_t *key;		/* 3 kcap: the keys, and two of candidates */
 	uint32_t cnt[2][1 << RADIX_BITS];	/* two histograms, so that
 				 * runs of equal digits do not wait on one
 				 * counter */
@@ -342,7 +345,7 @@ select_radix(const struct kd_rec *p, struct kd_rec *tmp, size_t lo,
 {
 	size_t m = hi - lo, r = k - lo, i, a, b, e, neq, nin = m;
 	uint32_t kmin = UINT32_MAX, kmax = 0, *key = s->key, *in = key,
-	    *out = key + s->cap, t;
+	    *out = key + s->kcap, t;
 	int bits = m >= 4096 ? RADIX_BITS : m >= 512 ? 8 : 6;
 
 	for (i = 0; i < m; i++) {
@@ -394,7 +397,8 @@ select_radix(const struct kd_rec *p, struct kd_rec *tmp, size_t lo,
 			kmax = x > kmax ? x : kmax;
 		}
 		in = out;
-		out = s->key + s->cap + (in == s->key + s->cap ? s->cap : 0);
+		out = s->key + s->kcap +
+		    (in == s->key + s->kcap ? s->kcap : 0);
 	}
 	t = kmin;
 	neq = nin;
@@ -413,20 +417,25 @@ select_radix(const struct kd_rec *p, struct kd_rec *tmp, size_t lo,
 	}
 }
 
-/* Scratch for subtrees of up to cap photons; NULL without memory. */
+/*
+ * Scratch for compact subtrees of up to cap photons (none for cap 0: a
+ * thread lent inside one uses its owner's) and radix selects of up to
+ * kcap; NULL without memory.
+ */
 static struct build_scratch *
-scratch_new(size_t cap)
+scratch_new(size_t cap, size_t kcap)
 {
 	struct build_scratch *s = malloc(sizeof(*s));
 
 	if (s == NULL)
 		return NULL;
 	s->cap = cap;
-	s->rec = malloc(cap * sizeof(*s->rec));
-	s->buf = malloc(cap * sizeof(struct pm_photon));
-	s->fin = malloc(cap * sizeof(*s->fin));
-	s->key = malloc(3 * cap * sizeof(*s->key));
-	if (s->rec == NULL || s->buf == NULL || s->fin == NULL ||
+	s->kcap = kcap;
+	s->rec = cap ? malloc(cap * sizeof(*s->rec)) : NULL;
+	s->buf = cap ? malloc(cap * sizeof(struct pm_photon)) : NULL;
+	s->fin = cap ? malloc(cap * sizeof(*s->fin)) : NULL;
+	s->key = malloc(3 * (kcap ? kcap : 1) * sizeof(*s->key));
+	if ((cap && (s->rec == NULL || s->buf == NULL || s->fin == NULL)) ||
 	    s->key == NULL) {
 		free(s->rec);
 		free(s->fin);
@@ -532,7 +541,9 @@ build_lend(struct build_ctx *c, struct kd_sub *sub, int side, size_t lo,
 	j.hi = m;
 	/* The thread's scratch comes from here, so that a failure leaves
 	 * the range to this thread. */
-	j.sc = scratch_new(m - lo < RADIX_MAX ? m - lo : RADIX_MAX);
+	j.sc = sub != NULL ? scratch_new(0, m - lo < RADIX_MAX ? m - lo :
+	    RADIX_MAX) : scratch_new(m - lo < COMPACT_MAX ? m - lo :
+	    COMPACT_MAX, m - lo < RADIX_MAX ? m - lo : RADIX_MAX);
 	if (j.sc != NULL && pthread_create(&t, NULL, build_thread, &j) == 0) {
 		if (sub != NULL)
 			build_rec(c, sub, side, m + 1, hi, sc);
@@ -564,7 +575,7 @@ build_rec(struct build_ctx *c, struct kd_sub *sub, int side, size_t lo,
 		struct kd_rec *r = sub->rec[side];
 		int ax = widest_axis_rec(r, lo, hi);
 
-		if (hi - lo >= RADIX_MIN) {
+		if (hi - lo >= RADIX_MIN && hi - lo <= RADIX_MAX) {
 			side = !side;
 			select_radix(r, sub->rec[side], lo, hi, m, ax, sc);
 			r = sub->rec[side];
@@ -627,7 +638,7 @@ build_range(struct build_ctx *c, size_t lo, size_t hi,
 {
 	struct pm_photon *p = c->p;
 
-	while (hi - lo > RADIX_MAX) {
+	while (hi - lo > COMPACT_MAX) {
 		size_t m = lo + (hi - lo) / 2;
 		int ax = widest_axis_ph(p, lo, hi);
 
@@ -660,7 +671,8 @@ pm_kdtree_build(struct pm_photon *p, size_t n, int threads,
 		threads = 1;
 	if (threads > BUILD_MAX_THREADS)
 		threads = BUILD_MAX_THREADS;
-	sc = scratch_new(n < RADIX_MAX ? n : RADIX_MAX);
+	sc = scratch_new(n < COMPACT_MAX ? n : COMPACT_MAX,
+	    n < RADIX_MAX ? n : RADIX_MAX);
 	if (sc == NULL)
 		return pm_fail(err, PM_ERR_NOMEM,
 		    "kdtree: no memory to build a tree of %zu photons", n);
