@@ -10,13 +10,16 @@
  * (ninther for large ranges) pivots and a three-way partition, so that
  * ranges full of equal keys (every photon on one point, plane or line)
  * cost one pass instead of degrading to quadratic time, with a heapsort
- * fallback bounding the worst case at O(n log n).  Ranges of up to 65536
- * photons (most levels) are split by a radix select instead, which has no
- * branch on the data.  Subtrees are
- * independent once their parent is split, so large ones are handed to
- * idle threads; each range is processed by the same deterministic code
- * whichever thread runs it, so the result does not depend on the thread
- * count.
+ * fallback bounding the worst case at O(n log n).  Subtrees of up to 65536
+ * photons (most levels) are built on compact 16-byte records (position and
+ * index), the photons permuted to their places once at the end, and their
+ * ranges are split by a radix select, which has no branch on the data;
+ * selection moves records exactly as it would move photons, so the tree is
+ * the same either way.  Subtrees are
+ * independent once their parent is split, so large ones (inside compact
+ * subtrees too) are handed to idle threads; each range is processed by the
+ * same deterministic code whichever thread runs it, so the result does not
+ * depend on the thread count.
  *
  * Queries descend iteratively with a small stack of deferred far children
  * and scan small ranges (contiguous records) linearly, which is faster than
