@@ -214,17 +214,21 @@ sort_small_ph(struct pm_photon *p, ptrdiff_t lo, ptrdiff_t hi, int ax)
 /*
  * The last few records of a selection, sorted as the insertion sort
  * would (stably): each record's place is its rank, the number of keys
- * below it plus the number of equal ones before it, counted four at a
+ * below it plus the number of equal ones before it, counted for all
+ * records at once, one key against the three vectors of all keys at a
  * time.  Insertion sort's branches are a coin toss to the predictor.
  * NaN keys, which have no rank, go to the insertion sort.
  */
 static void
 sort_small_rec(struct kd_rec *p, ptrdiff_t lo, ptrdiff_t hi, int ax)
 {
-#if defined(__SSE2__)
-	float k[SELECT_SMALL + 3];
-	struct kd_rec t[SELECT_SMALL];
-	ptrdiff_t n = hi - lo, i, j;
+#if defined(__SSE2__) && SELECT_SMALL <= 12
+	float k[12];
+	int32_t rank[12];
+	struct kd_rec t[12];
+	ptrdiff_t n = hi - lo, i;
+	__m128 k0, k1, k2;
+	__m128i c0, c1, c2, l0, l1, l2;
 	int nan = 0;
 
 	if (n < 2)
@@ -233,36 +237,42 @@ sort_small_rec(struct kd_rec *p, ptrdiff_t lo, ptrdiff_t hi, int ax)
 		k[i] = p[lo + i].pos[ax];
 		nan |= k[i] != k[i];
 	}
-	if (nan || n > SELECT_SMALL) {
+	if (nan || n > 12) {
 		insertion_sort_rec(p, lo, hi, ax);
 		return;
 	}
-	/* Padding that counts as neither below nor equal (NaN). */
-	for (i = n; i < SELECT_SMALL + 3; i++)
+	/* Padding that no key is below or equal to (NaN): its rank is
+	 * never read. */
+	for (i = n; i < 12; i++)
 		k[i] = NAN;
+	k0 = _mm_loadu_ps(&k[0]);
+	k1 = _mm_loadu_ps(&k[4]);
+	k2 = _mm_loadu_ps(&k[8]);
+	l0 = _mm_setr_epi32(0, 1, 2, 3);
+	l1 = _mm_setr_epi32(4, 5, 6, 7);
+	l2 = _mm_setr_epi32(8, 9, 10, 11);
+	c0 = c1 = c2 = _mm_setzero_si128();
 	for (i = 0; i < n; i++) {
+		/* Key j = i counts for each lane's key if below it, or
+		 * equal to it and before it (j < lane). */
 		__m128 x = _mm_set1_ps(k[i]);
-		__m128i c = _mm_setzero_si128();
+		__m128i j = _mm_set1_epi32((int)i);
 
-		for (j = 0; j < n; j += 4) {
-			__m128 y = _mm_loadu_ps(&k[j]);
-			/* Equal keys count before i only: a lane mask of
-			 * j + lane < i. */
-			__m128i lane = _mm_add_epi32(_mm_set1_epi32((int)j),
-			    _mm_setr_epi32(0, 1, 2, 3));
-			__m128i before = _mm_cmplt_epi32(lane,
-			    _mm_set1_epi32((int)i));
-			__m128 below = _mm_cmplt_ps(y, x);
-			__m128 eq = _mm_and_ps(_mm_cmpeq_ps(y, x),
-			    _mm_castsi128_ps(before));
-
-			c = _mm_sub_epi32(c, _mm_castps_si128(_mm_or_ps(below,
-			    eq)));
-		}
-		c = _mm_add_epi32(c, _mm_shuffle_epi32(c, 0x4e));
-		c = _mm_add_epi32(c, _mm_shuffle_epi32(c, 0xb1));
-		t[_mm_cvtsi128_si32(c)] = p[lo + i];
+		c0 = _mm_sub_epi32(c0, _mm_castps_si128(_mm_or_ps(
+		    _mm_cmplt_ps(x, k0), _mm_and_ps(_mm_cmpeq_ps(x, k0),
+		    _mm_castsi128_ps(_mm_cmplt_epi32(j, l0))))));
+		c1 = _mm_sub_epi32(c1, _mm_castps_si128(_mm_or_ps(
+		    _mm_cmplt_ps(x, k1), _mm_and_ps(_mm_cmpeq_ps(x, k1),
+		    _mm_castsi128_ps(_mm_cmplt_epi32(j, l1))))));
+		c2 = _mm_sub_epi32(c2, _mm_castps_si128(_mm_or_ps(
+		    _mm_cmplt_ps(x, k2), _mm_and_ps(_mm_cmpeq_ps(x, k2),
+		    _mm_castsi128_ps(_mm_cmplt_epi32(j, l2))))));
 	}
+	_mm_storeu_si128((__m128i *)&rank[0], c0);
+	_mm_storeu_si128((__m128i *)&rank[4], c1);
+	_mm_storeu_si128((__m128i *)&rank[8], c2);
+	for (i = 0; i < n; i++)
+		t[rank[i]] = p[lo + i];
 	memcpy(&p[lo], t, (size_t)n * sizeof(*t));
 #else
 	insertion_sort_rec(p, lo, hi, ax);
