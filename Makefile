@@ -181,7 +181,7 @@ check-sanitize:
 # threads, and the CLI scripts that drive the threaded tools (pm-shoot,
 # pm-balance, pm-render with its progress and preview thread).
 TSAN_FLAGS = -O1 -g -fsanitize=thread -fno-omit-frame-pointer
-TSAN_UNIT  = test_render test_kdtree test_shoot test_irradiance test_photonmap \
+TSAN_UNIT  = test_render test_kdtree test_kdbuild test_shoot test_irradiance test_photonmap \
 	     test_ptracer test_pmap
 TSAN_CLI   = tests/cli/render.sh tests/cli/photon.sh tests/cli/dialect.sh
 check-tsan:
