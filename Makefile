@@ -170,9 +170,13 @@ check-cluster: $(BINS) $(BUILD)/tests/exrutil
 # The unit and CLI tests again, built with AddressSanitizer and UBSan.
 SAN_FLAGS = -O1 -g -fsanitize=address,undefined -fno-omit-frame-pointer \
 	-fno-sanitize-recover=undefined
+# The builds run on every CPU (a sub-make does not inherit make test's -j);
+# the checks after them run one script at a time, as check-unit and
+# check-cli do anywhere.
 check-sanitize:
-	$(MAKE) BUILD=build/san BIN=build/san/bin CFLAGS="$(SAN_FLAGS)" \
-		$(TOOLS:%=build/san/bin/%)
+	$(MAKE) -j$(NPROC) BUILD=build/san BIN=build/san/bin CFLAGS="$(SAN_FLAGS)" \
+		$(TOOLS:%=build/san/bin/%) $(TEST_SRC:tests/unit/%.c=build/san/tests/%) \
+		build/san/tests/exrutil
 	$(MAKE) BUILD=build/san BIN=build/san/bin CFLAGS="$(SAN_FLAGS)" \
 		check-unit check-cli
 	$(MAKE) check-tsan
@@ -185,8 +189,9 @@ TSAN_UNIT  = test_render test_kdtree test_kdbuild test_shoot test_irradiance tes
 	     test_ptracer test_pmap
 TSAN_CLI   = tests/cli/render.sh tests/cli/photon.sh tests/cli/dialect.sh
 check-tsan:
-	$(MAKE) BUILD=build/tsan BIN=build/tsan/bin CFLAGS="$(TSAN_FLAGS)" \
-		$(TOOLS:%=build/tsan/bin/%) $(TSAN_UNIT:%=build/tsan/tests/%)
+	$(MAKE) -j$(NPROC) BUILD=build/tsan BIN=build/tsan/bin CFLAGS="$(TSAN_FLAGS)" \
+		$(TOOLS:%=build/tsan/bin/%) $(TSAN_UNIT:%=build/tsan/tests/%) \
+		build/tsan/tests/exrutil
 	TSAN_OPTIONS="halt_on_error=1 exitcode=66 suppressions=$(CURDIR)/tests/tsan.supp $(TSAN_OPTIONS)" \
 		$(MAKE) BUILD=build/tsan BIN=build/tsan/bin CFLAGS="$(TSAN_FLAGS)" \
 		TEST_BIN="$(TSAN_UNIT:%=build/tsan/tests/%)" CLI_TESTS="$(TSAN_CLI)" \
@@ -208,7 +213,7 @@ $(BUILD)/bin/fuzz_%: tests/fuzz/fuzz_%.c $(LIB)
 	$(CC) $(PM_CFLAGS) $(CFLAGS) -fsanitize=fuzzer -o $@ $< $(LIB) $(PM_LIBS)
 
 fuzz-build:
-	$(MAKE) BUILD=$(FUZZ_BUILD) CC=clang CFLAGS="$(FUZZ_FLAGS)" \
+	$(MAKE) -j$(NPROC) BUILD=$(FUZZ_BUILD) CC=clang CFLAGS="$(FUZZ_FLAGS)" \
 		$(FUZZ_TARGETS:%=$(FUZZ_BUILD)/bin/fuzz_%)
 
 fuzz: fuzz-build

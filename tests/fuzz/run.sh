@@ -7,19 +7,45 @@
 # out of memory (the reproducer is left in WORK/crash-<target>-*).
 #
 #   sh tests/fuzz/run.sh BINDIR WORK SECONDS TARGET...
+#
+# FUZZ_JOBS targets run at once (default: the number of CPUs; libFuzzer
+# runs one process on one core); each one's lines are printed whole, in
+# the order given, once all have finished.
 set -u
-bindir=$1
-work=$2
-secs=$3
-shift 3
+if [ "${1:-}" != --one ]; then
+	[ $# -ge 3 ] || { echo "usage: sh tests/fuzz/run.sh BINDIR WORK SECONDS TARGET..." >&2; exit 2; }
+	bindir=$1
+	work=$2
+	secs=$3
+	shift 3
+	mkdir -p "$work"
+	for t in "$@"; do
+		rm -f "$work/$t.out" "$work/$t.rc"
+		printf '%s\n' "$t"
+	done | xargs -P "${FUZZ_JOBS:-$(nproc 2>/dev/null || echo 1)}" -L 1 \
+	    sh "$0" --one "$bindir" "$work" "$secs"
+	fail=0
+	for t in "$@"; do
+		cat "$work/$t.out" 2>/dev/null
+		[ "$(cat "$work/$t.rc" 2>/dev/null)" = 0 ] || fail=1
+	done
+	exit $fail
+fi
+
+# --one BINDIR WORK SECONDS TARGET: one target, its lines to WORK/TARGET.out
+# and its status to WORK/TARGET.rc.
+bindir=$2
+work=$3
+secs=$4
+t=$5
+exec >"$work/$t.out" 2>&1
 fail=0
-mkdir -p "$work"
 # One allocation may be as large as the library allows an image to be
 # (common/image.c: 2^28 pixels of float RGB, 3 GiB): a header that claims
 # that much is refused later, when its data is missing, and is not a bug.
 # What the process holds (RSS) is limited to 2 GiB all the same.
 mlimit=3200
-for t in "$@"; do
+fuzz_one() {
 	bin=$bindir/fuzz_$t
 	corpus=tests/fuzz/corpus/$t
 	dict=
@@ -31,9 +57,9 @@ for t in "$@"; do
 		echo "fuzz $t: corpus replay FAILED (see $work/$t.replay.log)"
 		tail -30 "$work/$t.replay.log"
 		fail=1
-		continue
+		return
 	fi
-	[ "$secs" -gt 0 ] || { echo "fuzz $t: corpus of $(ls "$corpus" | wc -l) replayed"; continue; }
+	[ "$secs" -gt 0 ] || { echo "fuzz $t: corpus of $(ls "$corpus" | wc -l) replayed"; return; }
 	# shellcheck disable=SC2086
 	if "$bin" $dict -max_total_time="$secs" -timeout=20 -rss_limit_mb=2048 \
 	    -malloc_limit_mb=$mlimit -max_len=65536 -print_final_stats=1 \
@@ -46,5 +72,7 @@ for t in "$@"; do
 		grep -E 'ERROR|SUMMARY|Test unit written|==[0-9]+==' "$work/$t.log" | head -20
 		fail=1
 	fi
-done
-exit $fail
+}
+fuzz_one
+echo $fail >"$work/$t.rc"
+exit 0
