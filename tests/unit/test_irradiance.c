@@ -176,6 +176,53 @@ test_records_fixed_radius(void **state)
 	check_records(true);
 }
 
+/*
+ * Records many chunks long, their k-nearest queries batched (a batch per
+ * chunk at k = 32, 32 a batch at the largest k): the same bytes for 1, 2
+ * and 5 threads, and each record the estimate pm_irradiance_estimate
+ * makes for its photon alone, within RGBE's step.
+ */
+static void
+test_records_batched(void **state)
+{
+	static const int ks[] = { 32, 300, PM_IRR_MAX_K };
+	const size_t n = 24000, stride = 3;
+	struct pm_photon *p = corner_set(n, 11), *r[3];
+	struct pm_error err;
+	size_t nr[3], i, c;
+	int t;
+
+	(void)state;
+	assert_int_equal(pm_kdtree_build(p, n, 1, &err), PM_OK);
+	for (c = 0; c < sizeof(ks) / sizeof(ks[0]); c++) {
+		struct pm_irradiance_opts o = {.stride = stride,
+		    .k = ks[c], .max_r2 = 0.02f, .max_depth = -1};
+
+		for (t = 0; t < 3; t++) {
+			o.threads = t == 0 ? 1 : 3 * t - 1;
+			assert_int_equal(pm_irradiance_records(p, n, 1e-3f, &o,
+			    &r[t], &nr[t], &err), PM_OK);
+			assert_int_equal(nr[t], n / stride);
+		}
+		assert_memory_equal(r[0], r[1], nr[0] * sizeof(*r[0]));
+		assert_memory_equal(r[0], r[2], nr[0] * sizeof(*r[0]));
+		for (i = 0; i < nr[0]; i += ks[c] > 32 ? 17 : 1) {
+			const struct pm_photon *x = &p[i * stride + stride / 2];
+			struct pm_rgb want = pm_irradiance_estimate(p, n, 1e-3f,
+			    pm_photon_pos(x), pm_dir_unpack(x->normal), &o);
+			struct pm_rgb got = pm_rgbe_unpack(r[0][i].power);
+			float m = pm_rgb_max(want);
+
+			assert_true(fabsf(got.r - want.r) <= m / 100.0f);
+			assert_true(fabsf(got.g - want.g) <= m / 100.0f);
+			assert_true(fabsf(got.b - want.b) <= m / 100.0f);
+		}
+		for (t = 0; t < 3; t++)
+			free(r[t]);
+	}
+	free(p);
+}
+
 static void
 test_grid_lookup(void **state)
 {
@@ -596,6 +643,7 @@ main(void)
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_records_knn),
 		cmocka_unit_test(test_records_fixed_radius),
+		cmocka_unit_test(test_records_batched),
 		cmocka_unit_test(test_grid_lookup),
 		cmocka_unit_test(test_grid_threads),
 		cmocka_unit_test(test_furnace_final_gather),
