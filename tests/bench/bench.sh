@@ -24,7 +24,10 @@
 # One table on stdout, every figure as JSON in out/bench/bench.json.  No
 # figure passes or fails: the machine decides them.  Knobs (environment):
 # BENCH_BIG (10000000 photons), BENCH_QUERIES (20000 per k),
-# BENCH_SPEEDUP_RUNS (3: the speed-up rows take the best of as many).
+# BENCH_SPEEDUP_RUNS (3: the speed-up rows take the best of as many),
+# BENCH_FLANN_FILE_ORDER_MAX (2000000: FLANN's build on the file's order,
+# the input pm's build gets, is timed up to this many photons; 1e7 adds
+# the 10M row, at 7 s to 27 s of FLANN).
 
 set -eu
 
