@@ -241,14 +241,131 @@ drop_pages(const void *p, size_t len)
 		(void)madvise((void *)a, e - a, MADV_DONTNEED);
 }
 
-/* Concatenates the pieces' photons into out (allocated here), in order
- * of first index, dropping each shard's pages as they are copied. */
+static void sort_buckets(struct pm_photon *p, const size_t start[257],
+    int threads);
+
+/*
+ * The canonical sort's first pass as the merge's copy: each photon goes,
+ * split-axis bits cleared, to the bucket of its first byte.  The shards'
+ * records, taken as one array, are cut into parts; each part counts its
+ * bytes, then copies its photons to places of its own in each bucket
+ * (after those of the parts before it), dropping the shards' pages as it
+ * goes, on threads.  Where in its bucket a photon lands depends on the
+ * parts, but the buckets are then sorted completely, so the map does not.
+ * Done in place, the first pass was pm-balance's longest serial step
+ * (American flag sort's swaps across the whole map).
+ */
+#define SCATTER_PARTS_MAX	64
+
+struct scatter_job {
+	const struct piece *pc;
+	int n;
+	struct pm_photon *p;
+	size_t total, parts;
+	size_t (*place)[256];	/* per part: its counts, then its next places */
+	int phase;		/* 0: count, 1: copy */
+	atomic_size_t next;	/* the next part to take */
+};
+
+static void
+scatter_part(struct scatter_job *s, size_t part)
+{
+	size_t lo = s->total / s->parts * part +
+	    (part < s->total % s->parts ? part : s->total % s->parts);
+	size_t hi = lo + s->total / s->parts + (part < s->total % s->parts);
+	size_t *place = s->place[part], at, c, b, e, d, step, i;
+	int j;
+
+	/* the part's records, piece by piece: [b, e) of piece j */
+	for (j = 0, at = 0; j < s->n && lo < hi; at += c, j++) {
+		const struct pm_photon *src = s->pc[j].map->photons;
+
+		c = (size_t)s->pc[j].map->count;
+		if (lo >= at + c)
+			continue;
+		b = lo - at;
+		e = (hi < at + c ? hi : at + c) - at;
+		if (s->phase == 0)
+			for (i = b; i < e; i++)
+				place[((const unsigned char *)&src[i])[0]]++;
+		else
+			for (d = b; d < e; d += step) {
+				step = e - d < GATHER_STEP ? e - d : GATHER_STEP;
+				for (i = d; i < d + step; i++) {
+					struct pm_photon *t = &s->p[place[
+					    ((const unsigned char *)&src[i])[0]]++];
+
+					*t = src[i];
+					t->flags &= (uint8_t)~PM_KD_AXIS_MASK;
+				}
+				drop_pages(src + d, step * sizeof(*src));
+			}
+		lo = at + e;
+	}
+}
+
+static void *
+scatter_worker(void *arg)
+{
+	struct scatter_job *s = arg;
+	size_t part;
+
+	while ((part = atomic_fetch_add(&s->next, 1)) < s->parts)
+		scatter_part(s, part);
+	return NULL;
+}
+
+/* Copies the pieces' photons into p (total of them) as the first pass of
+ * the canonical sort; start[] receives its buckets.  False without
+ * memory. */
+static bool
+scatter(const struct piece *pc, int n, struct pm_photon *p, size_t total,
+    int threads, size_t start[257])
+{
+	struct scatter_job s;
+	size_t t, b, at;
+
+	s.pc = pc;
+	s.n = n;
+	s.p = p;
+	s.total = total;
+	/* one part below 65536 photons: threads would cost more */
+	s.parts = threads <= 1 || total < 65536 ? 1 :
+	    (size_t)(threads < SCATTER_PARTS_MAX ? threads : SCATTER_PARTS_MAX);
+	if ((s.place = calloc(s.parts, sizeof(*s.place))) == NULL)
+		return false;
+	s.phase = 0;
+	atomic_init(&s.next, 0);
+	pm_parallel(s.parts > 1 ? threads : 1, scatter_worker, &s);
+	for (b = 0, at = 0; b < 256; b++) {
+		start[b] = at;
+		for (t = 0; t < s.parts; t++) {
+			size_t c = s.place[t][b];
+
+			s.place[t][b] = at;
+			at += c;
+		}
+	}
+	start[256] = at;
+	s.phase = 1;
+	atomic_store(&s.next, 0);
+	pm_parallel(s.parts > 1 ? threads : 1, scatter_worker, &s);
+	free(s.place);
+	return true;
+}
+
+/*
+ * Concatenates the pieces' photons into out (allocated here), in order of
+ * first index, dropping each shard's pages as they are copied; with
+ * `sorted`, into the canonical order instead (scatter, then the buckets
+ * sorted on `threads` threads).
+ */
 static enum pm_err
-gather(const struct piece *pc, int n, struct pm_map *out,
-    struct pm_error *err)
+gather(const struct piece *pc, int n, struct pm_map *out, bool sorted,
+    int threads, struct pm_error *err)
 {
 	struct pm_photon *p;
-	size_t at = 0, total, done, step;
+	size_t at = 0, total, done, step, start[257];
 	bool have_bounds = false;
 	int j, a;
 
@@ -258,13 +375,15 @@ gather(const struct piece *pc, int n, struct pm_map *out,
 		    (unsigned long long)out->count);
 	total = (size_t)out->count;
 	p = malloc(total > 0 ? total * sizeof(*p) : 1);
-	if (p == NULL)
+	if (p == NULL || (sorted && !scatter(pc, n, p, total, threads, start))) {
+		free(p);
 		return pm_fail(err, PM_ERR_NOMEM, "%s map: out of memory for "
 		    "%zu photons", pm_map_kind_name(out->kind), total);
+	}
 	for (j = 0; j < n; j++) {
 		const struct pm_map *m = pc[j].map;
 
-		for (done = 0; done < (size_t)m->count; done += step) {
+		for (done = 0; !sorted && done < (size_t)m->count; done += step) {
 			step = (size_t)m->count - done < GATHER_STEP ?
 			    (size_t)m->count - done : GATHER_STEP;
 			memcpy(p + at + done, m->photons + done,
@@ -289,12 +408,15 @@ gather(const struct piece *pc, int n, struct pm_map *out,
 			out->hi[a] = pc[0].map->hi[a];
 		}
 	out->photons = p;
+	if (sorted)
+		sort_buckets(p, start, threads);
 	return PM_OK;
 }
 
-enum pm_err
-pm_pmap_merge(const struct pm_shard *in, int n, struct pm_pmap *out,
-    int *order, pm_merge_note_fn *note, void *note_arg, struct pm_error *err)
+static enum pm_err
+merge(const struct pm_shard *in, int n, struct pm_pmap *out, int *order,
+    pm_merge_note_fn *note, void *note_arg, bool sorted, int threads,
+    struct pm_error *err)
 {
 	struct piece *pc;
 	enum pm_err r = PM_OK;
@@ -332,7 +454,7 @@ pm_pmap_merge(const struct pm_shard *in, int n, struct pm_pmap *out,
 			break;
 		for (i = 0; k == 0 && i < n && order != NULL; i++)
 			order[i] = (int)(pc[i].in - in);
-		r = gather(pc, n, &out->maps[k], err);
+		r = gather(pc, n, &out->maps[k], sorted, threads, err);
 	}
 done:
 	if (r != PM_OK)
@@ -342,6 +464,21 @@ done:
 		}
 	free(pc);
 	return r;
+}
+
+enum pm_err
+pm_pmap_merge(const struct pm_shard *in, int n, struct pm_pmap *out,
+    int *order, pm_merge_note_fn *note, void *note_arg, struct pm_error *err)
+{
+	return merge(in, n, out, order, note, note_arg, false, 1, err);
+}
+
+enum pm_err
+pm_pmap_merge_canonical(const struct pm_shard *in, int n,
+    struct pm_pmap *out, int *order, pm_merge_note_fn *note, void *note_arg,
+    int threads, struct pm_error *err)
+{
+	return merge(in, n, out, order, note, note_arg, true, threads, err);
 }
 
 /* --- Balancing --------------------------------------------------------- */
@@ -440,25 +577,42 @@ bucket_worker(void *arg)
 	return NULL;
 }
 
+/* The rest of canonical_sort after its first pass, whose buckets are
+ * start[]'s: on threads when there are photons enough. */
+static void
+sort_buckets(struct pm_photon *p, const size_t start[257], int threads)
+{
+	struct bucket_sort bs;
+	int b;
+
+	if (threads <= 1 || start[256] < 65536) {
+		for (b = 0; b < 256; b++)
+			if (start[b + 1] - start[b] > 1)
+				canonical_sort(p + start[b],
+				    start[b + 1] - start[b], 1);
+		return;
+	}
+	memcpy(bs.start, start, sizeof(bs.start));
+	bs.p = p;
+	atomic_init(&bs.next, 0);
+	pm_parallel(threads, bucket_worker, &bs);
+}
+
 void
 pm_map_canonical_order(struct pm_map *m, int threads)
 {
 	struct pm_photon *p = m->photons;
-	size_t n = (size_t)m->count, i;
-	struct bucket_sort bs;
+	size_t n = (size_t)m->count, i, start[257];
 
 	for (i = 0; i < n; i++)
 		p[i].flags &= (uint8_t)~PM_KD_AXIS_MASK;
 	m->balanced = false;
-	if (threads <= 1 || n < 65536) {
+	if (n <= 24) {
 		canonical_sort(p, n, 0);
 		return;
 	}
-	/* canonical_sort's first pass, then its recursion on threads. */
-	byte_partition(p, n, 0, bs.start);
-	bs.p = p;
-	atomic_init(&bs.next, 0);
-	pm_parallel(threads, bucket_worker, &bs);
+	byte_partition(p, n, 0, start);
+	sort_buckets(p, start, threads);
 }
 
 enum pm_err

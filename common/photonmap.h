@@ -142,6 +142,15 @@ enum pm_err pm_pmap_merge(const struct pm_shard *in, int n,
     struct pm_pmap *out, int *order, pm_merge_note_fn *note, void *note_arg,
     struct pm_error *err);
 
+/*
+ * pm_pmap_merge with the maps coming out in canonical order (see
+ * pm_map_canonical_order), the same bytes, the sort's first pass done by
+ * the copy and the rest on up to `threads` threads: what pm-balance does.
+ */
+enum pm_err pm_pmap_merge_canonical(const struct pm_shard *in, int n,
+    struct pm_pmap *out, int *order, pm_merge_note_fn *note, void *note_arg,
+    int threads, struct pm_error *err);
+
 /* --- Balancing --------------------------------------------------------- */
 
 /*

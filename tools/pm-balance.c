@@ -247,11 +247,14 @@ main(int argc, char *argv[])
 		if (verbosity >= 2)
 			describe_input(argv[i], &in[i]);
 	}
-	if (pm_pmap_merge(shards, n, &out, order, gap_note, NULL, &err) !=
-	    PM_OK) {
+	/* The copy out of the inputs is the canonical sort's first pass. */
+	t = pm_cli_now();
+	if (pm_pmap_merge_canonical(shards, n, &out, order, gap_note, NULL,
+	    (int)threads, &err) != PM_OK) {
 		fprintf(stderr, "%s: %s\n", PROG, err.msg);
 		goto done;
 	}
+	t_sort = pm_cli_now() - t;
 	/* The provenance of the input whose first map starts lowest, so that
 	 * the order given does not matter; "tool" names the version too, as
 	 * pm-shoot's line does; then the inputs in merge order. */
@@ -275,21 +278,21 @@ main(int argc, char *argv[])
 	free_inputs(in, nread);
 	nread = 0;
 
-	/* Progress in photons: sorting counts once, the kd-tree build twice
-	 * (it sorts along every level) and writing once. */
+	if (verbosity >= 2)
+		fprintf(stderr, "%s: merged and sorted into the canonical order "
+		    "in %.3f s\n", PROG, t_sort);
+
+	/* Progress in photons: the kd-tree build counts twice (it sorts
+	 * along every level) and writing once. */
 	atomic_init(&pdone, 0);
 	atomic_init(&ptotal, 0);
 	for (k = 0; k < out.nmaps; k++)
-		atomic_fetch_add(&ptotal, 4 * (long)out.maps[k].count);
+		atomic_fetch_add(&ptotal, 3 * (long)out.maps[k].count);
 	prog = pm_cli_progress_start(PROG, "", pm_cli_progress_wanted(
 	    verbosity == 0), &pdone, &ptotal, NULL, NULL, 0.0);
 	for (k = 0; k < out.nmaps; k++) {
 		struct pm_map *m = &out.maps[k];
 
-		t = pm_cli_now();
-		pm_map_canonical_order(m, (int)threads);
-		t_sort = pm_cli_now() - t;
-		atomic_fetch_add(&pdone, (long)m->count);
 		t = pm_cli_now();
 		if (pm_map_build_tree(m, (int)threads, &err) != PM_OK) {
 			pm_cli_progress_hold(prog);
@@ -301,14 +304,14 @@ main(int argc, char *argv[])
 		pm_cli_progress_hold(prog);
 		if (verbosity >= 2)
 			fprintf(stderr, "%s: %s map: %llu photons, %llu paths "
-			    "[%llu, %llu), from %d input%s; sorted in %.3f s, "
+			    "[%llu, %llu), from %d input%s; "
 			    "kd-tree built in %.3f s with %ld thread%s\n", PROG,
 			    pm_map_kind_name(m->kind),
 			    (unsigned long long)m->count,
 			    (unsigned long long)m->emitted,
 			    (unsigned long long)m->first_index,
 			    (unsigned long long)(m->first_index + m->emitted),
-			    n, n == 1 ? "" : "s", t_sort, pm_cli_now() - t,
+			    n, n == 1 ? "" : "s", pm_cli_now() - t,
 			    threads, threads == 1 ? "" : "s");
 		pm_cli_progress_release(prog);
 	}

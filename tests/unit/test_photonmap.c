@@ -250,6 +250,101 @@ test_merge_equals_one_run(void **state)
 	pm_pmap_free(&one);
 }
 
+/* A map of n random records (split-axis bits among them, duplicates, a
+ * crowded first byte) for paths [first, first + 1000). */
+static void
+random_map(struct pm_map *m, size_t n, uint64_t first, uint64_t seed)
+{
+	struct pm_rng rng = pm_rng_seed(seed, 0, 0);
+	size_t i, k;
+	int a;
+
+	memset(m, 0, sizeof(*m));
+	m->kind = PM_MAP_GLOBAL;
+	m->first_index = first;
+	m->emitted = 1000;
+	m->count = n;
+	m->photons = malloc(n * sizeof(*m->photons));
+	assert_non_null(m->photons);
+	for (i = 0; i < n; i++) {
+		unsigned char *r = (unsigned char *)&m->photons[i];
+
+		for (k = 0; k < sizeof(struct pm_photon); k++)
+			r[k] = (unsigned char)(pm_rng_u32(&rng) >> 24);
+		if (i % 5 == 2)
+			m->photons[i] = m->photons[i - 1];
+		if (i % 7 == 3)
+			r[0] = 200;
+	}
+	for (a = 0; a < 3; a++) {
+		m->lo[a] = -1.0f;
+		m->hi[a] = 1.0f;
+	}
+}
+
+/* pm_pmap_merge_canonical: the bytes of pm_pmap_merge then
+ * pm_map_canonical_order, split-axis bits cleared, for 1, 2 and 5
+ * threads (the shards' records are given back as they are copied, so each
+ * merge gets fresh copies). */
+static void
+test_merge_canonical(void **state)
+{
+	const size_t na = 70000, nb = 50000;
+	struct pm_map ma, mb;
+	struct pm_pmap a, b, ref, out;
+	struct pm_shard in[2];
+	struct pm_error err;
+	int threads[3] = {1, 2, 5}, t, order[2];
+	size_t i;
+
+	(void)state;
+	random_map(&ma, na, 1000, 3);
+	random_map(&mb, nb, 0, 4);
+	memset(&a, 0, sizeof(a));
+	a.seed = SEED;
+	a.nmaps = 1;
+	b = a;
+	in[0].name = "a.pmap";
+	in[0].m = &a;
+	in[1].name = "b.pmap";
+	in[1].m = &b;
+	for (t = -1; t < 3; t++) {
+		a.maps[0] = ma;
+		a.maps[0].photons = malloc(na * sizeof(*ma.photons));
+		b.maps[0] = mb;
+		b.maps[0].photons = malloc(nb * sizeof(*mb.photons));
+		assert_non_null(a.maps[0].photons);
+		assert_non_null(b.maps[0].photons);
+		memcpy(a.maps[0].photons, ma.photons, na * sizeof(*ma.photons));
+		memcpy(b.maps[0].photons, mb.photons, nb * sizeof(*mb.photons));
+		memset(&out, 0, sizeof(out));
+		if (t < 0) {
+			assert_int_equal(pm_pmap_merge(in, 2, &ref, order, NULL,
+			    NULL, &err), PM_OK);
+			pm_map_canonical_order(&ref.maps[0], 1);
+		} else {
+			assert_int_equal(pm_pmap_merge_canonical(in, 2, &out,
+			    order, NULL, NULL, threads[t], &err), PM_OK);
+			assert_int_equal(order[0], 1);
+			assert_int_equal(out.maps[0].count, na + nb);
+			assert_int_equal(out.maps[0].emitted, 2000);
+			assert_false(out.maps[0].balanced);
+			assert_memory_equal(out.maps[0].photons,
+			    ref.maps[0].photons, (na + nb) *
+			    sizeof(*ref.maps[0].photons));
+			free_merged(&out);
+		}
+		free(a.maps[0].photons);
+		free(b.maps[0].photons);
+	}
+	for (i = 0; i < na + nb; i++)
+		assert_int_equal(ref.maps[0].photons[i].flags &
+		    PM_KD_AXIS_MASK, 0);
+	free_merged(&ref);
+	free(ma.photons);
+	free(mb.photons);
+}
+
 /* The canonical order on threads (the first byte's buckets sorted in
  * parallel) is the one-thread order, byte for byte: random records with
  * many duplicates and a crowded first byte, for 2, 3 and 8 threads. */
@@ -739,6 +834,7 @@ main(void)
 		cmocka_unit_test(test_merge_equals_one_run),
 		cmocka_unit_test(test_canonical_order),
 		cmocka_unit_test(test_canonical_order_threads),
+		cmocka_unit_test(test_merge_canonical),
 		cmocka_unit_test(test_merge_checks),
 		cmocka_unit_test(test_stats_recount),
 		cmocka_unit_test(test_reader_reports),
