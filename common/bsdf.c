@@ -1184,9 +1184,7 @@ pm_bsdf_eval(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo,
 		return pm_rgb1(0.0f);
 	switch (b->type) {
 	case PM_BSDF_DIFFUSE:
-		if (wi.z <= 0.0f || wo.z <= 0.0f)
-			break;
-		return pm_rgb_scale(b->diffuse, wo.z * PM_INV_PI);
+		return pm_diffuse_eval(b->diffuse, wi, wo);
 	case PM_BSDF_ROUGHCONDUCTOR:
 		if (wi.z <= 0.0f || wo.z <= 0.0f)
 			break;
@@ -1251,9 +1249,7 @@ pm_bsdf_pdf(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo)
 		return 0.0f;
 	switch (b->type) {
 	case PM_BSDF_DIFFUSE:
-		if (wi.z <= 0.0f || wo.z <= 0.0f)
-			break;
-		return wo.z * PM_INV_PI;
+		return pm_diffuse_pdf(wi, wo);
 	case PM_BSDF_ROUGHCONDUCTOR:
 		if (wi.z <= 0.0f || wo.z <= 0.0f)
 			break;
@@ -1477,16 +1473,7 @@ pm_bsdf_sample(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
 		wi.z = -wi.z;
 	switch (b->type) {
 	case PM_BSDF_DIFFUSE:
-		if (wi.z <= 0.0f)
-			break;
-		s->wo = pm_square_to_cosine_hemisphere(u2, u3);
-		s->pdf = pm_cosine_hemisphere_pdf(s->wo);
-		if (!(s->pdf > 0.0f))
-			break;
-		s->weight = b->diffuse;
-		s->eta = 1.0f;
-		s->lobe = PM_LOBE_DIFFUSE;
-		ok = true;
+		ok = pm_diffuse_sample(b->diffuse, wi, u2, u3, s);
 		break;
 	case PM_BSDF_CONDUCTOR:
 		if (wi.z <= 0.0f)

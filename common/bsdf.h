@@ -21,6 +21,7 @@
 #include <stdbool.h>
 
 #include "bsdf_principled.h"
+#include "sampling.h"
 #include "vec.h"
 
 enum pm_bsdf_type {
@@ -196,6 +197,43 @@ float pm_bsdf_pdf(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo)
 /* u1 chooses the lobe, (u2, u3) the direction; false if nothing was sampled. */
 bool pm_bsdf_sample(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
     float u2, float u3, enum pm_transport mode, struct pm_bsdf_sample *s);
+
+/*
+ * The diffuse lobe's eval, pdf and sample in the local frame, wi above
+ * the surface (after twosided's flip): pm_bsdf_eval and friends use them
+ * for the diffuse type, and the path tracer calls them directly at a
+ * plain diffuse vertex (no map, no lobe selection, the commonest), so
+ * both get the same bits without the call and the dispatch.
+ */
+static inline struct pm_rgb pm_diffuse_eval(struct pm_rgb r, struct pm_vec3 wi,
+    struct pm_vec3 wo)
+{
+	if (wi.z <= 0.0f || wo.z <= 0.0f)
+		return pm_rgb1(0.0f);
+	return pm_rgb_scale(r, wo.z * PM_INV_PI);
+}
+
+static inline float pm_diffuse_pdf(struct pm_vec3 wi, struct pm_vec3 wo)
+{
+	if (wi.z <= 0.0f || wo.z <= 0.0f)
+		return 0.0f;
+	return wo.z * PM_INV_PI;
+}
+
+static inline bool pm_diffuse_sample(struct pm_rgb r, struct pm_vec3 wi,
+    float u2, float u3, struct pm_bsdf_sample *s)
+{
+	if (wi.z <= 0.0f)
+		return false;
+	s->wo = pm_square_to_cosine_hemisphere(u2, u3);
+	s->pdf = pm_cosine_hemisphere_pdf(s->wo);
+	if (!(s->pdf > 0.0f))
+		return false;
+	s->weight = r;
+	s->eta = 1.0f;
+	s->lobe = PM_LOBE_DIFFUSE;
+	return true;
+}
 
 /* Plastic's coating as a deterministic mirror sample (weight Fresnel x
  * specular); false for every other type or from below. */

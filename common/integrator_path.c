@@ -21,10 +21,10 @@
 
 /*
  * A plain diffuse BSDF (no map, no lobe selection), the commonest at a
- * path's vertices: its eval, pdf and sample in line, with bsdf.c's own
- * arithmetic for it (the same bits), without the calls and dispatch;
- * every other BSDF goes through bsdf.c.  Diffuse reflection transmits
- * nothing, so twosided's flip needs only wi below the surface.
+ * path's vertices, goes to bsdf.h's inline diffuse lobe without the calls
+ * and the dispatch (the same bits as through bsdf.c); every other BSDF
+ * goes through bsdf.c.  Diffuse reflection transmits nothing, so
+ * twosided's flip needs only wi below the surface.
  */
 static inline bool
 plain_diffuse(const struct pm_bsdf *b)
@@ -41,9 +41,7 @@ bsdf_eval(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo)
 		wi.z = -wi.z;
 		wo.z = -wo.z;
 	}
-	if (wi.z <= 0.0f || wo.z <= 0.0f)
-		return pm_rgb1(0.0f);
-	return pm_rgb_scale(b->diffuse, wo.z * PM_INV_PI);
+	return pm_diffuse_eval(b->diffuse, wi, wo);
 }
 
 static inline float
@@ -55,9 +53,7 @@ bsdf_pdf(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo)
 		wi.z = -wi.z;
 		wo.z = -wo.z;
 	}
-	if (wi.z <= 0.0f || wo.z <= 0.0f)
-		return 0.0f;
-	return wo.z * PM_INV_PI;
+	return pm_diffuse_pdf(wi, wo);
 }
 
 static inline bool
@@ -71,15 +67,8 @@ bsdf_sample(const struct pm_bsdf *b, struct pm_vec3 wi, float u1, float u2,
 	flip = b->twosided && wi.z < 0.0f;
 	if (flip)
 		wi.z = -wi.z;
-	if (wi.z <= 0.0f)
+	if (!pm_diffuse_sample(b->diffuse, wi, u2, u3, bs))
 		return false;
-	bs->wo = pm_square_to_cosine_hemisphere(u2, u3);
-	bs->pdf = pm_cosine_hemisphere_pdf(bs->wo);
-	if (!(bs->pdf > 0.0f))
-		return false;
-	bs->weight = b->diffuse;
-	bs->eta = 1.0f;
-	bs->lobe = PM_LOBE_DIFFUSE;
 	if (flip)
 		bs->wo.z = -bs->wo.z;
 	return true;
