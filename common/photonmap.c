@@ -267,12 +267,19 @@ struct scatter_job {
 	atomic_size_t next;	/* the next part to take */
 };
 
+/* Where part i of `parts` starts among n records: n * i / parts, without
+ * the product's overflow. */
+static inline size_t
+part_start(size_t n, size_t i, size_t parts)
+{
+	return n / parts * i + n % parts * i / parts;
+}
+
 static void
 scatter_part(struct scatter_job *s, size_t part)
 {
-	size_t lo = s->total / s->parts * part +
-	    (part < s->total % s->parts ? part : s->total % s->parts);
-	size_t hi = lo + s->total / s->parts + (part < s->total % s->parts);
+	size_t lo = part_start(s->total, part, s->parts);
+	size_t hi = part_start(s->total, part + 1, s->parts);
 	size_t *place = s->place[part], at, c, b, e, d, step, i;
 	int j;
 
@@ -607,10 +614,6 @@ pm_map_canonical_order(struct pm_map *m, int threads)
 	for (i = 0; i < n; i++)
 		p[i].flags &= (uint8_t)~PM_KD_AXIS_MASK;
 	m->balanced = false;
-	if (n <= 24) {
-		canonical_sort(p, n, 0);
-		return;
-	}
 	byte_partition(p, n, 0, start);
 	sort_buckets(p, start, threads);
 }

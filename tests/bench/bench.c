@@ -46,6 +46,7 @@
 #include "../../common/sampling.h"
 #include "../../formats/pmap.h"
 #include "../../formats/scene_xml.h"
+#include "range_queries.h"
 
 static double
 now(void)
@@ -163,14 +164,6 @@ fail:
 }
 
 static int
-cmp_float(const void *a, const void *b)
-{
-	float x = *(const float *)a, y = *(const float *)b;
-
-	return x < y ? -1 : x > y;
-}
-
-static int
 bench_range(const char *path, size_t n, const char *ks, size_t queries)
 {
 	struct pm_error err = {PM_OK, ""};
@@ -178,10 +171,10 @@ bench_range(const char *path, size_t n, const char *ks, size_t queries)
 	struct pm_map *m;
 	struct pm_photon *p = NULL;
 	struct pm_knn *nb = NULL;
-	float *qp = NULL, *kd = NULL, h;
+	float *qp = NULL, *kd = NULL;
 	const char *kp;
 	size_t len = 0, j;
-	int a, rc = 1;
+	int rc = 1;
 
 	if (pm_pmap_read(path, &pm, false, &err) != PM_OK) {
 		fprintf(stderr, "bench: %s\n", err.msg);
@@ -204,19 +197,7 @@ bench_range(const char *path, size_t n, const char *ks, size_t queries)
 		fprintf(stderr, "bench: %s\n", err.msg);
 		goto out;
 	}
-	/* Queries as pm_knn_check's: photons moved by about their spacing,
-	 * but photons taken in the file's order, so that the queries and
-	 * radii do not depend on how the tree is built. */
-	h = pm_knn_offset_scale(p, n);
-	for (j = 0; j < queries; j++) {
-		struct pm_rng g = pm_rng_seed(1, j, 0x6b6e6e);
-		size_t s = (size_t)(pm_rng_double(&g) * (double)n);
-
-		s = s < n ? s : n - 1;
-		for (a = 0; a < 3; a++)
-			qp[3 * j + a] = m->photons[s].pos[a] +
-			    (pm_rng_float(&g) - 0.5f) * h;
-	}
+	range_queries(m->photons, p, n, qp, queries);
 	for (kp = ks; *kp != '\0'; kp += kp[len] == ',' ? len + 1 : len) {
 		size_t k = strtoull(kp, NULL, 10), found = 0;
 		struct pm_knn *t;
@@ -232,11 +213,7 @@ bench_range(const char *path, size_t n, const char *ks, size_t queries)
 			goto out;
 		}
 		nb = t;
-		for (j = 0; j < queries; j++)
-			kd[j] = pm_kdtree_knn(p, n, &qp[3 * j], k, INFINITY, 0, 0,
-			    nb) > 0 ? nb[0].d2 : 0.0f;
-		qsort(kd, queries, sizeof(*kd), cmp_float);
-		r2 = kd[queries / 2];
+		r2 = range_radius2(p, n, qp, queries, k, nb, kd);
 		t0 = now();
 		for (j = 0; j < queries; j++) {
 			struct pm_kd_range it;

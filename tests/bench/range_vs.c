@@ -98,19 +98,10 @@ main(int argc, char **argv)
 
 #else
 
-#include "common/knn_check.h"
-#include "common/rng.h"
 #include "formats/pmap.h"
+#include "range_queries.h"
 
 #define RANGE_VS_MAX_K	1024	/* the largest K asked for */
-
-static int
-cmp_float(const void *a, const void *b)
-{
-	float x = *(const float *)a, y = *(const float *)b;
-
-	return x < y ? -1 : x > y;
-}
 
 int
 main(int argc, char **argv)
@@ -121,10 +112,9 @@ main(int argc, char **argv)
 	struct pm_photon *p;
 	struct pm_knn *nb;
 	uint64_t hdr[3];
-	float *q, *kd, h;
+	float *q, *kd;
 	FILE *f;
-	size_t n, nq, i, j;
-	int a;
+	size_t n, nq, i;
 
 	if (argc < 6) {
 		fprintf(stderr, "usage: range_vs_dump SHOT.pmap N QUERIES OUT K...\n");
@@ -155,18 +145,7 @@ main(int argc, char **argv)
 		fprintf(stderr, "range_vs_dump: %s\n", err.msg);
 		return 1;
 	}
-	/* bench range's queries: photons taken in the file's order, moved
-	 * by about their spacing */
-	h = pm_knn_offset_scale(p, n);
-	for (j = 0; j < nq; j++) {
-		struct pm_rng g = pm_rng_seed(1, j, 0x6b6e6e);
-		size_t s = (size_t)(pm_rng_double(&g) * (double)n);
-
-		s = s < n ? s : n - 1;
-		for (a = 0; a < 3; a++)
-			q[3 * j + a] = m->photons[s].pos[a] +
-			    (pm_rng_float(&g) - 0.5f) * h;
-	}
+	range_queries(m->photons, p, n, q, nq);	/* bench range's */
 	hdr[0] = n;
 	hdr[1] = nq;
 	hdr[2] = (uint64_t)(argc - 5);
@@ -181,11 +160,7 @@ main(int argc, char **argv)
 			fprintf(stderr, "range_vs_dump: k %s out of range\n", argv[i]);
 			return 1;
 		}
-		for (j = 0; j < nq; j++)
-			kd[j] = pm_kdtree_knn(p, n, &q[3 * j], k, INFINITY, 0, 0,
-			    nb) > 0 ? nb[0].d2 : 0.0f;
-		qsort(kd, nq, sizeof(*kd), cmp_float);
-		r2 = kd[nq / 2];
+		r2 = range_radius2(p, n, q, nq, k, nb, kd);
 		fwrite(&r2, sizeof(r2), 1, f);
 	}
 	if (fclose(f) != 0) {
