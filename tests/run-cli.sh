@@ -1,15 +1,6 @@
 #!/bin/sh
 # Runs each CLI test script (TAP-style "ok"/"not ok" lines, non-zero exit on
-# failure) from the repository root; prints "cli: N passed, N failed".
-pass=0
-fail=0
-for t in "$@"; do
-	if sh "$t"; then
-		pass=$((pass + 1))
-	else
-		echo "FAILED: $t"
-		fail=$((fail + 1))
-	fi
-done
-echo "cli: $pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+# failure) from the repository root, CLI_JOBS at a time (default: the
+# number of CPUs), and prints "cli: N passed, N failed" (tests/run-each.sh).
+exec sh "$(dirname "$0")/run-each.sh" cli \
+    "${CLI_JOBS:-$(nproc 2>/dev/null || echo 1)}" "$@"
