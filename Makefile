@@ -142,13 +142,18 @@ demo: deps
 	$(MAKE) -j$(NPROC) all
 	$(MAKE) $(BUNNY).png
 
+# Each part timed (tests/phase.sh); the last line lists them all.
+PHASES = $(BUILD)/test-phases
+PHASE  = @sh tests/phase.sh $(PHASES)
 test: deps deps-cluster
-	$(MAKE) -j$(NPROC) all $(TEST_BIN)
-	$(MAKE) check-unit check-cli check-man
-	$(MAKE) check-cluster
-	$(MAKE) check-sanitize
-	$(MAKE) check-fuzz
-	$(MAKE) check-mitsuba
+	@mkdir -p $(BUILD) && rm -f $(PHASES)
+	$(PHASE) build $(MAKE) -j$(NPROC) all $(TEST_BIN)
+	$(PHASE) unit+cli+man $(MAKE) check-unit check-cli check-man
+	$(PHASE) cluster $(MAKE) check-cluster
+	$(PHASE) sanitize $(MAKE) check-sanitize
+	$(PHASE) fuzz $(MAKE) check-fuzz
+	$(PHASE) mitsuba $(MAKE) check-mitsuba
+	@echo "make test: passed; seconds per part:" $$(cat $(PHASES))
 
 check-unit: $(TEST_BIN)
 	@sh tests/run-unit.sh $(TEST_BIN)
@@ -171,8 +176,8 @@ check-cluster: $(BINS) $(BUILD)/tests/exrutil
 SAN_FLAGS = -O1 -g -fsanitize=address,undefined -fno-omit-frame-pointer \
 	-fno-sanitize-recover=undefined
 # The builds run on every CPU (a sub-make does not inherit make test's -j);
-# the checks after them run one script at a time, as check-unit and
-# check-cli do anywhere.
+# the checks after them run as check-unit and check-cli do anywhere, as many
+# tests at once as there are CPUs (tests/run-each.sh).
 check-sanitize:
 	$(MAKE) -j$(NPROC) BUILD=build/san BIN=build/san/bin CFLAGS="$(SAN_FLAGS)" \
 		$(TOOLS:%=build/san/bin/%) $(TEST_SRC:tests/unit/%.c=build/san/tests/%) \
