@@ -46,7 +46,7 @@ MANS     = $(sort $(wildcard man/*.[1-9]))
 
 .PHONY: all demo test deps install clean check-unit check-cli check-man check-mitsuba \
 	check-sanitize check-tsan turntable deps-cluster check-cluster
-.PHONY: fuzz fuzz-build check-fuzz
+.PHONY: fuzz fuzz-build check-fuzz mitsuba-references
 
 # Data files written by a program rather than stored: the .vol grids of
 # data/smoke.xml (tests/volgen.c).
@@ -241,9 +241,21 @@ $(BUILD)/tests/bsdfeval: tests/mitsuba/bsdfeval.c $(LIB)
 	@mkdir -p $(dir $@)
 	$(CC) $(PM_CFLAGS) $(CFLAGS) -o $@ tests/mitsuba/bsdfeval.c $(LIB) $(PM_LIBS)
 
-check-mitsuba: $(BINS) $(BUILD)/tests/texlookup $(BUILD)/tests/bsdfeval $(BUILD)/tests/volgen $(DATA_GEN)
+MITSUBA_PREREQ = $(BINS) $(BUILD)/tests/texlookup $(BUILD)/tests/bsdfeval $(BUILD)/tests/volgen $(DATA_GEN)
+check-mitsuba: $(MITSUBA_PREREQ)
 	@sh tests/mitsuba/compare.sh
 	@sh tests/mitsuba/emitters.sh
+
+# The Mitsuba renders that take minutes each (the media scenes: about 19 of
+# check-mitsuba's 32 minutes of Mitsuba here), committed so that a fresh
+# clone compares against them instead of rendering them
+# (tests/mitsuba/references/README).  Remake them after editing one of
+# these scenes or moving to another Mitsuba; the checks run as well.
+MITSUBA_REFERENCE_CHECKS = fog-box glass-medium spot-haze haze-ball smoke hetero-box
+mitsuba-references: $(MITSUBA_PREREQ)
+	rm -f tests/mitsuba/references/*.exr tests/mitsuba/references/*.json
+	MITSUBA_RECORD=tests/mitsuba/references \
+		MITSUBA_ONLY="$(MITSUBA_REFERENCE_CHECKS)" sh tests/mitsuba/compare.sh
 
 install: all
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/man/man1 \

@@ -94,8 +94,9 @@ mitsuba() {
 	_seed=$5
 	shift 5
 	"$PY" "$HERE/render_mitsuba.py" "$_scene" "$_out" --spp "$_spp" \
-	    -D "res=$RES" --seed "$_seed" --variant "$VARIANT" "$@" \
-	    >"$OUT/log" 2>&1
+	    -D "res=$RES" --seed "$_seed" --variant "$VARIANT" \
+	    --key-scope scene ${MITSUBA_RECORD:+--record "$MITSUBA_RECORD"} \
+	    "$@" >"$OUT/log" 2>&1
 	_rc=$?
 	diag <"$OUT/log"
 	return $_rc

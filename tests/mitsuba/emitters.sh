@@ -60,7 +60,7 @@ fi
 mitsuba() {
 	"$PY" "$HERE/render_mitsuba.py" "$DIR/$1.xml" "$DIR/$1-mi-$2.exr" \
 	    --spp "$MI_SPP" -D "res=$RES" --seed "$2" --variant "$VARIANT" \
-	    --key-scope scene \
+	    --key-scope scene ${MITSUBA_RECORD:+--record "$MITSUBA_RECORD"} \
 	    >"$OUT/log" 2>&1
 	_rc=$?
 	diag <"$OUT/log"

@@ -5,7 +5,7 @@ that pm-render is checked against.
     render_mitsuba.py SCENE.xml OUT.exr [--spp N] [-D name=value ...]
                       [--variant V] [--seed N] [--light-scale F] [--no-cache]
                       [--integrator path|ptracer] [--key-scope dir|scene]
-                      [--moments]
+                      [--moments] [--record DIR]
 
 The scene is rendered with its own integrator (the Cornell boxes use `path`),
 so both renderers read exactly the same file. OUT.exr holds linear RGB float32.
@@ -26,6 +26,15 @@ seconds spent loading the scene and rendering it, which the accuracy study
 reads as Mitsuba's wall time. --moments (a scene under Mitsuba's `moment`
 integrator) writes instead of RGB the per-pixel variance of one sample,
 m2 - m1^2 of the moment channels (CIE XYZ), as three channels.
+
+Renders that take minutes are also committed, under tests/mitsuba/references/
+(the same KEY.exr and KEY.json, looked up after the build cache and never
+written to but by --record): a fresh clone, as CI has, reads them instead of
+rendering for twenty minutes. A committed render is Mitsuba's own output for
+exactly that key (scene files, options, variant and Mitsuba version), so an
+edited scene or another Mitsuba misses it and renders afresh. --record DIR
+copies the render's cache entry, made now or found, into DIR
+(`make mitsuba-references` remakes the committed set this way).
 """
 
 import argparse
@@ -41,6 +50,10 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
 CACHE = os.environ.get("PM_MITSUBA_CACHE",
                        os.path.join(ROOT, "build", "mitsuba-cache"))
+
+# Committed renders, read-only (see above).
+REFERENCES = os.environ.get("PM_MITSUBA_REFERENCES",
+                            os.path.join(HERE, "references"))
 
 # Bumped when this script changes what it writes for the same key.
 CACHE_FORMAT = "1"
@@ -71,6 +84,9 @@ def parse_args(argv):
                    "the scene and the files it names (scene)")
     p.add_argument("--moments", action="store_true",
                    help="write the moment integrator's variance, m2 - m1^2")
+    p.add_argument("--record", default=None, metavar="DIR",
+                   help="copy the render's cache entry (KEY.exr, KEY.json) "
+                   "into DIR")
     p.add_argument("-q", "--quiet", action="store_true")
     return p.parse_args(argv)
 
@@ -276,6 +292,34 @@ def write_meta(path, meta, key):
             json.dump(dict(meta, key=key), f, indent=1)
 
 
+def store(exr, exr_to, meta, meta_to):
+    """Copies a render and writes its record, each by rename, so that a
+    reader never finds half a file."""
+    tmp = exr_to + ".tmp%d" % os.getpid()
+    shutil.copyfile(exr, tmp)
+    os.replace(tmp, exr_to)
+    with open(meta_to + ".tmp", "w") as f:
+        json.dump(meta, f, indent=1)
+        f.write("\n")
+    os.replace(meta_to + ".tmp", meta_to)
+
+
+def record(where, exr, meta, key):
+    """--record: the cache entry into WHERE, its scene path relative to
+    the repository (a committed record names no one's checkout)."""
+    if where is None:
+        return
+    os.makedirs(where, exist_ok=True)
+    meta = dict(meta)
+    scene = meta.get("scene")
+    if scene and os.path.isabs(scene):
+        rel = os.path.relpath(scene, ROOT)
+        if not rel.startswith(".."):
+            meta["scene"] = rel
+    store(exr, os.path.join(where, key + ".exr"), meta,
+          os.path.join(where, key + ".json"))
+
+
 def main(argv):
     args = parse_args(argv)
     if not os.path.isfile(args.scene):
@@ -286,19 +330,24 @@ def main(argv):
     version = mitsuba.__version__
 
     key = cache_key(args, defines, variant, version)
-    cached = os.path.join(CACHE, key + ".exr")
-    meta_path = os.path.join(CACHE, key + ".json")
-    if not args.no_cache and os.path.isfile(cached) \
-            and os.path.isfile(meta_path):
-        shutil.copyfile(cached, args.out)
-        with open(meta_path) as f:
-            meta = json.load(f)
-        write_meta(args.meta, meta, key)
-        if not args.quiet:
-            print("render_mitsuba: %s (cached %s; rendered in %.1f s with "
-                  "mitsuba %s %s)" % (args.out, key, meta["seconds"],
-                                      meta["mitsuba"], meta["variant"]))
-        return 0
+    if not args.no_cache:
+        for where, what in ((CACHE, "cached"),
+                            (REFERENCES, "committed reference")):
+            cached = os.path.join(where, key + ".exr")
+            meta_path = os.path.join(where, key + ".json")
+            if not (os.path.isfile(cached) and os.path.isfile(meta_path)):
+                continue
+            shutil.copyfile(cached, args.out)
+            with open(meta_path) as f:
+                meta = json.load(f)
+            write_meta(args.meta, meta, key)
+            record(args.record, cached, meta, key)
+            if not args.quiet:
+                print("render_mitsuba: %s (%s %s; rendered in %.1f s with "
+                      "mitsuba %s %s)" % (args.out, what, key,
+                                          meta["seconds"], meta["mitsuba"],
+                                          meta["variant"]))
+            return 0
 
     seconds, load_seconds, shape = render(args, defines, variant, args.out)
     if not args.quiet:
@@ -306,22 +355,19 @@ def main(argv):
               "(mitsuba %s %s)" % (args.out, shape[1], shape[0],
                                    args.spp if args.spp else "scene",
                                    args.seed, seconds, version, variant))
+    meta = {"scene": os.path.abspath(args.scene), "spp": args.spp,
+            "defines": defines, "seed": args.seed,
+            "light_scale": args.light_scale, "variant": variant,
+            "mitsuba": version, "seconds": round(seconds, 3),
+            "load_seconds": round(load_seconds, 3),
+            "integrator": args.integrator or "scene",
+            "width": shape[1], "height": shape[0]}
     if not args.no_cache:
         os.makedirs(CACHE, exist_ok=True)
-        tmp = cached + ".tmp%d" % os.getpid()
-        shutil.copyfile(args.out, tmp)
-        os.replace(tmp, cached)
-        meta = {"scene": os.path.abspath(args.scene), "spp": args.spp,
-                "defines": defines, "seed": args.seed,
-                "light_scale": args.light_scale, "variant": variant,
-                "mitsuba": version, "seconds": round(seconds, 3),
-                "load_seconds": round(load_seconds, 3),
-                "integrator": args.integrator or "scene",
-                "width": shape[1], "height": shape[0]}
-        with open(meta_path + ".tmp", "w") as f:
-            json.dump(meta, f, indent=1)
-        os.replace(meta_path + ".tmp", meta_path)
+        cached = os.path.join(CACHE, key + ".exr")
+        store(args.out, cached, meta, os.path.join(CACHE, key + ".json"))
         write_meta(args.meta, meta, key)
+        record(args.record, cached, meta, key)
     elif args.meta:
         write_meta(args.meta, {"seconds": round(seconds, 3),
                                "load_seconds": round(load_seconds, 3),
