@@ -1166,6 +1166,21 @@ sample_perturbed(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
 }
 
 /* f(wi, wo) |cos theta_o|; zero for delta components. */
+bool
+pm_bsdf_lambertian(const struct pm_bsdf *b, struct pm_vec3 wi,
+    struct pm_rgb *rho, float *side)
+{
+	if (b->perturbed || b->type != PM_BSDF_DIFFUSE || excluded(b))
+		return false;
+	*side = 1.0f;
+	if (twosided_flip(b, wi)) {
+		wi.z = -wi.z;
+		*side = -1.0f;
+	}
+	*rho = wi.z > 0.0f ? b->diffuse : pm_rgb1(0.0f);
+	return true;
+}
+
 struct pm_rgb
 pm_bsdf_eval(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo,
     enum pm_transport mode)

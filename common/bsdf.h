@@ -193,6 +193,13 @@ static inline bool pm_bsdf_is_composite(const struct pm_bsdf *b)
 
 struct pm_rgb pm_bsdf_eval(const struct pm_bsdf *b, struct pm_vec3 wi,
     struct pm_vec3 wo, enum pm_transport mode);
+
+/* Whether b, seen from wi, is Lambertian: pm_bsdf_eval(b, wi, wo, any
+ * mode) is then *rho * |wo.z| / pi for wo.z * *side > 0 (side 1 or -1,
+ * after twosided's flip) and black otherwise, so a photon estimate can
+ * sum the photons' powers and multiply by *rho / pi once. */
+bool pm_bsdf_lambertian(const struct pm_bsdf *b, struct pm_vec3 wi,
+    struct pm_rgb *rho, float *side);
 float pm_bsdf_pdf(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo);
 /* u1 chooses the lobe, (u2, u3) the direction; false if nothing was sampled. */
 bool pm_bsdf_sample(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,

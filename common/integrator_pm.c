@@ -160,6 +160,21 @@ photon_term(const struct pm_photon *x, const struct pm_bsdf *b,
 	return true;
 }
 
+/* photon_term for a Lambertian b (pm_bsdf_lambertian, its side): the
+ * photon's power alone, for the caller to multiply the sum by rho / pi
+ * once; the same photons count as in photon_term. */
+static inline bool
+photon_power(const struct pm_photon *x, struct pm_vec3 n, float side,
+    struct pm_vec3 nrm, int max_depth, struct pm_rgb *out)
+{
+	if ((max_depth >= 0 && x->depth > max_depth) ||
+	    pm_dot(pm_dir_unpack(x->normal), nrm) <= PM_IRR_COS ||
+	    !(pm_dot(pm_dir_unpack(x->dir), n) * side >= 1e-4f))
+		return false;
+	*out = pm_rgbe_unpack(x->power);
+	return true;
+}
+
 bool
 pm_photon_cacheable(const struct pm_bsdf *b)
 {
@@ -182,13 +197,18 @@ estimate_fixed(const struct pm_photon *ph, size_t n, float scale, float r2,
 	 * float loses whole percents past 2^22 terms. */
 	double sum[3] = {0, 0, 0};
 	uint32_t idx;
+	struct pm_rgb rho;
+	float side;
+	bool lambert = pm_bsdf_lambertian(b, wi_local, &rho, &side);
 
 	if (n == 0 || !(r2 > 0.0f))
 		return pm_rgb1(0.0f);
 	r = sqrtf(r2);
 	pm_kdtree_range_init(&it, ph, n, q, r2, mask, want);
 	while (pm_kdtree_range_next(&it, &idx, &d2)) {
-		if (!photon_term(&ph[idx], b, fr, wi_local, nrm, max_depth, &t))
+		if (lambert ? !photon_power(&ph[idx], fr.n, side, nrm,
+		    max_depth, &t) : !photon_term(&ph[idx], b, fr, wi_local,
+		    nrm, max_depth, &t))
 			continue;
 		w = cone ? 1.0f - sqrtf(d2) / (CONE_K * r) : 1.0f;
 		sum[0] += (double)t.r * w;
@@ -198,6 +218,11 @@ estimate_fixed(const struct pm_photon *ph, size_t n, float scale, float r2,
 	w = scale / (PM_PI * r2);
 	if (cone)
 		w /= 1.0f - 2.0f / (3.0f * CONE_K);
+	if (lambert) {
+		sum[0] *= rho.r * PM_INV_PI;
+		sum[1] *= rho.g * PM_INV_PI;
+		sum[2] *= rho.b * PM_INV_PI;
+	}
 	return pm_rgb((float)(sum[0] * w), (float)(sum[1] * w), (float)(sum[2] * w));
 }
 
@@ -211,8 +236,10 @@ estimate(const struct pm_photon *ph, size_t n, float scale, float max_r2, int k,
 {
 	struct pm_knn nb[PM_MAX_LOOKUP];
 	float q[3] = {p.x, p.y, p.z}, r2, r, w;
-	struct pm_rgb sum = pm_rgb1(0.0f), t;
+	struct pm_rgb sum = pm_rgb1(0.0f), t, rho;
 	size_t found, i;
+	float side;
+	bool lambert;
 
 	if (n == 0 || max_r2 <= 0.0f)
 		return sum;
@@ -226,9 +253,11 @@ estimate(const struct pm_photon *ph, size_t n, float scale, float max_r2, int k,
 	if (!(r2 > 0.0f))
 		return sum;
 	r = sqrtf(r2);
+	lambert = pm_bsdf_lambertian(b, wi_local, &rho, &side);
 	for (i = 0; i < found; i++) {
-		if (!photon_term(&ph[nb[i].idx], b, fr, wi_local, nrm, max_depth,
-		    &t))
+		if (lambert ? !photon_power(&ph[nb[i].idx], fr.n, side, nrm,
+		    max_depth, &t) : !photon_term(&ph[nb[i].idx], b, fr,
+		    wi_local, nrm, max_depth, &t))
 			continue;
 		w = cone ? 1.0f - sqrtf(nb[i].d2) / (CONE_K * r) : 1.0f;
 		sum = pm_rgb_add(sum, pm_rgb_scale(t, w));
@@ -236,6 +265,8 @@ estimate(const struct pm_photon *ph, size_t n, float scale, float max_r2, int k,
 	w = scale / (PM_PI * r2);
 	if (cone)
 		w /= 1.0f - 2.0f / (3.0f * CONE_K);
+	if (lambert)
+		sum = pm_rgb_mul(sum, pm_rgb_scale(rho, PM_INV_PI));
 	return pm_rgb_scale(sum, w);
 }
 

@@ -1357,6 +1357,64 @@ test_twosided(void **state)
 	}
 }
 
+/*
+ * pm_bsdf_lambertian, which the photon estimate trusts in place of
+ * pm_bsdf_eval: for plain diffuse, one- and two-sided, seen from either
+ * side, eval / |wo.z| is rho / pi exactly where wo.z * side > 0 and black
+ * elsewhere; every other kind of material says no.
+ */
+static void
+test_lambertian(void **state)
+{
+	struct pm_rng rng = pm_rng_seed(47, 0, 0);
+	struct pm_bsdf b;
+	struct pm_rgb rho, f;
+	float side;
+	int i, twosided, below;
+
+	(void)state;
+	for (twosided = 0; twosided < 2; twosided++) {
+		b = mk_diffuse(0.7f, twosided);
+		for (below = 0; below < 2; below++) {
+			struct pm_vec3 wi = dir(0.6, 1.1);
+
+			if (below)
+				wi.z = -wi.z;
+			assert_true(pm_bsdf_lambertian(&b, wi, &rho, &side));
+			assert_true(side == (twosided && below ? -1.0f : 1.0f));
+			for (i = 0; i < 200; i++) {
+				float u = pm_rng_float(&rng), v = pm_rng_float(&rng);
+				struct pm_vec3 wo = dir(acos(2.0 * u - 1.0),
+				    6.283185307 * v);
+
+				f = pm_bsdf_eval(&b, wi, wo, PM_RADIANCE);
+				if (!(wo.z * side > 0.0f)) {
+					assert_true(pm_rgb_is_black(f));
+					continue;
+				}
+				assert_float_equal(f.r / fabsf(wo.z),
+				    rho.r * PM_INV_PI, 1e-6);
+				assert_float_equal(f.g / fabsf(wo.z),
+				    rho.g * PM_INV_PI, 1e-6);
+				assert_float_equal(f.b / fabsf(wo.z),
+				    rho.b * PM_INV_PI, 1e-6);
+			}
+			/* from below a one-sided surface: black throughout */
+			assert_true(pm_rgb_is_black(rho) == (!twosided && below));
+		}
+	}
+	b = mk_rough(0.4f, true, "Au");
+	assert_false(pm_bsdf_lambertian(&b, dir(0.6, 1.1), &rho, &side));
+	b = mk_plastic(1.5f, pm_rgb(0.2f, 0.3f, 0.4f), false);
+	assert_false(pm_bsdf_lambertian(&b, dir(0.6, 1.1), &rho, &side));
+	b = mk(PM_BSDF_DIELECTRIC);
+	assert_false(pm_bsdf_lambertian(&b, dir(0.6, 1.1), &rho, &side));
+	/* a diffuse copy whose `only` leaves nothing */
+	b = mk_diffuse(0.7f, false);
+	b.only = PM_LOBE_GLOSSY;
+	assert_false(pm_bsdf_lambertian(&b, dir(0.6, 1.1), &rho, &side));
+}
+
 /* ---- delta materials ---- */
 
 static void
@@ -1501,6 +1559,7 @@ main(void)
 		cmocka_unit_test(test_roughplastic_albedo),
 		cmocka_unit_test(test_sampling_roughplastic),
 		cmocka_unit_test(test_twosided),
+		cmocka_unit_test(test_lambertian),
 		cmocka_unit_test(test_delta_directions),
 	};
 

@@ -545,6 +545,29 @@ test_golden(void **state)
 	pm_pmap_free(&m);
 }
 
+/* pm_rgbe_unpack builds 2^(e - 136) from its bits rather than calling
+ * ldexpf: the very same floats, for every exponent and mantissa. */
+static void
+test_rgbe_exponents(void **state)
+{
+	int e, m;
+
+	(void)state;
+	for (e = 0; e < 256; e++)
+		for (m = 0; m < 256; m++) {
+			uint8_t in[4] = {(uint8_t)m, (uint8_t)(255 - m),
+			    (uint8_t)(m / 2), (uint8_t)e};
+			struct pm_rgb c = pm_rgbe_unpack(in);
+			float f = e == 0 ? 0.0f : ldexpf(1.0f, e - 136);
+			float want[3] = {(float)m * f, (float)(255 - m) * f,
+			    (float)(m / 2) * f};
+
+			assert_memory_equal(&c.r, &want[0], sizeof(float));
+			assert_memory_equal(&c.g, &want[1], sizeof(float));
+			assert_memory_equal(&c.b, &want[2], sizeof(float));
+		}
+}
+
 /* A real version 1 file is refused in one line that names the file, says
  * what it is and what to do; so is every file that says version 1. */
 static void
@@ -1636,6 +1659,7 @@ main(void)
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_roundtrip),
+		cmocka_unit_test(test_rgbe_exponents),
 		cmocka_unit_test(test_volume_roundtrip),
 		cmocka_unit_test(test_mmap_private),
 		cmocka_unit_test(test_spec_bytes),
