@@ -167,9 +167,21 @@ static inline bool
 photon_power(const struct pm_photon *x, struct pm_vec3 n, float side,
     struct pm_vec3 nrm, int max_depth, struct pm_rgb *out)
 {
-	if ((max_depth >= 0 && x->depth > max_depth) ||
-	    pm_dot(pm_dir_unpack(x->normal), nrm) <= PM_IRR_COS ||
-	    !(pm_dot(pm_dir_unpack(x->dir), n) * side >= 1e-4f))
+	struct pm_vec3 a, b;
+	float ca, cb;
+
+	if (max_depth >= 0 && x->depth > max_depth)
+		return false;
+	/* the two cosines' tests on the unnormalised directions, squared
+	 * (cos > c for c >= 0: dot > 0 and dot^2 > c^2 |v|^2): no square
+	 * root or division per photon */
+	a = pm_dir_unpack_raw(x->normal);
+	ca = pm_dot(a, nrm);
+	if (!(ca > 0.0f && ca * ca > PM_IRR_COS * PM_IRR_COS * pm_dot(a, a)))
+		return false;
+	b = pm_dir_unpack_raw(x->dir);
+	cb = pm_dot(b, n) * side;
+	if (!(cb > 0.0f && cb * cb >= 1e-8f * pm_dot(b, b)))
 		return false;
 	*out = pm_rgbe_unpack(x->power);
 	return true;
@@ -246,7 +258,8 @@ estimate(const struct pm_photon *ph, size_t n, float scale, float max_r2, int k,
 	if (fixed)
 		return estimate_fixed(ph, n, scale, max_r2, mask, want, cone, b, p,
 		    nrm, max_depth, fr, wi_local);
-	found = pm_kdtree_knn(ph, n, q, (size_t)k, max_r2, mask, want, nb);
+	found = pm_kdtree_knn_unordered(ph, n, q, (size_t)k, max_r2, mask,
+	    want, nb);
 	if (found == 0)
 		return sum;
 	r2 = found == (size_t)k ? nb[0].d2 : max_r2;

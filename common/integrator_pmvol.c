@@ -106,7 +106,7 @@ volume_sum(const struct pm_photon_maps *m, const struct pm_phase *ph,
 			k = 1;
 		if (k > PM_MAX_LOOKUP)
 			k = PM_MAX_LOOKUP;
-		found = pm_kdtree_knn(m->volume, m->nvolume, q, k,
+		found = pm_kdtree_knn_unordered(m->volume, m->nvolume, q, k,
 		    m->volume_r2, 0, 0, nb);
 		if (found == 0)
 			return 0.0f;

@@ -932,7 +932,8 @@ knn_scan(struct knn_state *s, const struct pm_photon *p, uint32_t lo,
  */
 static inline size_t
 knn_walk(const struct pm_photon *p, uint32_t n, const float q[3], size_t k,
-    float max_d2, uint8_t mask, uint8_t want, struct pm_knn *out)
+    float max_d2, uint8_t mask, uint8_t want, struct pm_knn *out,
+    bool heap_always)
 {
 	struct kd_iframe st[KD_STACK];
 	struct knn_state s;
@@ -988,7 +989,7 @@ knn_walk(const struct pm_photon *p, uint32_t n, const float q[3], size_t k,
 		knn_scan(&s, p, lo, hi, q, mask, want);
 		for (;;) {
 			if (sp == 0) {
-				if (s.cnt < s.k)
+				if (heap_always && s.cnt < s.k)
 					heap_make(s.out, s.cnt);
 				return s.cnt;
 			}
@@ -1157,7 +1158,7 @@ pm_kdtree_knn_batch(const struct pm_photon *p, size_t n, const float *q,
 			guess = out[prev * k].d2 * gf;
 			if (guess < max_d2) {
 				found[j] = knn_walk(p, (uint32_t)n, &q[3 * j], k,
-				    guess, mask, want, &out[j * k]);
+				    guess, mask, want, &out[j * k], true);
 				if (found[j] == k) {
 					prev = j;
 					continue;
@@ -1173,7 +1174,7 @@ pm_kdtree_knn_batch(const struct pm_photon *p, size_t n, const float *q,
 			lim = r < max_d2 ? r : max_d2;
 		}
 		found[j] = knn_walk(p, (uint32_t)n, &q[3 * j], k, lim, mask,
-		    want, &out[j * k]);
+		    want, &out[j * k], true);
 		prev = j;
 	}
 	free(ord);
@@ -1186,7 +1187,16 @@ pm_kdtree_knn(const struct pm_photon *p, size_t n, const float q[3],
 {
 	if (n == 0 || k == 0 || (uint64_t)n > UINT32_MAX || !(max_d2 >= 0.0f))
 		return 0;
-	return knn_walk(p, (uint32_t)n, q, k, max_d2, mask, want, out);
+	return knn_walk(p, (uint32_t)n, q, k, max_d2, mask, want, out, true);
+}
+
+size_t
+pm_kdtree_knn_unordered(const struct pm_photon *p, size_t n, const float q[3],
+    size_t k, float max_d2, uint8_t mask, uint8_t want, struct pm_knn *out)
+{
+	if (n == 0 || k == 0 || (uint64_t)n > UINT32_MAX || !(max_d2 >= 0.0f))
+		return 0;
+	return knn_walk(p, (uint32_t)n, q, k, max_d2, mask, want, out, false);
 }
 
 static inline int

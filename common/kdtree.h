@@ -48,6 +48,17 @@ size_t pm_kdtree_knn(const struct pm_photon *p, size_t n, const float q[3],
     size_t k, float max_d2, uint8_t mask, uint8_t want, struct pm_knn *out);
 
 /*
+ * pm_kdtree_knn's neighbours without its last step: out[0..k) is a
+ * max-heap only when k were found, and fewer come in no order.  For a
+ * density estimate, which needs the k-th distance only when there are k
+ * (fewer: its radius is max_d2), and not the order; making the heap of
+ * what a bounded query found was a tenth of a caustic render's time.
+ */
+size_t pm_kdtree_knn_unordered(const struct pm_photon *p, size_t n,
+    const float q[3], size_t k, float max_d2, uint8_t mask, uint8_t want,
+    struct pm_knn *out);
+
+/*
  * k-nearest queries for nq points q[3 * i .. 3 * i + 3) at once, with the
  * filter and the bound of pm_kdtree_knn: query i's neighbours go to
  * out[i * k ..] (room for k) as a max-heap and their count to found[i].

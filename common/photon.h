@@ -136,12 +136,13 @@ static inline void pm_dir_pack(struct pm_vec3 d, uint8_t out[2])
 	out[1] = (uint8_t)pm_fminf(pm_fmaxf((v * 0.5f + 0.5f) * 255.0f + 0.5f, 0.0f), 255.0f);
 }
 
-static inline struct pm_vec3 pm_dir_unpack(const uint8_t in[2])
+/* pm_dir_unpack before its normalisation: the direction, of length
+ * between 1/sqrt(3) and 1 (never 0), for tests that need no unit vector. */
+static inline struct pm_vec3 pm_dir_unpack_raw(const uint8_t in[2])
 {
 	float u = (float)in[0] * (2.0f / 255.0f) - 1.0f;
 	float v = (float)in[1] * (2.0f / 255.0f) - 1.0f;
 	float z = 1.0f - fabsf(u) - fabsf(v);
-	struct pm_vec3 d;
 
 	if (z < 0.0f) {
 		float tu = (1.0f - fabsf(v)) * copysignf(1.0f, u);
@@ -150,8 +151,12 @@ static inline struct pm_vec3 pm_dir_unpack(const uint8_t in[2])
 		u = tu;
 		v = tv;
 	}
-	d = pm_v3(u, v, z);
-	return pm_normalize(d);
+	return pm_v3(u, v, z);
+}
+
+static inline struct pm_vec3 pm_dir_unpack(const uint8_t in[2])
+{
+	return pm_normalize(pm_dir_unpack_raw(in));
 }
 
 static inline struct pm_vec3 pm_photon_pos(const struct pm_photon *p)

@@ -156,14 +156,14 @@ brute(const struct pm_photon *p, size_t n, const float q[3], float max_d2,
 static void
 check_knn_answer(const struct pm_photon *p, size_t n, const float q[3],
     size_t k, float max_d2, uint8_t mask, uint8_t want, struct pm_knn *all,
-    struct pm_knn *out, size_t got, unsigned char *seen)
+    struct pm_knn *out, size_t got, unsigned char *seen, bool heap)
 {
 	size_t nb = brute(p, n, q, max_d2, mask, want, all);
 	size_t i, want_n = nb < k ? nb : k;
 
 	assert_int_equal(got, want_n);
-	/* A max-heap on d2. */
-	for (i = 1; i < got; i++)
+	/* A max-heap on d2 (pm_kdtree_knn_unordered's: when k were found). */
+	for (i = 1; i < got && (heap || got == k); i++)
 		assert_true(out[(i - 1) / 2].d2 >= out[i].d2);
 	memset(seen, 0, n ? n : 1);
 	for (i = 0; i < got; i++) {
@@ -190,7 +190,11 @@ check_knn(const struct pm_photon *p, size_t n, const float q[3], size_t k,
 {
 	size_t got = pm_kdtree_knn(p, n, q, k, max_d2, mask, want, out);
 
-	check_knn_answer(p, n, q, k, max_d2, mask, want, all, out, got, seen);
+	check_knn_answer(p, n, q, k, max_d2, mask, want, all, out, got, seen,
+	    true);
+	got = pm_kdtree_knn_unordered(p, n, q, k, max_d2, mask, want, out);
+	check_knn_answer(p, n, q, k, max_d2, mask, want, all, out, got, seen,
+	    false);
 }
 
 /* Checks one radius answer against brute force, with and without room. */
@@ -385,7 +389,7 @@ run_batch(enum set_kind kind, size_t n, uint64_t seed)
 				for (i = 0; i < nq; i++)
 					check_knn_answer(p, n, &q[3 * i], k,
 					    max_d2, masks[f][0], masks[f][1], all,
-					    &out[i * k], found[i], seen);
+					    &out[i * k], found[i], seen, true);
 			}
 	/* Degenerate arguments answer nothing, as pm_kdtree_knn. */
 	found[0] = 7;
@@ -471,7 +475,8 @@ test_batch_guess(void **state)
 			    found);
 			for (i = 0; i < NQ; i++)
 				check_knn_answer(p, N, &q[3 * i], K, INFINITY,
-				    m, m, all, &out[i * K], found[i], seen);
+				    m, m, all, &out[i * K], found[i], seen,
+				    true);
 		}
 	}
 	/* n = 0, 1, 2: k beyond n, every query finds all n. */
@@ -483,7 +488,7 @@ test_batch_guess(void **state)
 		    found);
 		for (i = 0; i < NQ; i++)
 			check_knn_answer(t, n, &q[3 * i], K, INFINITY, 0, 0,
-			    all, &out[i * K], found[i], seen);
+			    all, &out[i * K], found[i], seen, true);
 		free(t);
 	}
 	free(p);
