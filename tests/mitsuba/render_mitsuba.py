@@ -4,23 +4,21 @@ that pm-render is checked against.
 
     render_mitsuba.py SCENE.xml OUT.exr [--spp N] [-D name=value ...]
                       [--variant V] [--seed N] [--light-scale F] [--no-cache]
-                      [--integrator path|ptracer] [--key-scope dir|scene]
+                      [--integrator path|ptracer] [--key-scope scene]
                       [--moments] [--record DIR]
 
 The scene is rendered with its own integrator (the Cornell boxes use `path`),
 so both renderers read exactly the same file. OUT.exr holds linear RGB float32.
 
 Reference renders are slow to make and never change for a given input, so
-they are cached under build/mitsuba-cache/, keyed by a hash of every file
-under the scene's directory (includes, meshes, textures), of any file the
-scene names outside that directory, and of the options that change the
-picture. --light-scale multiplies the first emitter's radiance, which the
-self-test uses to prove that the comparison notices a 5% brighter light.
-
---key-scope scene narrows the key to the scene file and the files it names
-(includes and meshes, with $name resolved from <default> and -D), so that
-long references (tests/accuracy/references.sh) survive edits to other files
-beside the scene. --integrator replaces the scene's integrator by Mitsuba's
+they are cached under build/mitsuba-cache/, keyed by a hash of the scene
+file and the files it names (includes, meshes, textures, with $name resolved
+from <default> and -D), so that a reference survives edits to other files
+beside the scene, and of the options that change the picture. --key-scope
+scene is that key, the only one (every caller passes it; the key holds it,
+so that renders cached and committed under it stay valid). --light-scale
+multiplies the first emitter's radiance, which the self-test uses to prove
+that the comparison notices a 5% brighter light. --integrator replaces the scene's integrator by Mitsuba's
 `path` or `ptracer` with unlimited depth. The cache's .json records the
 seconds spent loading the scene and rendering it, which the accuracy study
 reads as Mitsuba's wall time. --moments (a scene under Mitsuba's `moment`
@@ -79,9 +77,8 @@ def parse_args(argv):
                    "cache key) as JSON to FILE")
     p.add_argument("--integrator", choices=("path", "ptracer"), default=None,
                    help="replace the scene's integrator (max_depth -1)")
-    p.add_argument("--key-scope", choices=("dir", "scene"), default="dir",
-                   help="hash every file beside the scene (dir) or only "
-                   "the scene and the files it names (scene)")
+    p.add_argument("--key-scope", choices=("scene",), default="scene",
+                   help="the cache key: the scene and the files it names")
     p.add_argument("--moments", action="store_true",
                    help="write the moment integrator's variance, m2 - m1^2")
     p.add_argument("--record", default=None, metavar="DIR",
@@ -167,19 +164,7 @@ def cache_key(args, defines, variant, mitsuba_version):
     h = hashlib.sha256()
     scene = os.path.abspath(args.scene)
     sdir = os.path.dirname(scene)
-    files = set()
-    if args.key_scope == "dir":
-        for dirpath, dirnames, filenames in os.walk(sdir):
-            dirnames[:] = sorted(d for d in dirnames
-                                 if not d.startswith("."))
-            for fn in filenames:
-                if not fn.startswith("."):
-                    files.add(os.path.join(dirpath, fn))
-        files |= referenced_files(scene)
-    else:
-        # Resolving $name here only: older dir-scoped keys skipped such
-        # names, and changing that would orphan their cached renders.
-        files |= referenced_files(scene, defines=defines, resolve_all=True)
+    files = referenced_files(scene, defines=defines, resolve_all=True)
     for path in sorted(files):
         h.update(path.encode() if not path.startswith(sdir + os.sep)
                  else os.path.relpath(path, sdir).encode())
@@ -202,8 +187,7 @@ def cache_key(args, defines, variant, mitsuba_version):
     # renders cached before they existed stay valid.
     if args.integrator is not None:
         opts["integrator"] = args.integrator
-    if args.key_scope != "dir":
-        opts["key_scope"] = args.key_scope
+    opts["key_scope"] = args.key_scope
     if args.moments:
         opts["moments"] = True
     h.update(json.dumps(opts, sort_keys=True).encode())
