@@ -1165,7 +1165,6 @@ sample_perturbed(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
 	return true;
 }
 
-/* f(wi, wo) |cos theta_o|; zero for delta components. */
 bool
 pm_bsdf_lambertian(const struct pm_bsdf *b, struct pm_vec3 wi,
     struct pm_rgb *rho, float *side)
@@ -1181,6 +1180,7 @@ pm_bsdf_lambertian(const struct pm_bsdf *b, struct pm_vec3 wi,
 	return true;
 }
 
+/* f(wi, wo) |cos theta_o|; zero for delta components. */
 struct pm_rgb
 pm_bsdf_eval(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo,
     enum pm_transport mode)

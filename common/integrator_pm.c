@@ -162,7 +162,8 @@ photon_term(const struct pm_photon *x, const struct pm_bsdf *b,
 
 /* photon_term for a Lambertian b (pm_bsdf_lambertian, its side): the
  * photon's power alone, for the caller to multiply the sum by rho / pi
- * once; the same photons count as in photon_term. */
+ * once; the same photons count as in photon_term (but for rounding at
+ * the tests' very bounds). */
 static inline bool
 photon_power(const struct pm_photon *x, struct pm_vec3 n, float side,
     struct pm_vec3 nrm, int max_depth, struct pm_rgb *out)
@@ -211,11 +212,12 @@ estimate_fixed(const struct pm_photon *ph, size_t n, float scale, float r2,
 	uint32_t idx;
 	struct pm_rgb rho;
 	float side;
-	bool lambert = pm_bsdf_lambertian(b, wi_local, &rho, &side);
+	bool lambert;
 
 	if (n == 0 || !(r2 > 0.0f))
 		return pm_rgb1(0.0f);
 	r = sqrtf(r2);
+	lambert = pm_bsdf_lambertian(b, wi_local, &rho, &side);
 	pm_kdtree_range_init(&it, ph, n, q, r2, mask, want);
 	while (pm_kdtree_range_next(&it, &idx, &d2)) {
 		if (lambert ? !photon_power(&ph[idx], fr.n, side, nrm,

@@ -1180,23 +1180,29 @@ pm_kdtree_knn_batch(const struct pm_photon *p, size_t n, const float *q,
 	free(ord);
 }
 
-/* The k nearest photons to q within max_d2 passing the flag filter. */
+/* One k-nearest query, degenerate arguments answering nothing; heap: the
+ * result a max-heap even when fewer than k were found. */
+static size_t
+knn_one(const struct pm_photon *p, size_t n, const float q[3], size_t k,
+    float max_d2, uint8_t mask, uint8_t want, struct pm_knn *out, bool heap)
+{
+	if (n == 0 || k == 0 || (uint64_t)n > UINT32_MAX || !(max_d2 >= 0.0f))
+		return 0;
+	return knn_walk(p, (uint32_t)n, q, k, max_d2, mask, want, out, heap);
+}
+
 size_t
 pm_kdtree_knn(const struct pm_photon *p, size_t n, const float q[3],
     size_t k, float max_d2, uint8_t mask, uint8_t want, struct pm_knn *out)
 {
-	if (n == 0 || k == 0 || (uint64_t)n > UINT32_MAX || !(max_d2 >= 0.0f))
-		return 0;
-	return knn_walk(p, (uint32_t)n, q, k, max_d2, mask, want, out, true);
+	return knn_one(p, n, q, k, max_d2, mask, want, out, true);
 }
 
 size_t
 pm_kdtree_knn_unordered(const struct pm_photon *p, size_t n, const float q[3],
     size_t k, float max_d2, uint8_t mask, uint8_t want, struct pm_knn *out)
 {
-	if (n == 0 || k == 0 || (uint64_t)n > UINT32_MAX || !(max_d2 >= 0.0f))
-		return 0;
-	return knn_walk(p, (uint32_t)n, q, k, max_d2, mask, want, out, false);
+	return knn_one(p, n, q, k, max_d2, mask, want, out, false);
 }
 
 static inline int
