@@ -55,7 +55,9 @@ struct pm_map {
 					 * flux normaliser */
 	uint64_t first_index;		/* index of the first path shot */
 	bool balanced;			/* photons are in kd-tree order */
-	float lo[3], hi[3];		/* bounds of the positions */
+	float lo[3], hi[3];		/* bounds of the positions (set by
+					 * the reader; the writer computes
+					 * its own) */
 	float radius;			/* irradiance maps: the lookup radius
 					 * the records were computed with,
 					 * 0 if unknown; 0 for other kinds */

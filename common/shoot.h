@@ -77,6 +77,14 @@ struct pm_shoot_opts {
 	 * scatter in a medium go (the volume map), in path order; NULL:
 	 * not stored.  Scatters count as bounces (depth, max_depth). */
 	struct pm_photon_buf *volume;
+	/* NULL, or where the (surface) photons go instead of the output
+	 * buffer: called with each chunk's photons in path order, one
+	 * call at a time, while other threads go on tracing; an error
+	 * from it stops the shoot and is pm_shoot's.  pm-shoot writes the
+	 * map file from here, so that no map is held in memory whole. */
+	enum pm_err (*sink)(void *arg, const struct pm_photon *p, size_t n,
+	    struct pm_error *err);
+	void *sink_arg;
 };
 
 struct pm_shoot_stats {

@@ -1314,37 +1314,119 @@ check_for_write(const char *name, const struct pm_pmap *m,
 	return PM_OK;
 }
 
+/* Bounds of positions, kept in registers by map_bounds. */
+struct box {
+	float lx, ly, lz, hx, hy, hz;
+};
+
+/* Sets *bad if u is the bits of an infinity or a NaN (exponent all
+ * ones), which a comparison would let through. */
+static inline float
+checked(float x, uint32_t *bad)
+{
+	uint32_t u;
+
+	memcpy(&u, &x, sizeof(u));
+	*bad |= (uint32_t)((u & 0x7f800000u) == 0x7f800000u);
+	return x;
+}
+
+/* b widened to q; *bad set if q has a reserved byte set or a coordinate
+ * that is not finite. */
+static inline struct box
+box_add(struct box b, const struct pm_photon *q, uint32_t *bad)
+{
+	float x = checked(q->pos[0], bad), y = checked(q->pos[1], bad),
+	    z = checked(q->pos[2], bad);
+
+	*bad |= (uint32_t)(q->reserved[0] | q->reserved[1]);
+	b.lx = x < b.lx ? x : b.lx;
+	b.ly = y < b.ly ? y : b.ly;
+	b.lz = z < b.lz ? z : b.lz;
+	b.hx = x > b.hx ? x : b.hx;
+	b.hy = y > b.hy ? y : b.hy;
+	b.hz = z > b.hz ? z : b.hz;
+	return b;
+}
+
+/*
+ * Widens *b over p[0..n), setting it from p[0] first when fresh; nonzero
+ * if a record has a reserved byte set or a coordinate that is not
+ * finite.  pm-shoot and pm-balance wait for this pass with every other
+ * thread idle: branch-free, the bounds in registers, two sets of them
+ * (even and odd records) so that no min or max waits on the one before.
+ */
+static uint32_t
+box_records(struct box *b, bool fresh, const struct pm_photon *p, uint64_t n)
+{
+	struct box b0 = *b, b1;
+	uint32_t bad = 0;
+	uint64_t i;
+
+	if (n == 0)
+		return 0;
+	if (fresh) {
+		b0.lx = b0.hx = p[0].pos[0];
+		b0.ly = b0.hy = p[0].pos[1];
+		b0.lz = b0.hz = p[0].pos[2];
+	}
+	b1 = b0;
+	for (i = 0; i + 1 < n; i += 2) {
+		b0 = box_add(b0, &p[i], &bad);
+		b1 = box_add(b1, &p[i + 1], &bad);
+	}
+	if (i < n)
+		b0 = box_add(b0, &p[i], &bad);
+	b->lx = b1.lx < b0.lx ? b1.lx : b0.lx;
+	b->ly = b1.ly < b0.ly ? b1.ly : b0.ly;
+	b->lz = b1.lz < b0.lz ? b1.lz : b0.lz;
+	b->hx = b1.hx > b0.hx ? b1.hx : b0.hx;
+	b->hy = b1.hy > b0.hy ? b1.hy : b0.hy;
+	b->hz = b1.hz > b0.hz ? b1.hz : b0.hz;
+	return bad;
+}
+
+/* The error for the first record of p[0..n) that box_records refused;
+ * records are numbered from base in messages. */
+static enum pm_err
+bad_record(const char *name, enum pm_map_kind kind, const struct pm_photon *p,
+    uint64_t n, uint64_t base, struct pm_error *err)
+{
+	uint64_t i;
+	int k;
+
+	for (i = 0; i < n; i++) {
+		if ((p[i].reserved[0] | p[i].reserved[1]) != 0)
+			return pm_fail(err, PM_ERR_INVALID, "%s: photon "
+			    "%" PRIu64 " of the %s map has nonzero reserved "
+			    "bytes", name, base + i, kind_name(kind));
+		for (k = 0; k < 3; k++)
+			if (!isfinite(p[i].pos[k]))
+				return pm_fail(err, PM_ERR_INVALID, "%s: "
+				    "photon %" PRIu64 " of the %s map is not "
+				    "at a finite position", name, base + i,
+				    kind_name(kind));
+	}
+	return pm_fail(err, PM_ERR_INVALID, "%s: the %s map's photons "
+	    "changed while it was written", name, kind_name(kind));
+}
+
 /* Bounds of a map's positions, which must be finite; and its records'
  * reserved bytes, which must be zero. */
 static enum pm_err
 map_bounds(const char *name, const struct pm_map *a, struct pmap_out *o,
     struct pm_error *err)
 {
-	uint64_t i;
-	float x;
-	int k;
+	struct box b = {0, 0, 0, 0, 0, 0};
 
-	for (k = 0; k < 3; k++)
-		o->lo[k] = o->hi[k] = 0.0f;
-	for (i = 0; i < a->count; i++) {
-		if ((a->photons[i].reserved[0] | a->photons[i].reserved[1]) !=
-		    0)
-			return pm_fail(err, PM_ERR_INVALID, "%s: photon "
-			    "%" PRIu64 " of the %s map has nonzero reserved "
-			    "bytes", name, i, kind_name(a->kind));
-		for (k = 0; k < 3; k++) {
-			x = a->photons[i].pos[k];
-			if (!isfinite(x))
-				return pm_fail(err, PM_ERR_INVALID, "%s: "
-				    "photon %" PRIu64 " of the %s map is not "
-				    "at a finite position", name, i,
-				    kind_name(a->kind));
-			if (i == 0 || x < o->lo[k])
-				o->lo[k] = x;
-			if (i == 0 || x > o->hi[k])
-				o->hi[k] = x;
-		}
-	}
+	if (box_records(&b, true, a->photons, a->count) != 0)
+		return bad_record(name, a->kind, a->photons, a->count, 0, err);
+	o->lo[0] = b.lx;
+	o->lo[1] = b.ly;
+	o->lo[2] = b.lz;
+	o->hi[0] = b.hx;
+	o->hi[1] = b.hy;
+	o->hi[2] = b.hz;
 	return PM_OK;
 }
 
@@ -1619,6 +1701,236 @@ done:
 		free(o[i].z);
 	free(h);
 	free(scratch);
+	return r;
+}
+
+/* --- Writing as the photons come --- */
+
+struct pm_pmap_writer {
+	struct pm_out out;
+	struct pm_pmap m;		/* the header's fields; info a copy */
+	struct pmap_out o[PMAP_MAXMAPS];
+	struct box box[PMAP_MAXMAPS];
+	uint32_t hs;			/* header bytes */
+	int cur;			/* the map being added to */
+	uint64_t pos;			/* end of what is written */
+	unsigned char *scratch;		/* big-endian hosts: records in
+					 * file order */
+};
+
+#define WRITER_PER	65536		/* records converted at a time */
+
+/* Writes n bytes at off. */
+static enum pm_err
+pwrite_all(int fd, const void *buf, uint64_t n, uint64_t off,
+    const char *name, struct pm_error *err)
+{
+	const unsigned char *p = buf;
+	size_t want;
+	ssize_t k;
+
+	while (n > 0) {
+		want = n < PMAP_CHUNK ? (size_t)n : PMAP_CHUNK;
+		k = pwrite(fd, p, want, (off_t)off);
+		if (k < 0 && errno == EINTR)
+			continue;
+		if (k <= 0)
+			return pm_fail(err, PM_ERR_IO, "%s: write failed: %s",
+			    name, k < 0 ? strerror(errno) : "no progress");
+		p += k;
+		n -= (uint64_t)k;
+		off += (uint64_t)k;
+	}
+	return PM_OK;
+}
+
+/* Zeros from w->pos up to off, as pm_pmap_write pads between maps (so
+ * that the file has no holes and ends where its last map does). */
+static enum pm_err
+writer_pad(struct pm_pmap_writer *w, uint64_t off, struct pm_error *err)
+{
+	static const unsigned char zeros[PMAP_ALIGN];
+	enum pm_err r;
+
+	if (off > w->pos && (r = pwrite_all(w->out.fd, zeros, off - w->pos,
+	    w->pos, w->out.path, err)) != PM_OK)
+		return r;
+	w->pos = off;
+	return PM_OK;
+}
+
+/* Ends map w->cur and starts the next one at the next aligned offset. */
+static enum pm_err
+writer_next(struct pm_pmap_writer *w, struct pm_error *err)
+{
+	struct pmap_out *o = &w->o[w->cur];
+	const struct box *b = &w->box[w->cur];
+
+	o->stored = o->raw = w->m.maps[w->cur].count * PMAP_REC;
+	o->lo[0] = b->lx;
+	o->lo[1] = b->ly;
+	o->lo[2] = b->lz;
+	o->hi[0] = b->hx;
+	o->hi[1] = b->hy;
+	o->hi[2] = b->hz;
+	w->cur++;
+	if (w->cur < w->m.nmaps) {
+		w->o[w->cur].offset = align_up(w->pos);
+		return writer_pad(w, w->o[w->cur].offset, err);
+	}
+	return PM_OK;
+}
+
+static void
+writer_free(struct pm_pmap_writer *w)
+{
+	free(w->m.info);
+	free(w->scratch);
+	free(w);
+}
+
+void
+pm_pmap_writer_abort(struct pm_pmap_writer *w)
+{
+	if (w == NULL)
+		return;
+	pm_out_abort(&w->out);
+	writer_free(w);
+}
+
+enum pm_err
+pm_pmap_writer_open(struct pm_pmap_writer **wp, const char *path,
+    const struct pm_pmap *m, struct pm_error *err)
+{
+	struct pm_pmap_writer *w;
+	size_t isize = m->info != NULL ? strlen(m->info) : 0;
+	enum pm_err r;
+	uint64_t hs;
+	int i;
+
+	*wp = NULL;
+	if ((r = check_for_write(path, m, err)) != PM_OK)
+		return r;
+	for (i = 0; i < m->nmaps; i++)
+		if (m->maps[i].count != 0 || m->maps[i].photons != NULL)
+			return pm_fail(err, PM_ERR_INVALID, "%s: the %s map "
+			    "has photons before any were added", path,
+			    kind_name(m->maps[i].kind));
+	hs = (uint64_t)PMAP_FIXED + (uint64_t)m->nmaps * PMAP_ENTRY + isize + 4;
+	if (hs > UINT32_MAX)
+		return pm_fail(err, PM_ERR_LIMIT, "%s: %zu bytes of provenance "
+		    "text do not fit a header", path, isize);
+	if ((w = calloc(1, sizeof(*w))) == NULL)
+		return pm_fail(err, PM_ERR_NOMEM, "%s: out of memory", path);
+	w->m = *m;
+	w->m.info = NULL;
+	if ((isize > 0 && (w->m.info = strdup(m->info)) == NULL) ||
+	    (!PMAP_HOST_LE && (w->scratch = malloc(WRITER_PER * PMAP_REC)) ==
+	    NULL)) {
+		writer_free(w);
+		return pm_fail(err, PM_ERR_NOMEM, "%s: out of memory", path);
+	}
+	w->hs = (uint32_t)hs;
+	w->cur = 0;
+	/* The header and its padding are written at the end, over this
+	 * space; the first map starts where pm_pmap_write puts it. */
+	w->pos = align_up(hs);
+	w->o[0].offset = w->pos;
+	if ((r = pm_out_open(&w->out, path, err)) != PM_OK) {
+		writer_free(w);
+		return r;
+	}
+	*wp = w;
+	return PM_OK;
+}
+
+enum pm_err
+pm_pmap_writer_add(struct pm_pmap_writer *w, int i, const struct pm_photon *p,
+    size_t n, struct pm_error *err)
+{
+	struct pm_map *a;
+	enum pm_err r = PM_OK;
+	size_t j, k;
+
+	if (i < w->cur || i >= w->m.nmaps) {
+		r = pm_fail(err, PM_ERR_INVALID, "%s: photons added to map %d "
+		    "while writing map %d of %d", w->out.path, i, w->cur,
+		    w->m.nmaps);
+		goto fail;
+	}
+	while (w->cur < i)
+		if ((r = writer_next(w, err)) != PM_OK)
+			goto fail;
+	a = &w->m.maps[i];
+	if (n > (UINT64_MAX / PMAP_REC - a->count)) {
+		r = pm_fail(err, PM_ERR_LIMIT, "%s: the %s map's size "
+		    "overflows 64 bits", w->out.path, kind_name(a->kind));
+		goto fail;
+	}
+	if (box_records(&w->box[i], a->count == 0, p, n) != 0) {
+		r = bad_record(w->out.path, a->kind, p, n, a->count, err);
+		goto fail;
+	}
+	for (j = 0; j < n; j += k) {
+		const unsigned char *b;
+
+		k = n - j < WRITER_PER ? n - j : WRITER_PER;
+		b = records_to_file(p + j, k, w->scratch);
+		w->o[i].crc = pm_crc32(w->o[i].crc, b, k * PMAP_REC);
+		if ((r = pwrite_all(w->out.fd, b, (uint64_t)k * PMAP_REC,
+		    w->pos, w->out.path, err)) != PM_OK)
+			goto fail;
+		w->pos += (uint64_t)k * PMAP_REC;
+	}
+	a->count += n;
+	return PM_OK;
+fail:
+	pm_pmap_writer_abort(w);
+	return r;
+}
+
+enum pm_err
+pm_pmap_writer_close(struct pm_pmap_writer *w, struct pm_error *err)
+{
+	static const unsigned char zeros[PMAP_ALIGN];
+	size_t isize = w->m.info != NULL ? strlen(w->m.info) : 0;
+	unsigned char *h = NULL;
+	enum pm_err r;
+	const char *why;
+	int i;
+
+	while (w->cur < w->m.nmaps)
+		if ((r = writer_next(w, err)) != PM_OK)
+			goto fail;
+	for (i = 0; i < w->m.nmaps; i++) {
+		const struct pm_map *a = &w->m.maps[i];
+
+		if ((why = counts_problem((uint32_t)a->kind, a->count,
+		    a->emitted, a->first_index)) != NULL) {
+			r = pm_fail(err, PM_ERR_INVALID, "%s: the %s map: %s",
+			    w->out.path, kind_name(a->kind), why);
+			goto fail;
+		}
+	}
+	if ((h = malloc(w->hs)) == NULL) {
+		r = pm_fail(err, PM_ERR_NOMEM, "%s: out of memory",
+		    w->out.path);
+		goto fail;
+	}
+	build_header(h, w->hs, &w->m, w->o, isize);
+	/* The padding before the first map belongs to it: a file of no
+	 * maps ends with its header. */
+	if ((r = pwrite_all(w->out.fd, h, w->hs, 0, w->out.path, err)) !=
+	    PM_OK || (r = pwrite_all(w->out.fd, zeros, w->m.nmaps > 0 ?
+	    align_up(w->hs) - w->hs : 0, w->hs, w->out.path, err)) != PM_OK)
+		goto fail;
+	free(h);
+	r = pm_out_commit(&w->out, err);
+	writer_free(w);
+	return r;
+fail:
+	free(h);
+	pm_pmap_writer_abort(w);
 	return r;
 }
 

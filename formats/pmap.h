@@ -26,6 +26,28 @@ enum pm_err pm_pmap_write(const char *path, const struct pm_pmap *m,
     bool compress, struct pm_error *err);
 
 /*
+ * A map file written as its photons come, so that they need not be held
+ * in memory (pm-shoot's maps): to a named file only (the header, which
+ * comes first, is written last), uncompressed, the maps in m's order.
+ * pm_pmap_writer_open takes everything but the records and counts from m
+ * (its maps' count must be 0 and photons NULL; m need not outlive the
+ * call); pm_pmap_writer_add appends records to map i, the maps in turn
+ * (adding to map i ends the maps before it); pm_pmap_writer_close writes
+ * the header and puts the file in place.  The bytes are pm_pmap_write's
+ * for the same maps.  After an error from add or close the writer is
+ * freed and no file is left; pm_pmap_writer_abort frees a writer that is
+ * given up.
+ */
+struct pm_pmap_writer;
+enum pm_err pm_pmap_writer_open(struct pm_pmap_writer **w, const char *path,
+    const struct pm_pmap *m, struct pm_error *err);
+enum pm_err pm_pmap_writer_add(struct pm_pmap_writer *w, int i,
+    const struct pm_photon *p, size_t n, struct pm_error *err);
+enum pm_err pm_pmap_writer_close(struct pm_pmap_writer *w,
+    struct pm_error *err);
+void pm_pmap_writer_abort(struct pm_pmap_writer *w);
+
+/*
  * Reads path ("-": standard input).  Every count, size and offset is
  * checked against the file's size before it is used, every crc32 is
  * verified, and reserved fields (the records' included) must be zero.

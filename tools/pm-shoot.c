@@ -4,6 +4,8 @@
  * map.  The file is not yet balanced; pm-balance merges shards and builds
  * the kd-trees.
  */
+#include <sys/statvfs.h>
+
 #include <errno.h>
 #include <getopt.h>
 #include <libgen.h>
@@ -99,6 +101,21 @@ machine_memory(void)
 	return pages > 0 && size > 0 ? (double)pages * (double)size : 0.0;
 }
 
+/* Bytes free to an unprivileged user on the file system that path (a
+ * file, perhaps not there yet) goes to; 0 when the system will not say. */
+static double
+disk_free(const char *path)
+{
+	struct statvfs sv;
+	char *dir = strdup(path);
+	double free_bytes = 0.0;
+
+	if (dir != NULL && statvfs(dirname(dir), &sv) == 0)
+		free_bytes = (double)sv.f_bavail * (double)sv.f_frsize;
+	free(dir);
+	return free_bytes;
+}
+
 /*
  * How many photons n paths of a pass will store, from a pilot run of the
  * first PILOT_PATHS of them: paths store a scene-dependent number of
@@ -124,23 +141,21 @@ estimate_stored(const struct pm_shooter *sh, const struct pm_shoot_opts *so,
 }
 
 
-static void
-bounds_of(const struct pm_photon_buf *b, float lo[3], float hi[3])
-{
-	size_t i;
-	int a;
+/* Where pm_shoot puts the photons of a streamed map: map `map` of w. */
+struct file_sink {
+	struct pm_pmap_writer *w;
+	int map;
+};
 
-	for (a = 0; a < 3; a++) {
-		lo[a] = b->n ? b->p[0].pos[a] : 0.0f;
-		hi[a] = lo[a];
-	}
-	for (i = 1; i < b->n; i++)
-		for (a = 0; a < 3; a++) {
-			if (b->p[i].pos[a] < lo[a])
-				lo[a] = b->p[i].pos[a];
-			if (b->p[i].pos[a] > hi[a])
-				hi[a] = b->p[i].pos[a];
-		}
+static enum pm_err
+to_file(void *arg, const struct pm_photon *p, size_t n, struct pm_error *err)
+{
+	struct file_sink *s = arg;
+	enum pm_err e = pm_pmap_writer_add(s->w, s->map, p, n, err);
+
+	if (e != PM_OK)
+		s->w = NULL;	/* freed by the failed add */
+	return e;
 }
 
 int
@@ -187,7 +202,9 @@ main(int argc, char **argv)
 	struct pm_photon_buf vbuf = {NULL, 0, 0};	/* the volume map */
 	char tmp[128];
 	double t0;
-	int pass, i;
+	int pass, i, vmap = -1, smap[2] = {-1, -1};
+	bool stream;
+	struct file_sink sink = {NULL, -1};
 
 	pm_cli_opts_init(&co);
 	while ((c = pm_cli_getopt(&cli, argc, argv, "D:fho:qt:v")) != -1) {
@@ -292,13 +309,26 @@ main(int argc, char **argv)
 		    scene.dropped_triangles);
 
 	/*
+	 * To a named file, uncompressed, the maps are written as their
+	 * photons come (pm_pmap_writer), not held: the memory stays a few
+	 * chunks whatever the map's size, and the writing overlaps the
+	 * tracing instead of following it.  The global pass of a scene
+	 * with media makes two maps at once (volume and global), which a
+	 * file written in order cannot take; it, --compress (whose sizes
+	 * come only at the end) and standard output keep the maps whole.
+	 */
+	stream = strcmp(out_path, "-") != 0 && !compress && !fx.media;
+
+	/*
 	 * Refuse, before allocating, a request whose photons would not fit
 	 * in memory: each pass's photons are held twice at its end (the
-	 * threads' chunks and the map they are gathered into).  Small
+	 * threads' chunks and the map they are gathered into).  Streamed
+	 * maps are not held, but their file must fit on its disk.  Small
 	 * requests cannot exceed any machine and skip the pilot.
 	 */
 	{
-		double need = 0.0, have = machine_memory(), stored[2] = {0, 0};
+		double need = 0.0, stored[2] = {0, 0};
+		double have = stream ? disk_free(out_path) : machine_memory();
 
 		for (pass = 0; pass < 2; pass++) {
 			struct pm_shoot_opts so;
@@ -320,18 +350,21 @@ main(int argc, char **argv)
 				status = 1;
 				break;
 			}
-			need += 2.0 * stored[pass] * (double)sizeof(struct pm_photon);
+			need += (stream ? 1.0 : 2.0) * stored[pass] *
+			    (double)sizeof(struct pm_photon);
 		}
 		if (status == 0 && have > 0.0 && need > 0.9 * have) {
 			fprintf(stderr, PROG ": %s: %.3g photons would need about %.1f "
-			    "GiB of memory, and this machine has %.1f GiB: shoot "
-			    "fewer paths, or shards with --first-index\n", scene_path,
+			    "GiB of %s, and %s has %.1f GiB%s: shoot fewer paths, "
+			    "or shards with --first-index\n", scene_path,
 			    stored[0] + stored[1], need / (1024.0 * 1024.0 * 1024.0),
-			    have / (1024.0 * 1024.0 * 1024.0));
+			    stream ? "disk" : "memory", stream ? "its file system" :
+			    "this machine", have / (1024.0 * 1024.0 * 1024.0),
+			    stream ? " free" : "");
 			status = 1;
 		}
 		if (status != 0) {
-			pm_shooter_free(&shooter);
+	pm_shooter_free(&shooter);
 			pm_world_free(&world);
 			pm_scene_free(&scene);
 			return 1;
@@ -357,17 +390,53 @@ main(int argc, char **argv)
 		snprintf(tmp, sizeof(tmp), "effect.%s", fx.notes[i].name);
 		pm_pmap_info_add(&out, tmp, fx.notes[i].text, NULL);
 	}
-
+	/* The maps in file order: the global pass's volume map, then its
+	 * global map (a scene with media alone shoots that pass for the
+	 * volume map), then the caustic map. */
 	for (pass = 0; pass < 2; pass++) {
+		long long n = pass == 0 ? nglobal : ncaustic;
+		static const enum pm_map_kind kinds[3] = {
+			PM_MAP_VOLUME, PM_MAP_GLOBAL, PM_MAP_CAUSTIC
+		};
+		bool has[3] = {pass == 0 && fx.media, pass == 0 && fx.global,
+		    pass == 1 && fx.caustic};
+		int k;
+
+		smap[pass] = -1;
+		for (k = 0; k < 3; k++) {
+			struct pm_map *m;
+
+			if (!has[k] || n == 0)
+				continue;
+			if (k == 0)
+				vmap = out.nmaps;
+			else
+				smap[pass] = out.nmaps;
+			m = &out.maps[out.nmaps++];
+			m->kind = kinds[k];
+			m->emitted = (uint64_t)n;
+			m->first_index = first;
+		}
+	}
+	if (stream && pm_pmap_writer_open(&sink.w, out_path, &out, &err) !=
+	    PM_OK) {
+		fprintf(stderr, PROG ": %s\n", err.msg);
+		status = 1;
+	}
+
+	for (pass = 0; pass < 2 && status == 0; pass++) {
 		struct pm_shoot_opts so;
 		struct pm_shoot_stats st;
-		struct pm_map *m;
-		/* The global pass also shoots the volume map. */
-		bool want = pass == 0 ? fx.global || fx.media : fx.caustic;
 		long long n = pass == 0 ? nglobal : ncaustic;
 
-		if (!want || n == 0)
+		if (smap[pass] < 0 && (pass == 1 || vmap < 0))
 			continue;
+		memset(&so, 0, sizeof(so));
+		if (stream) {
+			sink.map = smap[pass];
+			so.sink = to_file;
+			so.sink_arg = &sink;
+		}
 		so.volume = pass == 0 && fx.media ? &vbuf : NULL;
 		so.pass = pass == 0 ? PM_PASS_GLOBAL : PM_PASS_CAUSTIC;
 		so.seed = seed;
@@ -404,31 +473,29 @@ main(int argc, char **argv)
 			fprintf(stderr, PROG ": volume map: %llu photons stored "
 			    "at scatters in media\n",
 			    (unsigned long long)st.volume_stored);
-		if (so.volume != NULL) {
-			m = &out.maps[out.nmaps++];
-			m->kind = PM_MAP_VOLUME;
-			m->count = vbuf.n;
-			m->emitted = (uint64_t)n;
-			m->first_index = first;
-			m->balanced = false;
-			bounds_of(&vbuf, m->lo, m->hi);
-			m->photons = vbuf.p;
+		if (vmap >= 0 && pass == 0) {
+			out.maps[vmap].count = vbuf.n;
+			out.maps[vmap].photons = vbuf.p;
 		}
-		if (pass == 0 && !fx.global) {
-			/* shot for the volume map alone */
-			pm_photon_buf_free(&bufs[0]);
-			continue;
+		if (smap[pass] < 0)	/* shot for the volume map alone */
+			pm_photon_buf_free(&bufs[pass]);
+		else if (!stream) {
+			out.maps[smap[pass]].count = bufs[pass].n;
+			out.maps[smap[pass]].photons = bufs[pass].p;
 		}
-		m = &out.maps[out.nmaps++];
-		m->kind = pass == 0 ? PM_MAP_GLOBAL : PM_MAP_CAUSTIC;
-		m->count = bufs[pass].n;
-		m->emitted = (uint64_t)n;
-		m->first_index = first;
-		m->balanced = false;
-		bounds_of(&bufs[pass], m->lo, m->hi);
-		m->photons = bufs[pass].p;
+		/* lo and hi stay 0: the writer computes the bounds it
+		 * stores in its own pass over the photons. */
 	}
-	if (status == 0 && pm_pmap_write(out_path, &out, compress, &err) != PM_OK) {
+	if (stream && sink.w != NULL) {
+		if (status == 0 && pm_pmap_writer_close(sink.w, &err) != PM_OK) {
+			fprintf(stderr, PROG ": %s\n", err.msg);
+			status = 1;
+		} else if (status != 0)
+			pm_pmap_writer_abort(sink.w);
+		sink.w = NULL;
+	}
+	if (status == 0 && !stream && pm_pmap_write(out_path, &out, compress,
+	    &err) != PM_OK) {
 		fprintf(stderr, PROG ": %s\n", err.msg);
 		status = 1;
 	}

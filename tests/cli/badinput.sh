@@ -243,9 +243,14 @@ for a in "--photons -1" "--photons 1e9" "--caustic-photons x" "-t -2" "--max-dep
 done
 check "pm-render --size 65536x65536 is refused (exit 1)" refused 1 "65536x65536" \
     $R -q --spp 1 --size 65536x65536 -o "$tmp/o.exr" data/cornell-box.xml
-check "pm-shoot --photons 2^40 is refused before allocating, saying how much it needs" \
-    refused 1 "(GiB|TiB|bytes).*memory|memory.*(GiB|TiB|bytes)" \
+# A map written to a file as it is shot needs disk, not memory; one kept
+# whole (to standard output, compressed, or with a volume map) memory.
+check "pm-shoot --photons 2^40 is refused before shooting, saying how much disk it needs" \
+    refused 1 "GiB of disk, and its file system has .* GiB free" \
     $S -q --photons 1099511627776 -o "$tmp/o.pmap" data/cornell-box.xml
+check "...and with --compress, how much memory" \
+    refused 1 "GiB of memory, and this machine has" \
+    $S -q --compress --photons 1099511627776 -o "$tmp/o.pmap" data/cornell-box.xml
 
 # --- outputs -----------------------------------------------------------
 : >"$tmp/file"

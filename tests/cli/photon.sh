@@ -207,6 +207,13 @@ check "...naming it" grep -q "no/such/dir" "$tmp/err"
 
 # --- Pipes ---
 check "pm-shoot -o - | pm-balance - works" sh -c "$SHOOT $scene -q --seed 3 --photons 6000 -o - | $BAL -q -o $tmp/p.pmap -"
+# To a file the maps are written as they are shot; to a pipe, or
+# compressed, they are held and written at the end: the same photons.
+check "pm-shoot to a file (streamed, 2 threads) and to a pipe (1 thread) agree" sh -c "$SHOOT $caustic_scene -q -t 2 --seed 5 --photons 20000 --caustic-photons 9000 -o $tmp/sf.pmap && $SHOOT $caustic_scene -q -t 1 --seed 5 --photons 20000 --caustic-photons 9000 -o - >$tmp/sp.pmap"
+check "...photon for photon" same_content "$tmp/sf.pmap" "$tmp/sp.pmap"
+check "...in both maps" grep -q '^caustic.records_crc32' "$tmp/c1"
+check "compressed (held) too" status 0 $SHOOT $caustic_scene -q -t 2 --seed 5 --photons 20000 --caustic-photons 9000 --compress -o "$tmp/sz.pmap"
+check "...photon for photon" same_content "$tmp/sf.pmap" "$tmp/sz.pmap"
 check "...giving the photons of the whole run" same_content "$tmp/whole.pmap" "$tmp/p.pmap"
 check "a shard on standard input merges with files" sh -c "$BAL -q -o $tmp/pm.pmap $tmp/a.pmap - <$tmp/b.pmap"
 check "...into the same photons" same_content "$tmp/whole.pmap" "$tmp/pm.pmap"

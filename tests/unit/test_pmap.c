@@ -1530,14 +1530,39 @@ test_write_errors(void **state)
 	assert_int_equal(pm_pmap_write(dir, &m, false, &err), PM_ERR_IO);
 	assert_int_equal(count_files(), before);
 	rmdir(dir);
-	/* An existing file is replaced whole. */
+	/* An existing file is replaced whole (swapped with the temporary
+	 * file, which then goes: no file is left behind). */
 	assert_int_equal(pm_pmap_write(p, &m, true, &err), PM_OK);
+	before = count_files();
 	m.maps[0].count = 3;
 	set_bounds(&m.maps[0]);
 	assert_int_equal(pm_pmap_write(p, &m, false, &err), PM_OK);
+	assert_int_equal(count_files(), before);
 	assert_int_equal(pm_pmap_read(p, &r, false, &err), PM_OK);
 	assert_same(&m, &r);
 	pm_pmap_free(&r);
+	/* A symbolic link is replaced by the file, as rename would, and
+	 * what it pointed to stays. */
+	assert_int_equal(symlink("keep.pmap", tpath(q, "link.pmap")), 0);
+	m.maps[0].count = 4;
+	set_bounds(&m.maps[0]);
+	assert_int_equal(pm_pmap_write(q, &m, false, &err), PM_OK);
+	{
+		struct stat st;
+
+		assert_int_equal(lstat(q, &st), 0);
+		assert_true(S_ISREG(st.st_mode));
+	}
+	assert_int_equal(count_files(), before + 1);
+	assert_int_equal(pm_pmap_read(q, &r, false, &err), PM_OK);
+	assert_true(r.maps[0].count == 4);
+	pm_pmap_free(&r);
+	assert_int_equal(pm_pmap_read(p, &r, false, &err), PM_OK);
+	assert_true(r.maps[0].count == 3);
+	pm_pmap_free(&r);
+	unlink(q);
+	m.maps[0].count = 3;
+	set_bounds(&m.maps[0]);
 	m.maps[0].count = 10;
 	/* What the reader would refuse is never written. */
 	m.maps[1].kind = PM_MAP_GLOBAL;
@@ -1547,6 +1572,16 @@ test_write_errors(void **state)
 	assert_int_equal(pm_pmap_write(p, &m, true, &err), PM_ERR_INVALID);
 	assert_non_null(strstr(err.msg, "photon 3 of the global map"));
 	m.maps[0].photons[3].pos[1] = 0.5f;
+	m.maps[0].photons[7].pos[2] = -INFINITY;
+	assert_int_equal(pm_pmap_write(p, &m, false, &err), PM_ERR_INVALID);
+	assert_non_null(strstr(err.msg, "photon 7 of the global map is not "
+	    "at a finite position"));
+	m.maps[0].photons[7].pos[2] = 0.25f;
+	m.maps[1].photons[4].reserved[1] = 1;
+	assert_int_equal(pm_pmap_write(p, &m, false, &err), PM_ERR_INVALID);
+	assert_non_null(strstr(err.msg, "photon 4 of the caustic map has "
+	    "nonzero reserved bytes"));
+	m.maps[1].photons[4].reserved[1] = 0;
 	m.maps[0].emitted = 0;
 	assert_int_equal(pm_pmap_write(p, &m, false, &err), PM_ERR_INVALID);
 	m.maps[0].emitted = 1;
@@ -1584,6 +1619,115 @@ test_write_errors(void **state)
 	    &err), PM_ERR_IO);
 	assert_int_equal(pm_pmap_read(pm_test_dir, &r, false, &err), PM_ERR_IO);
 	unlink(p);
+	pm_pmap_free(&m);
+}
+
+/* What pm_pmap_writer writes for m, its maps' records added in pieces of
+ * `piece` records (0: a map at a time), into buf; its length. */
+static size_t
+stream_bytes(const struct pm_pmap *m, size_t piece, unsigned char *buf)
+{
+	struct pm_pmap_writer *w;
+	struct pm_pmap h = *m;
+	struct pm_error err;
+	char p[PATHCAP];
+	size_t n, j, k;
+	int i;
+
+	tpath(p, "s.pmap");
+	for (i = 0; i < h.nmaps; i++) {
+		h.maps[i].count = 0;
+		h.maps[i].photons = NULL;
+	}
+	if (pm_pmap_writer_open(&w, p, &h, &err) != PM_OK)
+		fail_msg("%s", err.msg);
+	for (i = 0; i < m->nmaps; i++)
+		for (j = 0; j < m->maps[i].count; j += k) {
+			k = m->maps[i].count - j;
+			if (piece > 0 && k > piece)
+				k = piece;
+			if (pm_pmap_writer_add(w, i, m->maps[i].photons + j, k,
+			    &err) != PM_OK)
+				fail_msg("%s", err.msg);
+		}
+	if (pm_pmap_writer_close(w, &err) != PM_OK)
+		fail_msg("%s", err.msg);
+	n = slurp(p, buf, BUFCAP);
+	unlink(p);
+	return n;
+}
+
+/* The streaming writer writes pm_pmap_write's bytes, whatever the
+ * pieces, with empty maps first, between and last, and with no maps;
+ * what it cannot write leaves no file. */
+static void
+test_writer(void **state)
+{
+	static unsigned char a[BUFCAP], b[BUFCAP];
+	static const size_t pieces[] = {0, 1, 7, 64, 1000};
+	static const size_t sizes[][3] = {
+		{300, 40, 20}, {0, 40, 20}, {300, 0, 20}, {300, 40, 0},
+		{0, 0, 0}, {1, 1, 1},
+	};
+	struct pm_pmap_writer *w;
+	struct pm_pmap m, h;
+	struct pm_error err;
+	char p[PATHCAP];
+	size_t na, nb, s, q;
+	int nmaps, before;
+
+	(void)state;
+	for (nmaps = 0; nmaps <= 3; nmaps++)
+		for (s = 0; s < sizeof(sizes) / sizeof(sizes[0]); s++) {
+			make_pmap(&m, nmaps, sizes[s][0], sizes[s][1],
+			    sizes[s][2]);
+			na = write_bytes(&m, false, a);
+			for (q = 0; q < sizeof(pieces) / sizeof(pieces[0]); q++) {
+				nb = stream_bytes(&m, pieces[q], b);
+				assert_int_equal(na, nb);
+				assert_memory_equal(a, b, na);
+			}
+			pm_pmap_free(&m);
+		}
+	/* Refusals: no file is left, nor a temporary one. */
+	tpath(p, "refused.pmap");
+	before = count_files();
+	make_pmap(&m, 3, 30, 20, 10);
+	h = m;
+	h.maps[0].count = h.maps[1].count = h.maps[2].count = 0;
+	h.maps[0].photons = h.maps[1].photons = h.maps[2].photons = NULL;
+	assert_int_equal(pm_pmap_writer_open(&w, p, &m, &err), PM_ERR_INVALID);
+	assert_non_null(strstr(err.msg, "photons before any were added"));
+	/* maps out of order */
+	assert_int_equal(pm_pmap_writer_open(&w, p, &h, &err), PM_OK);
+	assert_int_equal(pm_pmap_writer_add(w, 1, m.maps[1].photons, 5, &err),
+	    PM_OK);
+	assert_int_equal(pm_pmap_writer_add(w, 0, m.maps[0].photons, 5, &err),
+	    PM_ERR_INVALID);
+	assert_int_equal(count_files(), before);
+	/* a bad record, numbered from the map's start */
+	m.maps[0].photons[13].pos[0] = INFINITY;
+	assert_int_equal(pm_pmap_writer_open(&w, p, &h, &err), PM_OK);
+	assert_int_equal(pm_pmap_writer_add(w, 0, m.maps[0].photons, 10, &err),
+	    PM_OK);
+	assert_int_equal(pm_pmap_writer_add(w, 0, m.maps[0].photons + 10, 10,
+	    &err), PM_ERR_INVALID);
+	assert_non_null(strstr(err.msg, "photon 13 of the global map is not "
+	    "at a finite position"));
+	assert_int_equal(count_files(), before);
+	m.maps[0].photons[13].pos[0] = 0.5f;
+	/* photons with none emitted, found at the end */
+	h.maps[1].emitted = 0;
+	assert_int_equal(pm_pmap_writer_open(&w, p, &h, &err), PM_OK);
+	assert_int_equal(pm_pmap_writer_add(w, 1, m.maps[1].photons, 3, &err),
+	    PM_OK);
+	assert_int_equal(pm_pmap_writer_close(w, &err), PM_ERR_INVALID);
+	assert_non_null(strstr(err.msg, "has photons but emitted none"));
+	assert_int_equal(count_files(), before);
+	/* given up */
+	assert_int_equal(pm_pmap_writer_open(&w, p, &h, &err), PM_OK);
+	pm_pmap_writer_abort(w);
+	assert_int_equal(count_files(), before);
 	pm_pmap_free(&m);
 }
 
@@ -1679,6 +1823,7 @@ main(void)
 		cmocka_unit_test(test_pipes),
 		cmocka_unit_test(test_stdout),
 		cmocka_unit_test(test_write_errors),
+		cmocka_unit_test(test_writer),
 		cmocka_unit_test(test_large_offsets),
 	};
 

@@ -92,7 +92,8 @@ static void
 shoot(struct world *w, enum pm_map_pass pass, uint64_t first, uint64_t count,
     int threads, struct pm_photon_buf *out)
 {
-	struct pm_shoot_opts o = {pass, 42, first, count, -1, threads, NULL};
+	struct pm_shoot_opts o = {pass, 42, first, count, -1, threads, NULL,
+	    NULL, NULL};
 	struct pm_shoot_stats st;
 	struct pm_error err;
 
@@ -168,6 +169,76 @@ test_shards_equal_one_run(void **state)
 	pm_photon_buf_free(&one);
 	pm_photon_buf_free(&shards);
 	pm_photon_buf_free(&t1);
+	world_free(&w);
+}
+
+/* A sink that gathers what it is given into a buffer, and fails once it
+ * has been given `fail_after` photons or more. */
+struct gather {
+	struct pm_photon_buf b;
+	size_t calls, fail_after;
+};
+
+static enum pm_err
+gather_sink(void *arg, const struct pm_photon *p, size_t n,
+    struct pm_error *err)
+{
+	struct gather *g = arg;
+
+	g->calls++;
+	if (g->b.n >= g->fail_after)
+		return pm_fail(err, PM_ERR_IO, "sink full at %zu", g->b.n);
+	g->b.p = realloc(g->b.p, (g->b.n + n + 1) * sizeof(*p));
+	assert_non_null(g->b.p);
+	memcpy(g->b.p + g->b.n, p, n * sizeof(*p));
+	g->b.n += n;
+	return PM_OK;
+}
+
+/* With a sink, the photons go there in path order, whatever the number
+ * of threads, and not to the output; the sink's error is pm_shoot's and
+ * stops it. */
+static void
+test_sink(void **state)
+{
+	struct world w;
+	struct pm_photon_buf one = {NULL, 0, 0}, none = {NULL, 0, 0};
+	struct pm_shoot_opts o = {PM_PASS_GLOBAL, 42, 0, 30000, -1, 1, NULL,
+	    gather_sink, NULL};
+	struct pm_shoot_stats st;
+	struct pm_error err;
+	int t;
+
+	(void)state;
+	furnace(&w, 0.5f);
+	shoot(&w, PM_PASS_GLOBAL, 0, 30000, 2, &one);
+	for (t = 1; t <= 3; t++) {
+		struct gather g = {{NULL, 0, 0}, 0, (size_t)-1};
+
+		o.threads = t;
+		o.sink_arg = &g;
+		assert_int_equal(pm_shoot(&w.shooter, &o, &none, &st, &err),
+		    PM_OK);
+		assert_int_equal(none.n, 0);
+		assert_true(st.stored == one.n);
+		assert_int_equal(g.b.n, one.n);
+		assert_memory_equal(g.b.p, one.p, one.n * sizeof(*one.p));
+		assert_true(g.calls > 1);
+		pm_photon_buf_free(&g.b);
+	}
+	for (t = 1; t <= 3; t++) {
+		struct gather g = {{NULL, 0, 0}, 0, 1000};
+
+		o.threads = t;
+		o.sink_arg = &g;
+		assert_int_equal(pm_shoot(&w.shooter, &o, &none, &st, &err),
+		    PM_ERR_IO);
+		assert_non_null(strstr(err.msg, "sink full at"));
+		/* called no more once it failed */
+		assert_true(g.calls * 2048 < 30000);
+		pm_photon_buf_free(&g.b);
+	}
+	pm_photon_buf_free(&one);
 	world_free(&w);
 }
 
@@ -424,6 +495,7 @@ main(void)
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_flux_by_depth),
 		cmocka_unit_test(test_shards_equal_one_run),
+		cmocka_unit_test(test_sink),
 		cmocka_unit_test(test_caustic_aiming_is_unbiased),
 		cmocka_unit_test(test_far_light_aiming_is_unbiased),
 		cmocka_unit_test(test_effects),
