@@ -644,6 +644,7 @@ struct chunk_out {
 	struct pm_photon_buf vbuf;	/* volume photons */
 	uint64_t dropped, paths_specular;
 	bool done;
+	_Alignas(8) unsigned char note[PM_SHOOT_NOTE];	/* sink_prepare's */
 };
 
 /*
@@ -895,7 +896,8 @@ commit_chunks(struct job *j)
 
 		if (j->opts->sink != NULL) {
 			if (!j->sink_failed && j->opts->sink(j->opts->sink_arg,
-			    co->buf.p, co->buf.n, &j->sink_err) != PM_OK) {
+			    co->buf.p, co->buf.n, co->note, &j->sink_err) !=
+			    PM_OK) {
 				j->sink_failed = true;
 				atomic_store(&j->failed, 1);
 			}
@@ -931,6 +933,9 @@ worker(void *arg)
 			end = first + CHUNK;
 		for (i = first; i < end && ok; i++)
 			ok = trace_path(j->sh, j->opts, i, &co);
+		if (ok && j->opts->sink_prepare != NULL)
+			j->opts->sink_prepare(j->opts->sink_arg, co.buf.p,
+			    co.buf.n, co.note);
 		pthread_mutex_lock(&j->lock);
 		j->chunks[c] = co;	/* freed by pm_shoot if not done */
 		if (!ok) {

@@ -66,6 +66,9 @@ enum pm_map_pass {
 	PM_PASS_CAUSTIC = 2,	/* aimed at specular shapes; L S+ D stored */
 };
 
+/* Bytes a chunk keeps for its sink_prepare's note (pm_shoot_opts). */
+#define PM_SHOOT_NOTE	64
+
 struct pm_shoot_opts {
 	enum pm_map_pass pass;
 	uint64_t seed;
@@ -81,9 +84,15 @@ struct pm_shoot_opts {
 	 * buffer: called with each chunk's photons in path order, one
 	 * call at a time, while other threads go on tracing; an error
 	 * from it stops the shoot and is pm_shoot's.  pm-shoot writes the
-	 * map file from here, so that no map is held in memory whole. */
+	 * map file from here, so that no map is held in memory whole.
+	 * sink_prepare, if set, is first called with the same photons on
+	 * the thread that traced them, in no order and in parallel, and
+	 * leaves in note what sink is then given: the per-chunk work that
+	 * need not wait its turn (pm-shoot: checksums and bounds). */
+	void (*sink_prepare)(void *arg, const struct pm_photon *p, size_t n,
+	    unsigned char note[PM_SHOOT_NOTE]);
 	enum pm_err (*sink)(void *arg, const struct pm_photon *p, size_t n,
-	    struct pm_error *err);
+	    const unsigned char note[PM_SHOOT_NOTE], struct pm_error *err);
 	void *sink_arg;
 };
 

@@ -1844,49 +1844,107 @@ pm_pmap_writer_open(struct pm_pmap_writer **wp, const char *path,
 	return PM_OK;
 }
 
+void
+pm_pmap_run_summarize(struct pm_pmap_run *r, const struct pm_photon *p,
+    size_t n)
+{
+	struct box b = {0, 0, 0, 0, 0, 0};
+	unsigned char tmp[64 * PMAP_REC];
+	size_t j, k;
+
+	r->p = p;
+	r->n = n;
+	r->bad = box_records(&b, true, p, n);
+	r->lo[0] = b.lx;
+	r->lo[1] = b.ly;
+	r->lo[2] = b.lz;
+	r->hi[0] = b.hx;
+	r->hi[1] = b.hy;
+	r->hi[2] = b.hz;
+	if (PMAP_HOST_LE)
+		r->crc = pm_crc32(0, p, n * PMAP_REC);
+	else
+		for (r->crc = 0, j = 0; j < n; j += k) {
+			k = n - j < 64 ? n - j : 64;
+			r->crc = pm_crc32(r->crc, records_to_file(p + j, k,
+			    tmp), k * PMAP_REC);
+		}
+}
+
 enum pm_err
-pm_pmap_writer_add(struct pm_pmap_writer *w, int i, const struct pm_photon *p,
-    size_t n, struct pm_error *err)
+pm_pmap_writer_add_run(struct pm_pmap_writer *w, int i,
+    const struct pm_pmap_run *r, struct pm_error *err)
 {
 	struct pm_map *a;
-	enum pm_err r = PM_OK;
+	struct box *b;
+	enum pm_err e = PM_OK;
 	size_t j, k;
 
 	if (i < w->cur || i >= w->m.nmaps) {
-		r = pm_fail(err, PM_ERR_INVALID, "%s: photons added to map %d "
+		e = pm_fail(err, PM_ERR_INVALID, "%s: photons added to map %d "
 		    "while writing map %d of %d", w->out.path, i, w->cur,
 		    w->m.nmaps);
 		goto fail;
 	}
 	while (w->cur < i)
-		if ((r = writer_next(w, err)) != PM_OK)
+		if ((e = writer_next(w, err)) != PM_OK)
 			goto fail;
 	a = &w->m.maps[i];
-	if (n > (UINT64_MAX / PMAP_REC - a->count)) {
-		r = pm_fail(err, PM_ERR_LIMIT, "%s: the %s map's size "
+	if (r->n > (UINT64_MAX / PMAP_REC - a->count) ||
+	    r->n > (uint64_t)INT64_MAX / PMAP_REC) {
+		e = pm_fail(err, PM_ERR_LIMIT, "%s: the %s map's size "
 		    "overflows 64 bits", w->out.path, kind_name(a->kind));
 		goto fail;
 	}
-	if (box_records(&w->box[i], a->count == 0, p, n) != 0) {
-		r = bad_record(w->out.path, a->kind, p, n, a->count, err);
+	if (r->bad != 0) {
+		e = bad_record(w->out.path, a->kind, r->p, r->n, a->count, err);
 		goto fail;
 	}
-	for (j = 0; j < n; j += k) {
-		const unsigned char *b;
-
-		k = n - j < WRITER_PER ? n - j : WRITER_PER;
-		b = records_to_file(p + j, k, w->scratch);
-		w->o[i].crc = pm_crc32(w->o[i].crc, b, k * PMAP_REC);
-		if ((r = pwrite_all(w->out.fd, b, (uint64_t)k * PMAP_REC,
-		    w->pos, w->out.path, err)) != PM_OK)
+	if (r->n == 0)
+		return PM_OK;
+	b = &w->box[i];
+	if (a->count == 0) {
+		b->lx = r->lo[0];
+		b->ly = r->lo[1];
+		b->lz = r->lo[2];
+		b->hx = r->hi[0];
+		b->hy = r->hi[1];
+		b->hz = r->hi[2];
+	} else {
+		b->lx = r->lo[0] < b->lx ? r->lo[0] : b->lx;
+		b->ly = r->lo[1] < b->ly ? r->lo[1] : b->ly;
+		b->lz = r->lo[2] < b->lz ? r->lo[2] : b->lz;
+		b->hx = r->hi[0] > b->hx ? r->hi[0] : b->hx;
+		b->hy = r->hi[1] > b->hy ? r->hi[1] : b->hy;
+		b->hz = r->hi[2] > b->hz ? r->hi[2] : b->hz;
+	}
+	/* zlib's combination: the crc of the map so far followed by the
+	 * run's, from the run's crc alone (O(log n), no pass over it). */
+	w->o[i].crc = (uint32_t)crc32_combine(w->o[i].crc, r->crc,
+	    (z_off_t)(r->n * PMAP_REC));
+	for (j = 0; j < r->n; j += k) {
+		k = r->n - j < WRITER_PER ? r->n - j : WRITER_PER;
+		if ((e = pwrite_all(w->out.fd, records_to_file(r->p + j, k,
+		    w->scratch), (uint64_t)k * PMAP_REC, w->pos, w->out.path,
+		    err)) != PM_OK)
 			goto fail;
 		w->pos += (uint64_t)k * PMAP_REC;
 	}
-	a->count += n;
+	a->count += r->n;
 	return PM_OK;
 fail:
 	pm_pmap_writer_abort(w);
-	return r;
+	return e;
+}
+
+enum pm_err
+pm_pmap_writer_add(struct pm_pmap_writer *w, int i, const struct pm_photon *p,
+    size_t n, struct pm_error *err)
+{
+	struct pm_pmap_run r;
+
+	pm_pmap_run_summarize(&r, p, n);
+	return pm_pmap_writer_add_run(w, i, &r, err);
 }
 
 enum pm_err

@@ -45,6 +45,27 @@ enum pm_err pm_pmap_writer_add(struct pm_pmap_writer *w, int i,
     const struct pm_photon *p, size_t n, struct pm_error *err);
 enum pm_err pm_pmap_writer_close(struct pm_pmap_writer *w,
     struct pm_error *err);
+
+/*
+ * Records summarised apart from a writer: their crc32 in file order, their
+ * bounds, and whether the writer would refuse one.  A producer on many
+ * threads summarises each run on the thread that made it; what is left for
+ * pm_pmap_writer_add_run, which must be called in file order, is to check
+ * the summary, fold it into the map's and write the records.
+ * pm_pmap_writer_add(w, i, p, n) is pm_pmap_run_summarize then
+ * pm_pmap_writer_add_run.
+ */
+struct pm_pmap_run {
+	const struct pm_photon *p;
+	size_t n;
+	uint32_t crc;			/* of the n records in file order */
+	uint32_t bad;			/* nonzero: a record is refused */
+	float lo[3], hi[3];		/* 0 for no records */
+};
+void pm_pmap_run_summarize(struct pm_pmap_run *r, const struct pm_photon *p,
+    size_t n);
+enum pm_err pm_pmap_writer_add_run(struct pm_pmap_writer *w, int i,
+    const struct pm_pmap_run *r, struct pm_error *err);
 void pm_pmap_writer_abort(struct pm_pmap_writer *w);
 
 /*

@@ -147,12 +147,31 @@ struct file_sink {
 	int map;
 };
 
+_Static_assert(sizeof(struct pm_pmap_run) <= PM_SHOOT_NOTE,
+    "a chunk's note holds its run's summary");
+
+/* On the tracing thread: the chunk's checksum and bounds. */
+static void
+to_file_prepare(void *arg, const struct pm_photon *p, size_t n,
+    unsigned char note[PM_SHOOT_NOTE])
+{
+	(void)arg;
+	pm_pmap_run_summarize((struct pm_pmap_run *)(void *)note, p, n);
+}
+
+/* In path order: folded into the map's and written. */
 static enum pm_err
-to_file(void *arg, const struct pm_photon *p, size_t n, struct pm_error *err)
+to_file(void *arg, const struct pm_photon *p, size_t n,
+    const unsigned char note[PM_SHOOT_NOTE], struct pm_error *err)
 {
 	struct file_sink *s = arg;
-	enum pm_err e = pm_pmap_writer_add(s->w, s->map, p, n, err);
+	const struct pm_pmap_run *r = (const struct pm_pmap_run *)(const void *)
+	    note;
+	enum pm_err e;
 
+	(void)p;
+	(void)n;
+	e = pm_pmap_writer_add_run(s->w, s->map, r, err);
 	if (e != PM_OK)
 		s->w = NULL;	/* freed by the failed add */
 	return e;
@@ -434,6 +453,7 @@ main(int argc, char **argv)
 		memset(&so, 0, sizeof(so));
 		if (stream) {
 			sink.map = smap[pass];
+			so.sink_prepare = to_file_prepare;
 			so.sink = to_file;
 			so.sink_arg = &sink;
 		}

@@ -108,7 +108,7 @@ shoot_map(struct pm_map *m, enum pm_map_kind kind, uint64_t seed,
     uint64_t first, uint64_t count)
 {
 	struct pm_shoot_opts o = {PM_PASS_GLOBAL, seed, first, count, -1, 2,
-	    NULL, NULL, NULL};
+	    NULL, NULL, NULL, NULL};
 	struct pm_photon_buf b = {NULL, 0, 0};
 	struct pm_shoot_stats st;
 	struct pm_error err;

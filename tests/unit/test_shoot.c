@@ -93,7 +93,7 @@ shoot(struct world *w, enum pm_map_pass pass, uint64_t first, uint64_t count,
     int threads, struct pm_photon_buf *out)
 {
 	struct pm_shoot_opts o = {pass, 42, first, count, -1, threads, NULL,
-	    NULL, NULL};
+	    NULL, NULL, NULL};
 	struct pm_shoot_stats st;
 	struct pm_error err;
 
@@ -179,12 +179,25 @@ struct gather {
 	size_t calls, fail_after;
 };
 
+/* Notes the number of photons, which gather_sink checks. */
+static void
+gather_prepare(void *arg, const struct pm_photon *p, size_t n,
+    unsigned char note[PM_SHOOT_NOTE])
+{
+	(void)arg;
+	(void)p;
+	memcpy(note, &n, sizeof(n));
+}
+
 static enum pm_err
 gather_sink(void *arg, const struct pm_photon *p, size_t n,
-    struct pm_error *err)
+    const unsigned char note[PM_SHOOT_NOTE], struct pm_error *err)
 {
 	struct gather *g = arg;
+	size_t noted;
 
+	memcpy(&noted, note, sizeof(noted));
+	assert_true(noted == n);
 	g->calls++;
 	if (g->b.n >= g->fail_after)
 		return pm_fail(err, PM_ERR_IO, "sink full at %zu", g->b.n);
@@ -204,7 +217,7 @@ test_sink(void **state)
 	struct world w;
 	struct pm_photon_buf one = {NULL, 0, 0}, none = {NULL, 0, 0};
 	struct pm_shoot_opts o = {PM_PASS_GLOBAL, 42, 0, 30000, -1, 1, NULL,
-	    gather_sink, NULL};
+	    gather_prepare, gather_sink, NULL};
 	struct pm_shoot_stats st;
 	struct pm_error err;
 	int t;

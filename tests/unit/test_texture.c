@@ -718,7 +718,7 @@ test_photons_see_texture(void **state)
 	struct pm_texture t;
 	struct pm_photon_buf buf = {NULL, 0, 0};
 	struct pm_shoot_opts o = {PM_PASS_GLOBAL, 5, 0, 100000, -1, 1, NULL,
-	    NULL, NULL};
+	    NULL, NULL, NULL};
 	struct pm_shoot_stats st;
 	size_t i, bounced = 0, from_black = 0;
 	int b, l;

@@ -234,7 +234,7 @@ photons(struct pm_scene *s, uint64_t n, struct pm_photon_buf *buf,
 {
 	struct pm_shooter sh;
 	struct pm_shoot_opts o = {PM_PASS_GLOBAL, 7, 0, n, 1, 2, NULL, NULL,
-	    NULL};
+	    NULL, NULL};
 	struct pm_shoot_stats st;
 	struct pm_error err;
 
