@@ -1640,6 +1640,110 @@ enum pm_err
 pm_pmap_write(const char *path, const struct pm_pmap *m, bool compress,
     struct pm_error *err)
 {
+	return pm_pmap_write_threads(path, m, compress, 1, err);
+}
+
+/* A map's records summarised in pieces, on threads. */
+struct sum_job {
+	const struct pm_photon *p;
+	uint64_t count, piece;
+	int npieces;
+	struct pm_pmap_run run[PMAP_PIECES];
+	_Atomic int next;
+};
+
+static void *
+sum_worker(void *arg)
+{
+	struct sum_job *j = arg;
+	int k;
+
+	while ((k = atomic_fetch_add(&j->next, 1)) < j->npieces) {
+		uint64_t at = (uint64_t)k * j->piece;
+		uint64_t n = j->count - at < j->piece ? j->count - at :
+		    j->piece;
+
+		pm_pmap_run_summarize(&j->run[k], j->p + at, (size_t)n);
+	}
+	return NULL;
+}
+
+/*
+ * An uncompressed map's bounds and crc32, its records checked, in pieces
+ * of the reader's size on up to `threads` threads, combined in order: the
+ * same result as one pass (map_bounds and records_crc), which pm-balance
+ * waited for with its other threads idle.
+ */
+static enum pm_err
+map_summary(const char *name, const struct pm_map *a, struct pmap_out *o,
+    int threads, unsigned char *scratch, size_t per, struct pm_error *err)
+{
+	struct sum_job *j;
+	uint64_t piece = PMAP_PIECE_RECS;
+	struct box b;
+	int k;
+
+	if (a->count / PMAP_PIECES >= piece)
+		piece = a->count / PMAP_PIECES + 1;
+	if (threads <= 1 || a->count <= piece) {
+		enum pm_err r = map_bounds(name, a, o, err);
+
+		if (r == PM_OK)
+			o->crc = records_crc(a->photons, a->count, scratch,
+			    per);
+		return r;
+	}
+	if ((j = malloc(sizeof(*j))) == NULL)
+		return pm_fail(err, PM_ERR_NOMEM, "%s: out of memory", name);
+	j->p = a->photons;
+	j->count = a->count;
+	j->piece = piece;
+	j->npieces = (int)((a->count + piece - 1) / piece);
+	atomic_init(&j->next, 0);
+	pm_parallel(threads < j->npieces ? threads : j->npieces, sum_worker,
+	    j);
+	b.lx = j->run[0].lo[0];
+	b.ly = j->run[0].lo[1];
+	b.lz = j->run[0].lo[2];
+	b.hx = j->run[0].hi[0];
+	b.hy = j->run[0].hi[1];
+	b.hz = j->run[0].hi[2];
+	o->crc = j->run[0].crc;
+	for (k = 0; k < j->npieces; k++) {
+		const struct pm_pmap_run *r = &j->run[k];
+
+		if (r->bad != 0) {
+			enum pm_err e = bad_record(name, a->kind, r->p, r->n,
+			    (uint64_t)k * piece, err);
+
+			free(j);
+			return e;
+		}
+		if (k == 0)
+			continue;
+		b.lx = r->lo[0] < b.lx ? r->lo[0] : b.lx;
+		b.ly = r->lo[1] < b.ly ? r->lo[1] : b.ly;
+		b.lz = r->lo[2] < b.lz ? r->lo[2] : b.lz;
+		b.hx = r->hi[0] > b.hx ? r->hi[0] : b.hx;
+		b.hy = r->hi[1] > b.hy ? r->hi[1] : b.hy;
+		b.hz = r->hi[2] > b.hz ? r->hi[2] : b.hz;
+		o->crc = (uint32_t)crc32_combine(o->crc, r->crc,
+		    (z_off_t)(r->n * PMAP_REC));
+	}
+	free(j);
+	o->lo[0] = b.lx;
+	o->lo[1] = b.ly;
+	o->lo[2] = b.lz;
+	o->hi[0] = b.hx;
+	o->hi[1] = b.hy;
+	o->hi[2] = b.hz;
+	return PM_OK;
+}
+
+enum pm_err
+pm_pmap_write_threads(const char *path, const struct pm_pmap *m,
+    bool compress, int threads, struct pm_error *err)
+{
 	struct pmap_out o[PMAP_MAXMAPS];
 	bool to_stdout = strcmp(path, "-") == 0;
 	const char *name = to_stdout ? "standard output" : path;
@@ -1663,16 +1767,16 @@ pm_pmap_write(const char *path, const struct pm_pmap *m, bool compress,
 	end = hs;
 	for (i = 0; i < m->nmaps; i++) {
 		o[i].raw = m->maps[i].count * PMAP_REC;
-		if ((r = map_bounds(name, &m->maps[i], &o[i], err)) != PM_OK)
-			goto done;
 		if (compress) {
-			if ((r = deflate_map(name, &m->maps[i], &o[i], scratch,
-			    per, err)) != PM_OK)
+			if ((r = map_bounds(name, &m->maps[i], &o[i], err)) !=
+			    PM_OK || (r = deflate_map(name, &m->maps[i], &o[i],
+			    scratch, per, err)) != PM_OK)
 				goto done;
 		} else {
 			o[i].stored = o[i].raw;
-			o[i].crc = records_crc(m->maps[i].photons,
-			    m->maps[i].count, scratch, per);
+			if ((r = map_summary(name, &m->maps[i], &o[i], threads,
+			    scratch, per, err)) != PM_OK)
+				goto done;
 		}
 		o[i].offset = align_up(end);
 		end = o[i].offset + o[i].stored;

@@ -25,6 +25,11 @@
 enum pm_err pm_pmap_write(const char *path, const struct pm_pmap *m,
     bool compress, struct pm_error *err);
 
+/* The same, the uncompressed maps' bounds and checksums computed on up to
+ * `threads` threads (the same bytes whatever their number). */
+enum pm_err pm_pmap_write_threads(const char *path, const struct pm_pmap *m,
+    bool compress, int threads, struct pm_error *err);
+
 /*
  * A map file written as its photons come, so that they need not be held
  * in memory (pm-shoot's maps): to a named file only (the header, which

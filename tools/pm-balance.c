@@ -331,7 +331,8 @@ main(int argc, char *argv[])
 		    PM_MAP_GLOBAL), &irr)), pm_cli_now() - t);
 
 	t = pm_cli_now();
-	if (pm_pmap_write(output, &out, compress, &err) != PM_OK) {
+	if (pm_pmap_write_threads(output, &out, compress, (int)threads, &err) !=
+	    PM_OK) {
 		pm_cli_progress_hold(prog);
 		fprintf(stderr, "%s: %s\n", PROG, err.msg);
 		goto done;

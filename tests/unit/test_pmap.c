@@ -1731,6 +1731,67 @@ test_writer(void **state)
 	pm_pmap_free(&m);
 }
 
+/* The whole file at path, in a new buffer of *n bytes. */
+static unsigned char *
+slurp_all(const char *path, size_t *n)
+{
+	FILE *f = fopen(path, "rb");
+	unsigned char *b;
+	long len;
+
+	assert_non_null(f);
+	assert_int_equal(fseek(f, 0, SEEK_END), 0);
+	len = ftell(f);
+	assert_true(len > 0);
+	rewind(f);
+	b = malloc((size_t)len);
+	assert_non_null(b);
+	assert_int_equal(fread(b, 1, (size_t)len, f), (size_t)len);
+	fclose(f);
+	*n = (size_t)len;
+	return b;
+}
+
+/* Bounds and checksums computed on threads, in pieces combined in order,
+ * give the bytes of one pass; a bad record in a later piece is named by
+ * its number in the map. */
+static void
+test_write_threads(void **state)
+{
+	static const int threads[] = {2, 3, 7};
+	struct pm_pmap m;
+	struct pm_error err;
+	unsigned char *a, *b;
+	char p[PATHCAP], q[PATHCAP];
+	size_t na, nb;
+	unsigned t;
+
+	(void)state;
+	tpath(p, "t1.pmap");
+	tpath(q, "tn.pmap");
+	/* 400001 records: three pieces of the reader's size and a bit */
+	make_pmap(&m, 3, 400001, 1000, 200000);
+	assert_int_equal(pm_pmap_write_threads(p, &m, false, 1, &err), PM_OK);
+	a = slurp_all(p, &na);
+	for (t = 0; t < sizeof(threads) / sizeof(threads[0]); t++) {
+		assert_int_equal(pm_pmap_write_threads(q, &m, false,
+		    threads[t], &err), PM_OK);
+		b = slurp_all(q, &nb);
+		assert_int_equal(na, nb);
+		assert_memory_equal(a, b, na);
+		free(b);
+	}
+	m.maps[0].photons[350000].pos[1] = NAN;
+	assert_int_equal(pm_pmap_write_threads(q, &m, false, 3, &err),
+	    PM_ERR_INVALID);
+	assert_non_null(strstr(err.msg, "photon 350000 of the global map is "
+	    "not at a finite position"));
+	free(a);
+	unlink(p);
+	unlink(q);
+	pm_pmap_free(&m);
+}
+
 /*
  * 64-bit sizes and offsets, on sparse files: a map of 300 million
  * photons (7.2 GB) and one placed beyond 4 GiB, in files one byte short,
@@ -1824,6 +1885,7 @@ main(void)
 		cmocka_unit_test(test_stdout),
 		cmocka_unit_test(test_write_errors),
 		cmocka_unit_test(test_writer),
+		cmocka_unit_test(test_write_threads),
 		cmocka_unit_test(test_large_offsets),
 	};
 
