@@ -1823,6 +1823,7 @@ struct pm_pmap_writer {
 };
 
 #define WRITER_PER	65536		/* records converted at a time */
+#define WRITER_RUN	((size_t)1 << 24)	/* records summarised at a time */
 
 /* Writes n bytes at off. */
 static enum pm_err
@@ -1995,9 +1996,11 @@ pm_pmap_writer_add_run(struct pm_pmap_writer *w, int i,
 			goto fail;
 	a = &w->m.maps[i];
 	if (r->n > (UINT64_MAX / PMAP_REC - a->count) ||
-	    r->n > (uint64_t)INT64_MAX / PMAP_REC) {
-		e = pm_fail(err, PM_ERR_LIMIT, "%s: the %s map's size "
-		    "overflows 64 bits", w->out.path, kind_name(a->kind));
+	    r->n > (sizeof(z_off_t) < 8 ? INT32_MAX : INT64_MAX) / PMAP_REC) {
+		e = pm_fail(err, PM_ERR_LIMIT, "%s: %zu records added to the "
+		    "%s map at once, more than its size or a checksum "
+		    "combination can take", w->out.path, r->n,
+		    kind_name(a->kind));
 		goto fail;
 	}
 	if (r->bad != 0) {
@@ -2046,9 +2049,17 @@ pm_pmap_writer_add(struct pm_pmap_writer *w, int i, const struct pm_photon *p,
     size_t n, struct pm_error *err)
 {
 	struct pm_pmap_run r;
+	enum pm_err e = PM_OK;
+	size_t j = 0, k;
 
-	pm_pmap_run_summarize(&r, p, n);
-	return pm_pmap_writer_add_run(w, i, &r, err);
+	/* In runs whose byte counts fit a 32-bit z_off_t (crc32_combine). */
+	do {
+		k = n - j < WRITER_RUN ? n - j : WRITER_RUN;
+		pm_pmap_run_summarize(&r, p + j, k);
+		e = pm_pmap_writer_add_run(w, i, &r, err);
+		j += k;
+	} while (e == PM_OK && j < n);
+	return e;
 }
 
 enum pm_err
