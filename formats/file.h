@@ -19,7 +19,9 @@
 enum pm_err pm_read_file(const char *path, size_t max, char **buf,
     size_t *len, struct pm_error *err);
 
-/* An output being written: fd is its temporary file, -1 once closed. */
+/* An output being written: fd is its temporary file, -1 once closed; tmp
+ * its name, empty while it has none (an O_TMPFILE file, named by
+ * pm_out_commit, so that a killed run leaves nothing). */
 struct pm_out {
 	const char *path;
 	char tmp[4096];
@@ -31,8 +33,9 @@ enum pm_err pm_out_open(struct pm_out *o, const char *path,
     struct pm_error *err);
 
 /*
- * Closes o->fd unless the caller has (set it to -1 then) and renames the
- * temporary file to the output's path; on failure removes it.
+ * Closes o->fd, which must be open (the temporary file may be unnamed until
+ * now: write through a dup to use stdio), and renames the temporary file
+ * to the output's path; on failure removes it.
  */
 enum pm_err pm_out_commit(struct pm_out *o, struct pm_error *err);
 

@@ -102,6 +102,7 @@ write_png(const char *path, const uint8_t *rgb, int width, int height,
 	struct pm_out out;
 	FILE *fp;
 	enum pm_err e;
+	int fd = -1;
 
 	if (rgb == NULL || width < 1 || height < 1)
 		return pm_fail(err, PM_ERR_INVALID, "%s: empty image", path);
@@ -120,12 +121,15 @@ write_png(const char *path, const uint8_t *rgb, int width, int height,
 
 	if ((e = pm_out_open(&out, path, err)) != PM_OK)
 		return e;
-	if ((fp = fdopen(out.fd, "wb")) == NULL) {
-		e = pm_fail(err, PM_ERR_IO, "%s: %s", out.tmp, strerror(errno));
+	/* fp gets a copy of the descriptor: the temporary file may be
+	 * unnamed, and must stay open until pm_out_commit names it. */
+	if ((fd = dup(out.fd)) < 0 || (fp = fdopen(fd, "wb")) == NULL) {
+		e = pm_fail(err, PM_ERR_IO, "%s: %s", path, strerror(errno));
+		if (fd >= 0)
+			close(fd);
 		pm_out_abort(&out);
 		return e;
 	}
-	out.fd = -1;		/* fp owns it now */
 	if (png_encode(fp, rgb, width, height, fast, &io) != 0) {
 		e = pm_fail(err, PM_ERR_IO, "%s: %s", path, io.msg);
 		fclose(fp);
@@ -133,13 +137,13 @@ write_png(const char *path, const uint8_t *rgb, int width, int height,
 		return e;
 	}
 	if (fflush(fp) != 0 || ferror(fp)) {
-		e = pm_fail(err, PM_ERR_IO, "%s: %s", out.tmp, strerror(errno));
+		e = pm_fail(err, PM_ERR_IO, "%s: %s", path, strerror(errno));
 		fclose(fp);
 		pm_out_abort(&out);
 		return e;
 	}
 	if (fclose(fp) != 0) {
-		e = pm_fail(err, PM_ERR_IO, "%s: %s", out.tmp, strerror(errno));
+		e = pm_fail(err, PM_ERR_IO, "%s: %s", path, strerror(errno));
 		pm_out_abort(&out);
 		return e;
 	}

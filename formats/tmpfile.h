@@ -16,4 +16,8 @@
  */
 int pm_open_temp(const char *path, char *tmp, size_t tmpsize);
 
+/* The next such name (path.tmpPID.N) into tmp; -1 with errno
+ * ENAMETOOLONG if it does not fit. */
+int pm_temp_name(const char *path, char *tmp, size_t tmpsize);
+
 #endif

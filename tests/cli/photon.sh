@@ -212,6 +212,20 @@ check "pm-shoot -o - | pm-balance - works" sh -c "$SHOOT $scene -q --seed 3 --ph
 check "pm-shoot to a file (streamed, 2 threads) and to a pipe (1 thread) agree" sh -c "$SHOOT $caustic_scene -q -t 2 --seed 5 --photons 20000 --caustic-photons 9000 -o $tmp/sf.pmap && $SHOOT $caustic_scene -q -t 1 --seed 5 --photons 20000 --caustic-photons 9000 -o - >$tmp/sp.pmap"
 check "...photon for photon" same_content "$tmp/sf.pmap" "$tmp/sp.pmap"
 check "...in both maps" grep -q '^caustic.records_crc32' "$tmp/c1"
+# A map is written for the whole run; a run killed meanwhile leaves no
+# file, complete or temporary (the temporary file has no name until it is
+# complete, where the file system allows).
+mkdir -p "$tmp/kill"
+if python3 -c 'import os, sys; os.close(os.open(sys.argv[1], os.O_TMPFILE | os.O_WRONLY))' "$tmp/kill" 2>/dev/null; then
+	$SHOOT $scene -q -t 2 --photons 40000000 -o "$tmp/kill/k.pmap" 2>/dev/null &
+	kpid=$!
+	sleep 1
+	kill -TERM $kpid 2>/dev/null
+	wait $kpid 2>/dev/null
+	check "a pm-shoot killed while writing leaves no file behind" test "$(ls -A "$tmp/kill" | wc -l)" -eq 0
+else
+	skip "a pm-shoot killed while writing leaves no file behind: no O_TMPFILE here"
+fi
 check "compressed (held) too" status 0 $SHOOT $caustic_scene -q -t 2 --seed 5 --photons 20000 --caustic-photons 9000 --compress -o "$tmp/sz.pmap"
 check "...photon for photon" same_content "$tmp/sf.pmap" "$tmp/sz.pmap"
 check "...giving the photons of the whole run" same_content "$tmp/whole.pmap" "$tmp/p.pmap"

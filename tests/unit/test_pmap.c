@@ -11,6 +11,7 @@
  * and kinds) -- must each fail with their own clear error.  Offsets
  * beyond 4 GiB are tested on sparse files, which take no disk.
  */
+#define _GNU_SOURCE	/* O_TMPFILE */
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
@@ -1724,8 +1725,19 @@ test_writer(void **state)
 	assert_int_equal(pm_pmap_writer_close(w, &err), PM_ERR_INVALID);
 	assert_non_null(strstr(err.msg, "has photons but emitted none"));
 	assert_int_equal(count_files(), before);
-	/* given up */
+	/* given up; while it is written, the file has no name where the
+	 * file system has unnamed files */
 	assert_int_equal(pm_pmap_writer_open(&w, p, &h, &err), PM_OK);
+	assert_int_equal(pm_pmap_writer_add(w, 0, m.maps[0].photons, 30,
+	    &err), PM_OK);
+	{
+		int fd = open(pm_test_dir, O_TMPFILE | O_WRONLY, 0600);
+
+		if (fd >= 0) {
+			close(fd);
+			assert_int_equal(count_files(), before);
+		}
+	}
 	pm_pmap_writer_abort(w);
 	assert_int_equal(count_files(), before);
 	pm_pmap_free(&m);
