@@ -644,7 +644,7 @@ struct chunk_out {
 	struct pm_photon_buf vbuf;	/* volume photons */
 	uint64_t dropped, paths_specular;
 	bool done;
-	_Alignas(8) unsigned char note[PM_SHOOT_NOTE];	/* sink_prepare's */
+	unsigned char note[PM_SHOOT_NOTE];	/* sink_prepare's */
 };
 
 /*

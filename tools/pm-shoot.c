@@ -140,7 +140,6 @@ estimate_stored(const struct pm_shooter *sh, const struct pm_shoot_opts *so,
 	return e;
 }
 
-
 /* Where pm_shoot puts the photons of a streamed map: map `map` of w. */
 struct file_sink {
 	struct pm_pmap_writer *w;
@@ -155,8 +154,11 @@ static void
 to_file_prepare(void *arg, const struct pm_photon *p, size_t n,
     unsigned char note[PM_SHOOT_NOTE])
 {
+	struct pm_pmap_run r;
+
 	(void)arg;
-	pm_pmap_run_summarize((struct pm_pmap_run *)(void *)note, p, n);
+	pm_pmap_run_summarize(&r, p, n);
+	memcpy(note, &r, sizeof(r));
 }
 
 /* In path order: folded into the map's and written. */
@@ -165,13 +167,13 @@ to_file(void *arg, const struct pm_photon *p, size_t n,
     const unsigned char note[PM_SHOOT_NOTE], struct pm_error *err)
 {
 	struct file_sink *s = arg;
-	const struct pm_pmap_run *r = (const struct pm_pmap_run *)(const void *)
-	    note;
+	struct pm_pmap_run r;
 	enum pm_err e;
 
 	(void)p;
 	(void)n;
-	e = pm_pmap_writer_add_run(s->w, s->map, r, err);
+	memcpy(&r, note, sizeof(r));
+	e = pm_pmap_writer_add_run(s->w, s->map, &r, err);
 	if (e != PM_OK)
 		s->w = NULL;	/* freed by the failed add */
 	return e;
@@ -383,7 +385,7 @@ main(int argc, char **argv)
 			status = 1;
 		}
 		if (status != 0) {
-	pm_shooter_free(&shooter);
+			pm_shooter_free(&shooter);
 			pm_world_free(&world);
 			pm_scene_free(&scene);
 			return 1;
