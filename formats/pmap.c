@@ -1319,8 +1319,13 @@ struct box {
 	float lx, ly, lz, hx, hy, hz;
 };
 
-/* Sets *bad if u is the bits of an infinity or a NaN (exponent all
- * ones), which a comparison would let through. */
+/*
+ * x, with -0 made +0; sets *bad if x is an infinity or a NaN (its exponent
+ * all ones), which a comparison would let through.  Adding +0 makes a
+ * zero's sign not matter: the bounds of equal zeros would otherwise take
+ * the sign of whichever came first, and depend on how the records are cut
+ * into runs and pieces (pm-shoot's chunks, pm-balance's threads).
+ */
 static inline float
 checked(float x, uint32_t *bad)
 {
@@ -1328,7 +1333,7 @@ checked(float x, uint32_t *bad)
 
 	memcpy(&u, &x, sizeof(u));
 	*bad |= (uint32_t)((u & 0x7f800000u) == 0x7f800000u);
-	return x;
+	return x + 0.0f;
 }
 
 /* b widened to q; *bad set if q has a reserved byte set or a coordinate
@@ -1366,9 +1371,9 @@ box_records(struct box *b, bool fresh, const struct pm_photon *p, uint64_t n)
 	if (n == 0)
 		return 0;
 	if (fresh) {
-		b0.lx = b0.hx = p[0].pos[0];
-		b0.ly = b0.hy = p[0].pos[1];
-		b0.lz = b0.hz = p[0].pos[2];
+		b0.lx = b0.hx = p[0].pos[0] + 0.0f;
+		b0.ly = b0.hy = p[0].pos[1] + 0.0f;
+		b0.lz = b0.hz = p[0].pos[2] + 0.0f;
 	}
 	b1 = b0;
 	for (i = 0; i + 1 < n; i += 2) {

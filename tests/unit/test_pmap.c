@@ -1623,19 +1623,18 @@ test_write_errors(void **state)
 	pm_pmap_free(&m);
 }
 
-/* What pm_pmap_writer writes for m, its maps' records added in pieces of
- * `piece` records (0: a map at a time), into buf; its length. */
+/* Writes m to path with pm_pmap_writer, its maps' records added in pieces
+ * of `piece` records (0: a map at a time); the file's size. */
 static size_t
-stream_bytes(const struct pm_pmap *m, size_t piece, unsigned char *buf)
+stream_file(const struct pm_pmap *m, size_t piece, const char *p)
 {
 	struct pm_pmap_writer *w;
 	struct pm_pmap h = *m;
 	struct pm_error err;
-	char p[PATHCAP];
-	size_t n, j, k;
+	struct stat st;
+	size_t j, k;
 	int i;
 
-	tpath(p, "s.pmap");
 	for (i = 0; i < h.nmaps; i++) {
 		h.maps[i].count = 0;
 		h.maps[i].photons = NULL;
@@ -1653,6 +1652,19 @@ stream_bytes(const struct pm_pmap *m, size_t piece, unsigned char *buf)
 		}
 	if (pm_pmap_writer_close(w, &err) != PM_OK)
 		fail_msg("%s", err.msg);
+	assert_int_equal(stat(p, &st), 0);
+	return (size_t)st.st_size;
+}
+
+/* What pm_pmap_writer writes for m (stream_file), into buf; its length. */
+static size_t
+stream_bytes(const struct pm_pmap *m, size_t piece, unsigned char *buf)
+{
+	char p[PATHCAP];
+	size_t n;
+
+	tpath(p, "s.pmap");
+	(void)stream_file(m, piece, p);
 	n = slurp(p, buf, BUFCAP);
 	unlink(p);
 	return n;
@@ -1690,6 +1702,25 @@ test_writer(void **state)
 			}
 			pm_pmap_free(&m);
 		}
+	/* Equal zeros of both signs where the bounds are: the first of them
+	 * in one order of runs is not the first in another, and the bounds
+	 * must not depend on it. */
+	make_pmap(&m, 1, 300, 0, 0);
+	for (s = 0; s < 300; s++)
+		for (q = 0; q < 3; q++)
+			m.maps[0].photons[s].pos[q] = 1.0f +
+			    fabsf(m.maps[0].photons[s].pos[q]);
+	m.maps[0].photons[1].pos[0] = 0.0f;
+	m.maps[0].photons[2].pos[0] = -0.0f;
+	m.maps[0].photons[9].pos[1] = -0.0f;
+	m.maps[0].photons[12].pos[1] = 0.0f;
+	na = write_bytes(&m, false, a);
+	for (q = 0; q < sizeof(pieces) / sizeof(pieces[0]); q++) {
+		nb = stream_bytes(&m, pieces[q], b);
+		assert_int_equal(na, nb);
+		assert_memory_equal(a, b, na);
+	}
+	pm_pmap_free(&m);
 	/* Refusals: no file is left, nor a temporary one. */
 	tpath(p, "refused.pmap");
 	before = count_files();
@@ -1790,6 +1821,40 @@ test_write_threads(void **state)
 		    threads[t], &err), PM_OK);
 		b = slurp_all(q, &nb);
 		assert_int_equal(na, nb);
+		assert_memory_equal(a, b, na);
+		free(b);
+	}
+	/* Zeros of both signs where the bounds are: the same bytes whatever
+	 * the pieces, threads or runs (the writer's, in pieces of 7). */
+	{
+		size_t i, n = (size_t)m.maps[0].count;
+		struct pm_photon *ph = m.maps[0].photons;
+		size_t nc;
+
+		for (i = 0; i < n; i++) {
+			ph[i].pos[0] = (i * 7919u) % 5 == 0 ? -0.0f :
+			    fabsf(ph[i].pos[0]);
+			ph[i].pos[1] = (i * 104729u) % 3 == 0 ? 0.0f :
+			    fabsf(ph[i].pos[1]);
+			ph[i].pos[2] = -fabsf(ph[i].pos[2]);
+			if ((i * 31u) % 7 == 0)
+				ph[i].pos[2] = i % 2 ? -0.0f : 0.0f;
+		}
+		assert_int_equal(pm_pmap_write_threads(p, &m, false, 1, &err),
+		    PM_OK);
+		free(a);
+		a = slurp_all(p, &na);
+		for (t = 0; t < sizeof(threads) / sizeof(threads[0]); t++) {
+			assert_int_equal(pm_pmap_write_threads(q, &m, false,
+			    threads[t], &err), PM_OK);
+			b = slurp_all(q, &nb);
+			assert_int_equal(na, nb);
+			assert_memory_equal(a, b, na);
+			free(b);
+		}
+		assert_true(stream_file(&m, 7, q) == na);
+		b = slurp_all(q, &nc);
+		assert_int_equal(nc, na);
 		assert_memory_equal(a, b, na);
 		free(b);
 	}
