@@ -1354,27 +1354,39 @@ box_add(struct box b, const struct pm_photon *q, uint32_t *bad)
 	return b;
 }
 
+/* lo and hi widened to rlo and rhi; set to them when first. */
+static void
+bounds_fold(float lo[3], float hi[3], bool first, const float rlo[3],
+    const float rhi[3])
+{
+	int k;
+
+	for (k = 0; k < 3; k++) {
+		lo[k] = first || rlo[k] < lo[k] ? rlo[k] : lo[k];
+		hi[k] = first || rhi[k] > hi[k] ? rhi[k] : hi[k];
+	}
+}
+
 /*
- * Widens *b over p[0..n), setting it from p[0] first when fresh; nonzero
- * if a record has a reserved byte set or a coordinate that is not
- * finite.  pm-shoot and pm-balance wait for this pass with every other
+ * The bounds of p[0..n) into lo and hi (0 for no records); nonzero if a
+ * record has a reserved byte set or a coordinate that is not finite.  pm-shoot and pm-balance wait for this pass with every other
  * thread idle: branch-free, the bounds in registers, two sets of them
  * (even and odd records) so that no min or max waits on the one before.
  */
 static uint32_t
-box_records(struct box *b, bool fresh, const struct pm_photon *p, uint64_t n)
+box_records(const struct pm_photon *p, uint64_t n, float lo[3], float hi[3])
 {
-	struct box b0 = *b, b1;
+	struct box b0, b1;
 	uint32_t bad = 0;
 	uint64_t i;
 
-	if (n == 0)
+	if (n == 0) {
+		lo[0] = lo[1] = lo[2] = hi[0] = hi[1] = hi[2] = 0.0f;
 		return 0;
-	if (fresh) {
-		b0.lx = b0.hx = p[0].pos[0] + 0.0f;
-		b0.ly = b0.hy = p[0].pos[1] + 0.0f;
-		b0.lz = b0.hz = p[0].pos[2] + 0.0f;
 	}
+	b0.lx = b0.hx = p[0].pos[0] + 0.0f;
+	b0.ly = b0.hy = p[0].pos[1] + 0.0f;
+	b0.lz = b0.hz = p[0].pos[2] + 0.0f;
 	b1 = b0;
 	for (i = 0; i + 1 < n; i += 2) {
 		b0 = box_add(b0, &p[i], &bad);
@@ -1382,12 +1394,14 @@ box_records(struct box *b, bool fresh, const struct pm_photon *p, uint64_t n)
 	}
 	if (i < n)
 		b0 = box_add(b0, &p[i], &bad);
-	b->lx = b1.lx < b0.lx ? b1.lx : b0.lx;
-	b->ly = b1.ly < b0.ly ? b1.ly : b0.ly;
-	b->lz = b1.lz < b0.lz ? b1.lz : b0.lz;
-	b->hx = b1.hx > b0.hx ? b1.hx : b0.hx;
-	b->hy = b1.hy > b0.hy ? b1.hy : b0.hy;
-	b->hz = b1.hz > b0.hz ? b1.hz : b0.hz;
+	lo[0] = b0.lx;
+	lo[1] = b0.ly;
+	lo[2] = b0.lz;
+	hi[0] = b0.hx;
+	hi[1] = b0.hy;
+	hi[2] = b0.hz;
+	bounds_fold(lo, hi, false, (const float[3]){b1.lx, b1.ly, b1.lz},
+	    (const float[3]){b1.hx, b1.hy, b1.hz});
 	return bad;
 }
 
@@ -1422,16 +1436,8 @@ static enum pm_err
 map_bounds(const char *name, const struct pm_map *a, struct pmap_out *o,
     struct pm_error *err)
 {
-	struct box b = {0, 0, 0, 0, 0, 0};
-
-	if (box_records(&b, true, a->photons, a->count) != 0)
+	if (box_records(a->photons, a->count, o->lo, o->hi) != 0)
 		return bad_record(name, a->kind, a->photons, a->count, 0, err);
-	o->lo[0] = b.lx;
-	o->lo[1] = b.ly;
-	o->lo[2] = b.lz;
-	o->hi[0] = b.hx;
-	o->hi[1] = b.hy;
-	o->hi[2] = b.hz;
 	return PM_OK;
 }
 
@@ -1517,9 +1523,10 @@ deflate_map(const char *name, const struct pm_map *a, struct pmap_out *o,
 	return PM_OK;
 }
 
-/* Writes n bytes, whatever the size of n. */
+/* Writes n bytes, whatever the size of n: at offset off, or where the
+ * descriptor is when off is negative (a pipe). */
 static enum pm_err
-write_all(int fd, const void *buf, uint64_t n, const char *name,
+write_all(int fd, const void *buf, uint64_t n, int64_t off, const char *name,
     struct pm_error *err)
 {
 	const unsigned char *p = buf;
@@ -1528,7 +1535,8 @@ write_all(int fd, const void *buf, uint64_t n, const char *name,
 
 	while (n > 0) {
 		want = n < PMAP_CHUNK ? (size_t)n : PMAP_CHUNK;
-		k = write(fd, p, want);
+		k = off < 0 ? write(fd, p, want) : pwrite(fd, p, want,
+		    (off_t)off);
 		if (k < 0 && errno == EINTR)
 			continue;
 		if (k <= 0)
@@ -1536,6 +1544,8 @@ write_all(int fd, const void *buf, uint64_t n, const char *name,
 			    name, k < 0 ? strerror(errno) : "no progress");
 		p += k;
 		n -= (uint64_t)k;
+		if (off >= 0)
+			off += k;
 	}
 	return PM_OK;
 }
@@ -1615,23 +1625,25 @@ write_body(int fd, const char *name, const unsigned char *h, uint32_t hs,
 	enum pm_err r;
 	int i;
 
-	if ((r = write_all(fd, h, hs, name, err)) != PM_OK)
+	if ((r = write_all(fd, h, hs, -1, name, err)) != PM_OK)
 		return r;
 	for (i = 0; i < m->nmaps; i++) {
 		a = &m->maps[i];
-		if ((r = write_all(fd, zeros, o[i].offset - pos, name, err)) !=
+		if ((r = write_all(fd, zeros, o[i].offset - pos, -1, name,
+		    err)) !=
 		    PM_OK)
 			return r;
 		if (o[i].z != NULL)
-			r = write_all(fd, o[i].z, o[i].stored, name, err);
+			r = write_all(fd, o[i].z, o[i].stored, -1, name, err);
 		else if (PMAP_HOST_LE)
-			r = write_all(fd, a->photons, o[i].stored, name, err);
+			r = write_all(fd, a->photons, o[i].stored, -1, name,
+			    err);
 		else
 			for (j = 0; j < a->count && r == PM_OK; j += n) {
 				n = a->count - j < per ? a->count - j : per;
 				r = write_all(fd, records_to_file(a->photons +
-				    j, (size_t)n, scratch), n * PMAP_REC, name,
-				    err);
+				    j, (size_t)n, scratch), n * PMAP_REC, -1,
+				    name, err);
 			}
 		if (r != PM_OK)
 			return r;
@@ -1646,6 +1658,16 @@ pm_pmap_write(const char *path, const struct pm_pmap *m, bool compress,
     struct pm_error *err)
 {
 	return pm_pmap_write_threads(path, m, compress, 1, err);
+}
+
+/* o's bounds and crc32 (set when first) followed by run r's: zlib combines
+ * the two crc32s from r's alone (O(log n), no pass over the records). */
+static void
+run_fold(struct pmap_out *o, bool first, const struct pm_pmap_run *r)
+{
+	bounds_fold(o->lo, o->hi, first, r->lo, r->hi);
+	o->crc = first ? r->crc : (uint32_t)crc32_combine(o->crc, r->crc,
+	    (z_off_t)(r->n * PMAP_REC));
 }
 
 /* A map's records summarised in pieces, on threads. */
@@ -1685,7 +1707,6 @@ map_summary(const char *name, const struct pm_map *a, struct pmap_out *o,
 {
 	struct sum_job *j;
 	uint64_t piece = PMAP_PIECE_RECS;
-	struct box b;
 	int k;
 
 	if (a->count / PMAP_PIECES >= piece)
@@ -1707,13 +1728,6 @@ map_summary(const char *name, const struct pm_map *a, struct pmap_out *o,
 	atomic_init(&j->next, 0);
 	pm_parallel(threads < j->npieces ? threads : j->npieces, sum_worker,
 	    j);
-	b.lx = j->run[0].lo[0];
-	b.ly = j->run[0].lo[1];
-	b.lz = j->run[0].lo[2];
-	b.hx = j->run[0].hi[0];
-	b.hy = j->run[0].hi[1];
-	b.hz = j->run[0].hi[2];
-	o->crc = j->run[0].crc;
 	for (k = 0; k < j->npieces; k++) {
 		const struct pm_pmap_run *r = &j->run[k];
 
@@ -1724,24 +1738,9 @@ map_summary(const char *name, const struct pm_map *a, struct pmap_out *o,
 			free(j);
 			return e;
 		}
-		if (k == 0)
-			continue;
-		b.lx = r->lo[0] < b.lx ? r->lo[0] : b.lx;
-		b.ly = r->lo[1] < b.ly ? r->lo[1] : b.ly;
-		b.lz = r->lo[2] < b.lz ? r->lo[2] : b.lz;
-		b.hx = r->hi[0] > b.hx ? r->hi[0] : b.hx;
-		b.hy = r->hi[1] > b.hy ? r->hi[1] : b.hy;
-		b.hz = r->hi[2] > b.hz ? r->hi[2] : b.hz;
-		o->crc = (uint32_t)crc32_combine(o->crc, r->crc,
-		    (z_off_t)(r->n * PMAP_REC));
+		run_fold(o, k == 0, r);
 	}
 	free(j);
-	o->lo[0] = b.lx;
-	o->lo[1] = b.ly;
-	o->lo[2] = b.lz;
-	o->hi[0] = b.hx;
-	o->hi[1] = b.hy;
-	o->hi[2] = b.hz;
 	return PM_OK;
 }
 
@@ -1818,8 +1817,7 @@ done:
 struct pm_pmap_writer {
 	struct pm_out out;
 	struct pm_pmap m;		/* the header's fields; info a copy */
-	struct pmap_out o[PMAP_MAXMAPS];
-	struct box box[PMAP_MAXMAPS];
+	struct pmap_out o[PMAP_MAXMAPS];	/* bounds and crc32 as added */
 	uint32_t hs;			/* header bytes */
 	int cur;			/* the map being added to */
 	uint64_t pos;			/* end of what is written */
@@ -1830,30 +1828,6 @@ struct pm_pmap_writer {
 #define WRITER_PER	65536		/* records converted at a time */
 #define WRITER_RUN	((size_t)1 << 24)	/* records summarised at a time */
 
-/* Writes n bytes at off. */
-static enum pm_err
-pwrite_all(int fd, const void *buf, uint64_t n, uint64_t off,
-    const char *name, struct pm_error *err)
-{
-	const unsigned char *p = buf;
-	size_t want;
-	ssize_t k;
-
-	while (n > 0) {
-		want = n < PMAP_CHUNK ? (size_t)n : PMAP_CHUNK;
-		k = pwrite(fd, p, want, (off_t)off);
-		if (k < 0 && errno == EINTR)
-			continue;
-		if (k <= 0)
-			return pm_fail(err, PM_ERR_IO, "%s: write failed: %s",
-			    name, k < 0 ? strerror(errno) : "no progress");
-		p += k;
-		n -= (uint64_t)k;
-		off += (uint64_t)k;
-	}
-	return PM_OK;
-}
-
 /* Zeros from w->pos up to off, as pm_pmap_write pads between maps (so
  * that the file has no holes and ends where its last map does). */
 static enum pm_err
@@ -1862,8 +1836,8 @@ writer_pad(struct pm_pmap_writer *w, uint64_t off, struct pm_error *err)
 	static const unsigned char zeros[PMAP_ALIGN];
 	enum pm_err r;
 
-	if (off > w->pos && (r = pwrite_all(w->out.fd, zeros, off - w->pos,
-	    w->pos, w->out.path, err)) != PM_OK)
+	if (off > w->pos && (r = write_all(w->out.fd, zeros, off - w->pos,
+	    (int64_t)w->pos, w->out.path, err)) != PM_OK)
 		return r;
 	w->pos = off;
 	return PM_OK;
@@ -1874,15 +1848,8 @@ static enum pm_err
 writer_next(struct pm_pmap_writer *w, struct pm_error *err)
 {
 	struct pmap_out *o = &w->o[w->cur];
-	const struct box *b = &w->box[w->cur];
 
 	o->stored = o->raw = w->m.maps[w->cur].count * PMAP_REC;
-	o->lo[0] = b->lx;
-	o->lo[1] = b->ly;
-	o->lo[2] = b->lz;
-	o->hi[0] = b->hx;
-	o->hi[1] = b->hy;
-	o->hi[2] = b->hz;
 	w->cur++;
 	if (w->cur < w->m.nmaps) {
 		w->o[w->cur].offset = align_up(w->pos);
@@ -1958,19 +1925,12 @@ void
 pm_pmap_run_summarize(struct pm_pmap_run *r, const struct pm_photon *p,
     size_t n)
 {
-	struct box b = {0, 0, 0, 0, 0, 0};
 	unsigned char tmp[64 * PMAP_REC];
 	size_t j, k;
 
 	r->p = p;
 	r->n = n;
-	r->bad = box_records(&b, true, p, n);
-	r->lo[0] = b.lx;
-	r->lo[1] = b.ly;
-	r->lo[2] = b.lz;
-	r->hi[0] = b.hx;
-	r->hi[1] = b.hy;
-	r->hi[2] = b.hz;
+	r->bad = box_records(p, n, r->lo, r->hi);
 	if (PMAP_HOST_LE)
 		r->crc = pm_crc32(0, p, n * PMAP_REC);
 	else
@@ -1986,7 +1946,6 @@ pm_pmap_writer_add_run(struct pm_pmap_writer *w, int i,
     const struct pm_pmap_run *r, struct pm_error *err)
 {
 	struct pm_map *a;
-	struct box *b;
 	enum pm_err e = PM_OK;
 	size_t j, k;
 
@@ -2014,31 +1973,12 @@ pm_pmap_writer_add_run(struct pm_pmap_writer *w, int i,
 	}
 	if (r->n == 0)
 		return PM_OK;
-	b = &w->box[i];
-	if (a->count == 0) {
-		b->lx = r->lo[0];
-		b->ly = r->lo[1];
-		b->lz = r->lo[2];
-		b->hx = r->hi[0];
-		b->hy = r->hi[1];
-		b->hz = r->hi[2];
-	} else {
-		b->lx = r->lo[0] < b->lx ? r->lo[0] : b->lx;
-		b->ly = r->lo[1] < b->ly ? r->lo[1] : b->ly;
-		b->lz = r->lo[2] < b->lz ? r->lo[2] : b->lz;
-		b->hx = r->hi[0] > b->hx ? r->hi[0] : b->hx;
-		b->hy = r->hi[1] > b->hy ? r->hi[1] : b->hy;
-		b->hz = r->hi[2] > b->hz ? r->hi[2] : b->hz;
-	}
-	/* zlib's combination: the crc of the map so far followed by the
-	 * run's, from the run's crc alone (O(log n), no pass over it). */
-	w->o[i].crc = (uint32_t)crc32_combine(w->o[i].crc, r->crc,
-	    (z_off_t)(r->n * PMAP_REC));
+	run_fold(&w->o[i], a->count == 0, r);
 	for (j = 0; j < r->n; j += k) {
 		k = r->n - j < WRITER_PER ? r->n - j : WRITER_PER;
-		if ((e = pwrite_all(w->out.fd, records_to_file(r->p + j, k,
-		    w->scratch), (uint64_t)k * PMAP_REC, w->pos, w->out.path,
-		    err)) != PM_OK)
+		if ((e = write_all(w->out.fd, records_to_file(r->p + j, k,
+		    w->scratch), (uint64_t)k * PMAP_REC, (int64_t)w->pos,
+		    w->out.path, err)) != PM_OK)
 			goto fail;
 		w->pos += (uint64_t)k * PMAP_REC;
 	}
@@ -2098,8 +2038,8 @@ pm_pmap_writer_close(struct pm_pmap_writer *w, struct pm_error *err)
 	build_header(h, w->hs, &w->m, w->o, isize);
 	/* The padding before the first map belongs to it: a file of no
 	 * maps ends with its header. */
-	if ((r = pwrite_all(w->out.fd, h, w->hs, 0, w->out.path, err)) !=
-	    PM_OK || (r = pwrite_all(w->out.fd, zeros, w->m.nmaps > 0 ?
+	if ((r = write_all(w->out.fd, h, w->hs, 0, w->out.path, err)) !=
+	    PM_OK || (r = write_all(w->out.fd, zeros, w->m.nmaps > 0 ?
 	    align_up(w->hs) - w->hs : 0, w->hs, w->out.path, err)) != PM_OK)
 		goto fail;
 	free(h);
