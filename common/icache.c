@@ -195,6 +195,149 @@ icache_worker(void *arg)
 	return NULL;
 }
 
+/*
+ * The lookup's arrays (pm_icache.lanes): one per quantity, each a grid of
+ * LANE_PAD + gw + LANE_PAD points a row.  A row's four candidates start
+ * at gx0 >= -3 (fewer would leave none of the row's points) and end at
+ * gx0 + 3 <= gw + 2, so three points of padding on each side hold every
+ * load.  Padding and invalid points have inv_r NaN: eps is then NaN and
+ * fails eps < a whatever the query, which is what skipping them did.
+ */
+enum { L_PX, L_PY, L_PZ, L_NX, L_NY, L_NZ, L_ER, L_EG, L_EB, L_INV_R,
+	L_COUNT };
+#define LANE_PAD	3
+
+static inline size_t
+lanes_row(const struct pm_icache *c)
+{
+	return (size_t)c->gw + 2 * LANE_PAD;
+}
+
+static inline float *
+lanes_at(const struct pm_icache *c, int q)
+{
+	return c->lanes + (size_t)q * (size_t)c->gh * lanes_row(c);
+}
+
+bool
+pm_icache_pack(struct pm_icache *c)
+{
+	size_t w = lanes_row(c), n = (size_t)c->gh * w, i;
+	int q, gx, gy;
+
+	free(c->lanes);
+	c->lanes = malloc((size_t)L_COUNT * n * sizeof(*c->lanes));
+	if (c->lanes == NULL)
+		return false;
+	for (q = 0; q < L_COUNT; q++)
+		for (i = 0; i < n; i++)
+			lanes_at(c, q)[i] = q == L_INV_R ? NAN : 0.0f;
+	for (gy = 0; gy < c->gh; gy++)
+		for (gx = 0; gx < c->gw; gx++) {
+			const struct pm_icache_point *pt =
+			    &c->pt[(size_t)gy * c->gw + gx];
+			const float v[L_COUNT] = { pt->p.x, pt->p.y, pt->p.z,
+			    pt->n.x, pt->n.y, pt->n.z, pt->E.r, pt->E.g, pt->E.b,
+			    pt->inv_r };
+
+			if (!pt->valid)
+				continue;
+			i = (size_t)gy * w + (size_t)(gx + LANE_PAD);
+			for (q = 0; q < L_COUNT; q++)
+				lanes_at(c, q)[i] = v[q];
+		}
+	return true;
+}
+
+/* What a lookup compares every candidate with. */
+struct lane_query {
+	struct pm_vec3 p, n;
+	float a, inv_a, min_cos;
+};
+
+/* SSE where the compiler has it (PM_NO_SIMD: the plain C below, which
+ * tests build to check it gives the same bits) */
+#if (defined(__x86_64__) || defined(__i386__)) && defined(__SSE2__) && \
+    (defined(__GNUC__) || defined(__clang__)) && !defined(PM_NO_SIMD)
+#include <immintrin.h>
+
+/*
+ * Ward's test and weight for the four points from index i on, in SSE
+ * lanes: the scalar expressions below, operation for operation (IEEE
+ * sqrt and division are exact in both), so the weights are the same bits.
+ * Returns the lanes trusted as a bit mask, their weights in w.
+ */
+static inline int
+lane_weights(const struct pm_icache *c, size_t i, const struct lane_query *lq,
+    float w[4])
+{
+	const __m128 qx = _mm_loadu_ps(lanes_at(c, L_PX) + i);
+	const __m128 qy = _mm_loadu_ps(lanes_at(c, L_PY) + i);
+	const __m128 qz = _mm_loadu_ps(lanes_at(c, L_PZ) + i);
+	const __m128 mx = _mm_loadu_ps(lanes_at(c, L_NX) + i);
+	const __m128 my = _mm_loadu_ps(lanes_at(c, L_NY) + i);
+	const __m128 mz = _mm_loadu_ps(lanes_at(c, L_NZ) + i);
+	const __m128 inv_r = _mm_loadu_ps(lanes_at(c, L_INV_R) + i);
+	const __m128 nx = _mm_set1_ps(lq->n.x), ny = _mm_set1_ps(lq->n.y);
+	const __m128 nz = _mm_set1_ps(lq->n.z), zero = _mm_setzero_ps();
+	__m128 cosn, dx, dy, dz, front, eps, ok, wv;
+
+	cosn = _mm_add_ps(_mm_add_ps(_mm_mul_ps(nx, mx), _mm_mul_ps(ny, my)),
+	    _mm_mul_ps(nz, mz));
+	dx = _mm_sub_ps(_mm_set1_ps(lq->p.x), qx);
+	dy = _mm_sub_ps(_mm_set1_ps(lq->p.y), qy);
+	dz = _mm_sub_ps(_mm_set1_ps(lq->p.z), qz);
+	front = _mm_mul_ps(_mm_mul_ps(_mm_add_ps(_mm_add_ps(
+	    _mm_mul_ps(dx, _mm_add_ps(nx, mx)), _mm_mul_ps(dy, _mm_add_ps(ny, my))),
+	    _mm_mul_ps(dz, _mm_add_ps(nz, mz))), _mm_set1_ps(0.5f)), inv_r);
+	/* max(1 - cos, 0) with a NaN as 0, as pm_fmaxf(0, 1 - cos) */
+	eps = _mm_add_ps(_mm_mul_ps(_mm_sqrt_ps(_mm_add_ps(_mm_add_ps(
+	    _mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz))), inv_r),
+	    _mm_sqrt_ps(_mm_max_ps(_mm_sub_ps(_mm_set1_ps(1.0f), cosn), zero)));
+	ok = _mm_and_ps(_mm_cmpnle_ps(cosn, _mm_set1_ps(lq->min_cos)),
+	    _mm_cmpnle_ps(cosn, zero));
+	ok = _mm_and_ps(ok, _mm_cmpnlt_ps(front, _mm_set1_ps(-0.05f)));
+	ok = _mm_and_ps(ok, _mm_cmplt_ps(eps, _mm_set1_ps(lq->a)));
+	wv = _mm_sub_ps(_mm_div_ps(_mm_set1_ps(1.0f), eps),
+	    _mm_set1_ps(lq->inv_a));
+	_mm_storeu_ps(w, _mm_or_ps(_mm_and_ps(_mm_cmpgt_ps(eps,
+	    _mm_set1_ps(1e-6f)), wv), _mm_andnot_ps(_mm_cmpgt_ps(eps,
+	    _mm_set1_ps(1e-6f)), _mm_set1_ps(1e6f))));
+	return _mm_movemask_ps(ok);
+}
+#else
+/* The same, a point at a time. */
+static inline int
+lane_weights(const struct pm_icache *c, size_t i, const struct lane_query *lq,
+    float w[4])
+{
+	int k, mask = 0;
+
+	for (k = 0; k < 4; k++) {
+		struct pm_vec3 q = pm_v3(lanes_at(c, L_PX)[i + k],
+		    lanes_at(c, L_PY)[i + k], lanes_at(c, L_PZ)[i + k]);
+		struct pm_vec3 m = pm_v3(lanes_at(c, L_NX)[i + k],
+		    lanes_at(c, L_NY)[i + k], lanes_at(c, L_NZ)[i + k]);
+		float inv_r = lanes_at(c, L_INV_R)[i + k];
+		float cosn = pm_dot(lq->n, m), eps;
+		struct pm_vec3 dv = pm_sub(lq->p, q);
+
+		if (cosn <= lq->min_cos || cosn <= 0.0f)
+			continue;
+		/* In front: the surface curves towards the point. */
+		if (pm_dot(dv, pm_add(lq->n, m)) * 0.5f * inv_r < -0.05f)
+			continue;
+		eps = pm_length(dv) * inv_r + sqrtf(pm_fmaxf(0.0f,
+		    1.0f - cosn));
+		if (!(eps < lq->a))
+			continue;
+		w[k] = eps > 1e-6f ? 1.0f / eps - lq->inv_a : 1e6f;
+		mask |= 1 << k;
+	}
+	return mask;
+}
+#endif
+
 enum pm_err
 pm_icache_build(struct pm_icache *c, const struct pm_render_ctx *ctx,
     const struct pm_camera_rays *cr, int step, int rays, float a,
@@ -229,6 +372,11 @@ pm_icache_build(struct pm_icache *c, const struct pm_render_ctx *ctx,
 	atomic_init(&j.next, 0);
 	pm_parallel(threads, icache_worker, &j);
 	clamp_neighbours(c);
+	if (!pm_icache_pack(c)) {
+		pm_icache_free(c);
+		return pm_fail(err, PM_ERR_NOMEM, "no memory for the irradiance "
+		    "cache (%d x %d points)", c->gw, c->gh);
+	}
 	return PM_OK;
 }
 
@@ -236,46 +384,40 @@ bool
 pm_icache_lookup(const struct pm_icache *c, float fx, float fy,
     struct pm_vec3 p, struct pm_vec3 n, struct pm_rgb *E)
 {
-	int gx0, gy0, gx, gy;
+	struct lane_query lq;
+	int gx0, gy0, gy;
 	double sum[3] = {0, 0, 0}, wsum = 0.0;
-	float inv_a, min_cos;
 
 	if (c == NULL || c->pt == NULL || !isfinite(fx) || !isfinite(fy))
 		return false;
-	inv_a = 1.0f / c->a;
+	lq.p = p;
+	lq.n = n;
+	lq.a = c->a;
+	lq.inv_a = 1.0f / c->a;
 	/* sqrt(1 - cos) alone must stay below a. */
-	min_cos = 1.0f - c->a * c->a;
+	lq.min_cos = 1.0f - c->a * c->a;
 	gx0 = (int)floorf(fx / (float)c->step) - 1;
 	gy0 = (int)floorf(fy / (float)c->step) - 1;
+	/* a row's points gx0 .. gx0 + 3: none on the grid, or all within
+	 * its padding */
+	if (gx0 + 3 < 0 || gx0 >= c->gw)
+		return false;
 	for (gy = gy0; gy < gy0 + 4; gy++) {
+		size_t i = (size_t)gy * lanes_row(c) + (size_t)(gx0 + LANE_PAD);
+		float w[4];
+		int k, mask;
+
 		if (gy < 0 || gy >= c->gh)
 			continue;
-		for (gx = gx0; gx < gx0 + 4; gx++) {
-			const struct pm_icache_point *q;
-			struct pm_vec3 dv;
-			float cosn, eps, w;
-
-			if (gx < 0 || gx >= c->gw)
+		mask = lane_weights(c, i, &lq, w);
+		/* summed in the order of the points, as one at a time */
+		for (k = 0; k < 4; k++) {
+			if (!(mask & 1 << k))
 				continue;
-			q = &c->pt[(size_t)gy * c->gw + gx];
-			if (!q->valid)
-				continue;
-			cosn = pm_dot(n, q->n);
-			if (cosn <= min_cos || cosn <= 0.0f)
-				continue;
-			dv = pm_sub(p, q->p);
-			/* In front: the surface curves towards the point. */
-			if (pm_dot(dv, pm_add(n, q->n)) * 0.5f * q->inv_r < -0.05f)
-				continue;
-			eps = pm_length(dv) * q->inv_r + sqrtf(pm_fmaxf(0.0f,
-			    1.0f - cosn));
-			if (!(eps < c->a))
-				continue;
-			w = eps > 1e-6f ? 1.0f / eps - inv_a : 1e6f;
-			sum[0] += (double)w * q->E.r;
-			sum[1] += (double)w * q->E.g;
-			sum[2] += (double)w * q->E.b;
-			wsum += w;
+			sum[0] += (double)w[k] * lanes_at(c, L_ER)[i + k];
+			sum[1] += (double)w[k] * lanes_at(c, L_EG)[i + k];
+			sum[2] += (double)w[k] * lanes_at(c, L_EB)[i + k];
+			wsum += w[k];
 		}
 	}
 	if (!(wsum > 0.0))
@@ -289,5 +431,7 @@ void
 pm_icache_free(struct pm_icache *c)
 {
 	free(c->pt);
+	free(c->lanes);
 	c->pt = NULL;
+	c->lanes = NULL;
 }

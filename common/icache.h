@@ -65,6 +65,12 @@ struct pm_icache {
 	int gw, gh;			/* grid points across and down */
 	float a;			/* Ward's accuracy: larger, smoother */
 	struct pm_icache_point *pt;	/* gw * gh, row by row; owned */
+	/* The points again for pm_icache_lookup, as PM_ICACHE_LANES
+	 * arrays of one quantity each (lanes_at says which), each gh rows
+	 * of gw + 6 with three invalid points before and after a row's
+	 * own: a lookup's four candidates in a row are then one load of
+	 * each array, tested together in SIMD lanes.  Owned. */
+	float *lanes;
 };
 
 /*
@@ -76,6 +82,10 @@ struct pm_icache {
 enum pm_err pm_icache_build(struct pm_icache *c, const struct pm_render_ctx *ctx,
     const struct pm_camera_rays *cr, int step, int rays, float a,
     uint64_t seed, int threads, struct pm_error *err);
+
+/* Fills c->lanes from c->pt, as pm_icache_build does last (for a cache
+ * whose points were set otherwise); false when out of memory. */
+bool pm_icache_pack(struct pm_icache *c);
 
 /*
  * The indirect irradiance at p (normal n, on the seen side) for a camera

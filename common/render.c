@@ -542,7 +542,7 @@ pm_render(const struct pm_render_ctx *ctx, const struct pm_camera *cam,
 {
 	struct job j;
 	struct pm_render_ctx cctx = *ctx;
-	struct pm_icache cache = {0, 0, 0, 0.0f, NULL};
+	struct pm_icache cache = {0, 0, 0, 0.0f, NULL, NULL};
 	pthread_t *tid;
 	int i, nthreads = opts->threads < 1 ? 1 : opts->threads, started = 0;
 	enum pm_err rc;

@@ -14,7 +14,10 @@
  *    Le / (1 - rho) through photons, records, the irradiance cache and
  *    final gathering (a white furnace has one answer everywhere);
  *  - the photon render's camera path from a first hit found in a packet
- *    returns what it does tracing that hit itself, bit for bit.
+ *    returns what it does tracing that hit itself, bit for bit;
+ *  - the irradiance cache's lookup, four points a vector, returns what
+ *    Ward's interpolation one point at a time does, bit for bit, inside
+ *    and outside the grid, for normals it trusts and refuses, and NaN.
  */
 #include <math.h>
 #include <setjmp.h>
@@ -26,6 +29,7 @@
 
 #include <cmocka.h>
 
+#include "../../common/icache.h"
 #include "../../common/irradiance.h"
 #include "../../common/kdtree.h"
 #include "../../common/render.h"
@@ -637,6 +641,120 @@ test_icache_default_step(void **state)
 	assert_int_equal(pm_icache_default_step(256, pm_icache_default_rays(256)), 1);
 }
 
+/* Ward's interpolation as icache.h defines it, one grid point at a time
+ * (the lookup as it was before its SIMD lanes): the reference. */
+static bool
+icache_reference(const struct pm_icache *c, float fx, float fy,
+    struct pm_vec3 p, struct pm_vec3 n, struct pm_rgb *E)
+{
+	int gx0, gy0, gx, gy;
+	double sum[3] = {0, 0, 0}, wsum = 0.0;
+	float inv_a = 1.0f / c->a, min_cos = 1.0f - c->a * c->a;
+
+	if (!isfinite(fx) || !isfinite(fy))
+		return false;
+	gx0 = (int)floorf(fx / (float)c->step) - 1;
+	gy0 = (int)floorf(fy / (float)c->step) - 1;
+	for (gy = gy0; gy < gy0 + 4; gy++)
+		for (gx = gx0; gx < gx0 + 4; gx++) {
+			const struct pm_icache_point *q;
+			struct pm_vec3 dv;
+			float cosn, eps, w;
+
+			if (gy < 0 || gy >= c->gh || gx < 0 || gx >= c->gw)
+				continue;
+			q = &c->pt[(size_t)gy * c->gw + gx];
+			if (!q->valid)
+				continue;
+			cosn = pm_dot(n, q->n);
+			if (cosn <= min_cos || cosn <= 0.0f)
+				continue;
+			dv = pm_sub(p, q->p);
+			if (pm_dot(dv, pm_add(n, q->n)) * 0.5f * q->inv_r < -0.05f)
+				continue;
+			eps = pm_length(dv) * q->inv_r + sqrtf(pm_fmaxf(0.0f,
+			    1.0f - cosn));
+			if (!(eps < c->a))
+				continue;
+			w = eps > 1e-6f ? 1.0f / eps - inv_a : 1e6f;
+			sum[0] += (double)w * q->E.r;
+			sum[1] += (double)w * q->E.g;
+			sum[2] += (double)w * q->E.b;
+			wsum += w;
+		}
+	if (!(wsum > 0.0))
+		return false;
+	*E = pm_rgb((float)(sum[0] / wsum), (float)(sum[1] / wsum),
+	    (float)(sum[2] / wsum));
+	return true;
+}
+
+/* A bumpy grid of points (some invalid, some tilted, one each way of the
+ * validity distance), queried at random film positions from outside the
+ * grid on one side to outside it on the other, with normals near and far
+ * from the points' and now and then NaN: the lookup equals the reference
+ * in its answer and, where it has one, in every bit. */
+static void
+test_icache_lookup_lanes(void **state)
+{
+	struct pm_icache c;
+	struct pm_rng rng = pm_rng_seed(11, 0, 0);
+	const float h = 0.1f;	/* world units between grid points */
+	int gx, gy, i, found = 0, refused = 0;
+
+	(void)state;
+	memset(&c, 0, sizeof(c));
+	c.step = 2;
+	c.gw = 9;
+	c.gh = 7;
+	c.a = 0.6f;
+	c.pt = calloc((size_t)c.gw * (size_t)c.gh, sizeof(*c.pt));
+	assert_non_null(c.pt);
+	for (gy = 0; gy < c.gh; gy++)
+		for (gx = 0; gx < c.gw; gx++) {
+			struct pm_icache_point *q = &c.pt[gy * c.gw + gx];
+
+			q->valid = pm_rng_float(&rng) < 0.85f;
+			q->p = pm_v3(gx * h + 0.02f * pm_rng_float(&rng),
+			    gy * h + 0.02f * pm_rng_float(&rng),
+			    0.03f * pm_rng_float(&rng));
+			q->n = pm_normalize(pm_v3(pm_rng_float(&rng) - 0.5f,
+			    pm_rng_float(&rng) - 0.5f, 1.0f));
+			q->E = pm_rgb(pm_rng_float(&rng), pm_rng_float(&rng),
+			    pm_rng_float(&rng));
+			q->inv_r = 2.0f + 18.0f * pm_rng_float(&rng);
+		}
+	assert_true(pm_icache_pack(&c));
+	for (i = 0; i < 200000; i++) {
+		float fx = -6.0f + (2 * c.gw + 8) * pm_rng_float(&rng);
+		float fy = -6.0f + (2 * c.gh + 8) * pm_rng_float(&rng);
+		struct pm_vec3 p = pm_v3(fx / c.step * h +
+		    0.05f * (pm_rng_float(&rng) - 0.5f), fy / c.step * h +
+		    0.05f * (pm_rng_float(&rng) - 0.5f),
+		    0.1f * (pm_rng_float(&rng) - 0.5f));
+		struct pm_vec3 n = pm_normalize(pm_v3(pm_rng_float(&rng) - 0.5f,
+		    pm_rng_float(&rng) - 0.5f, 1.0f));
+		struct pm_rgb e1, e2;
+		bool a, b;
+
+		if (i % 1000 == 0)
+			n.y = NAN;
+		else if (i % 7 == 0)
+			n = pm_neg(n);
+		a = pm_icache_lookup(&c, fx, fy, p, n, &e1);
+		b = icache_reference(&c, fx, fy, p, n, &e2);
+		assert_int_equal(a, b);
+		if (a)
+			assert_memory_equal(&e1, &e2, sizeof(e1));
+		found += a;
+		refused += !a;
+	}
+	assert_true(found > 10000 && refused > 10000);
+	pm_icache_free(&c);
+	assert_null(c.pt);
+	assert_null(c.lanes);
+}
+
 int
 main(void)
 {
@@ -650,6 +768,7 @@ main(void)
 		cmocka_unit_test(test_stratified_light_points),
 		cmocka_unit_test(test_photon_first_hits),
 		cmocka_unit_test(test_icache_default_step),
+		cmocka_unit_test(test_icache_lookup_lanes),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);
