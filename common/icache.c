@@ -64,6 +64,9 @@ pm_icache_default_step(int spp, int rays)
 	return PM_ICACHE_STEP;
 }
 
+/* Gather rays traced together: at most PM_ICACHE_RAYS a point. */
+#define GATHER_BATCH	64
+
 static void
 build_point(struct icache_job *j, int gx, int gy)
 {
@@ -78,7 +81,7 @@ build_point(struct icache_job *j, int gx, int gy)
 	struct pm_hit h;
 	double sum[3] = {0, 0, 0}, inv_t = 0.0;
 	float tmin, tmax;
-	int a, b, nrays;
+	int i0, nrays;
 
 	pt->valid = false;
 	if (fx > (float)j->cr->width - 0.5f)
@@ -96,15 +99,42 @@ build_point(struct icache_job *j, int gx, int gy)
 		return;
 	n = pm_dot(h.ng, d) < 0.0f ? h.ns : pm_neg(h.ns);
 	fr = pm_frame_from_normal(n);
-	for (a = 0; a < j->k; a++)
-		for (b = 0; b < j->k; b++) {
+	nrays = j->k * j->k;
+	/* GATHER_BATCH rays at a time: their directions drawn first, their
+	 * first hits found together (Embree packets: the rays share an
+	 * origin), then each gather goes on from its hit, drawing its own
+	 * random numbers after the batch's directions. */
+	for (i0 = 0; i0 < nrays; i0 += GATHER_BATCH) {
+		struct pm_ray ray[GATHER_BATCH];
+		struct pm_hit gh[GATHER_BATCH];
+		bool gf[GATHER_BATCH];
+		int i, m = nrays - i0 < GATHER_BATCH ? nrays - i0 : GATHER_BATCH;
+
+		for (i = 0; i < m; i++) {
+			int a = (i0 + i) / j->k, b = (i0 + i) % j->k;
 			float u1 = ((float)a + pm_rng_float(&rng)) / (float)j->k;
 			float u2 = ((float)b + pm_rng_float(&rng)) / (float)j->k;
-			struct pm_vec3 w = pm_normalize(pm_to_world(fr,
+
+			ray[i].d = pm_normalize(pm_to_world(fr,
 			    pm_square_to_cosine_hemisphere(u1, u2)));
+			ray[i].o = pm_hit_origin(&h, ray[i].d);
+			ray[i].tmin = 0.0f;
+			ray[i].tmax = INFINITY;
+		}
+		pm_accel_intersect_n(j->ctx->accel, ray, (size_t)m, gh, gf);
+		if (ctx->maps != NULL && ctx->maps->irradiance_grid != NULL) {
+			struct pm_vec3 at[GATHER_BATCH];
+			size_t nat = 0;
+
+			for (i = 0; i < m; i++)
+				if (gf[i])
+					at[nat++] = gh[i].p;
+			pm_irradiance_prefetch(ctx->maps->irradiance_grid, at, nat);
+		}
+		for (i = 0; i < m; i++) {
 			float t = INFINITY;
-			struct pm_rgb L = pm_photon_gather(ctx, pm_hit_origin(&h, w),
-			    w, &rng, &t);
+			struct pm_rgb L = pm_photon_gather_hit(ctx, ray[i].o,
+			    ray[i].d, &rng, &t, gf[i], &gh[i]);
 
 			sum[0] += L.r;
 			sum[1] += L.g;
@@ -112,8 +142,8 @@ build_point(struct icache_job *j, int gx, int gy)
 			if (isfinite(t) && t > 0.0f)
 				inv_t += 1.0 / (double)pm_fmaxf(t, j->r_min);
 		}
+	}
 	/* Cosine-distributed rays: E = pi * mean radiance. */
-	nrays = j->k * j->k;
 	pt->E = pm_rgb((float)(PM_PI * sum[0] / nrays),
 	    (float)(PM_PI * sum[1] / nrays), (float)(PM_PI * sum[2] / nrays));
 	if (!pm_rgb_is_finite(pt->E))

@@ -175,6 +175,11 @@ bool pm_photon_cacheable(const struct pm_bsdf *b);
  * surface hit, INFINITY for none. */
 struct pm_rgb pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
     struct pm_vec3 d, struct pm_rng *rng, float *t);
+/* The same with the ray's first hit already found (hit, h: what
+ * pm_accel_intersect gives for it), for rays cast in packets. */
+struct pm_rgb pm_photon_gather_hit(const struct pm_render_ctx *ctx,
+    struct pm_vec3 o, struct pm_vec3 d, struct pm_rng *rng, float *t,
+    bool hit, const struct pm_hit *h);
 
 /* Participating media in the path tracer (integrator_volume.c). */
 

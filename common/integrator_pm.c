@@ -391,7 +391,8 @@ records_irradiance(const struct pm_photon_maps *m, struct pm_vec3 p,
  */
 static struct pm_rgb
 gather_in(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
-    int medium, int depth, struct pm_rng *rng, float *t)
+    int medium, int depth, struct pm_rng *rng, float *t, const bool *first_hit,
+    const struct pm_hit *first)
 {
 	const struct pm_photon_maps *m = ctx->maps;
 	const struct pm_scene *s = ctx->scene;
@@ -414,7 +415,14 @@ gather_in(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 		bool hit;
 		float u1, u2, u3;
 
-		hit = pm_accel_intersect(ctx->accel, o, d, 0.0f, INFINITY, &h);
+		if (first != NULL && bounce == 0 && crossings == 0) {
+			/* found already, as pm_accel_intersect would */
+			hit = *first_hit;
+			if (hit)
+				h = *first;
+		} else
+			hit = pm_accel_intersect(ctx->accel, o, d, 0.0f, INFINITY,
+			    &h);
 		if (medium >= 0) {
 			/* media: in-scattering along the segment */
 			struct pm_rgb tr;
@@ -535,7 +543,15 @@ struct pm_rgb
 pm_photon_gather(const struct pm_render_ctx *ctx, struct pm_vec3 o,
     struct pm_vec3 d, struct pm_rng *rng, float *t)
 {
-	return gather_in(ctx, o, d, -1, 1, rng, t);
+	return gather_in(ctx, o, d, -1, 1, rng, t, NULL, NULL);
+}
+
+struct pm_rgb
+pm_photon_gather_hit(const struct pm_render_ctx *ctx, struct pm_vec3 o,
+    struct pm_vec3 d, struct pm_rng *rng, float *t, bool hit,
+    const struct pm_hit *h)
+{
+	return gather_in(ctx, o, d, -1, 1, rng, t, &hit, h);
 }
 
 /* Indirect light at a diffuse hit by final gathering: BSDF-sampled rays;
@@ -561,7 +577,7 @@ final_gather(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 		L = pm_rgb_madd(L, bs.weight, gather_in(ctx,
 		    pm_hit_origin(h, d), d, ctx->scene->nmedia > 0 ?
 		    pm_medium_after(ctx->scene, h, d, medium) : -1, depth + 1,
-		    rng, NULL));
+		    rng, NULL, NULL, NULL));
 	}
 	return pm_rgb_scale(L, 1.0f / (float)n);
 }

@@ -483,6 +483,39 @@ scan_cell(const struct pm_irr_grid *g, size_t c, struct pm_vec3 p,
 	}
 }
 
+static inline size_t
+grid_cell(const struct pm_irr_grid *g, struct pm_vec3 p)
+{
+	return ((size_t)cell_coord(p.z, g->lo[2], g->inv_cell, g->nz) *
+	    (size_t)g->ny + (size_t)cell_coord(p.y, g->lo[1], g->inv_cell,
+	    g->ny)) * (size_t)g->nx + (size_t)cell_coord(p.x, g->lo[0],
+	    g->inv_cell, g->nx);
+}
+
+void
+pm_irradiance_prefetch(const struct pm_irr_grid *g, const struct pm_vec3 *p,
+    size_t n)
+{
+	size_t i;
+
+	if (g == NULL || g->start == NULL)
+		return;
+	/* the cells' starts, all of them in flight at once; then, as they
+	 * arrive, the first records each names (a cell holds a few, which
+	 * the next line's prefetch covers) */
+	for (i = 0; i < n; i++)
+		__builtin_prefetch(&g->start[grid_cell(g, p[i])]);
+	for (i = 0; i < n; i++) {
+		size_t c = grid_cell(g, p[i]);
+		uint32_t k = g->start[c], e = g->start[c + 1];
+
+		if (k < e)
+			__builtin_prefetch(&g->rec[k]);
+		if (e - k > 2)
+			__builtin_prefetch(&g->rec[k + 2]);
+	}
+}
+
 bool
 pm_irradiance_lookup(const struct pm_irr_grid *g, struct pm_vec3 p,
     struct pm_vec3 nrm, struct pm_rgb *E)

@@ -12,7 +12,9 @@
  *    record's own position, and nothing for a normal no record has;
  *  - a closed diffuse sphere that emits Le inside and reflects rho renders
  *    Le / (1 - rho) through photons, records, the irradiance cache and
- *    final gathering (a white furnace has one answer everywhere);
+ *    final gathering (a white furnace has one answer everywhere); there, a
+ *    gather ray from a first hit found in a packet returns what it does
+ *    tracing that hit itself, bit for bit;
  *  - the photon render's camera path from a first hit found in a packet
  *    returns what it does tracing that hit itself, bit for bit;
  *  - the irradiance cache's lookup, four points a vector, returns what
@@ -349,6 +351,48 @@ test_grid_threads(void **state)
 	free(p);
 }
 
+/* The irradiance cache's gather rays cast in packets (icache.c):
+ * pm_photon_gather_hit from the hits pm_accel_intersect_n gives returns
+ * pm_photon_gather's radiance and distance and leaves the random state
+ * where it does, bit for bit, for rays from the centre (hitting the
+ * sphere) and from outside it pointing away (hitting nothing). */
+static void
+gather_first_hits(const struct pm_render_ctx *ctx, const struct pm_accel *a)
+{
+	enum { N = 48 };
+	struct pm_ray ray[N];
+	struct pm_hit hit[N];
+	bool hitf[N];
+	struct pm_rng r = pm_rng_seed(6, 0, 0);
+	int i, nhit = 0, nmiss = 0, nlit = 0;
+
+	for (i = 0; i < N; i++) {
+		ray[i].o = i % 4 == 3 ? pm_v3(0, 0, 20) : pm_v3(0, 0, 0);
+		ray[i].d = pm_normalize(pm_v3(pm_rng_float(&r) - 0.5f,
+		    pm_rng_float(&r) - 0.5f, i % 4 == 3 ? 1.0f :
+		    pm_rng_float(&r) - 0.5f));
+		ray[i].tmin = 0.0f;
+		ray[i].tmax = INFINITY;
+	}
+	pm_accel_intersect_n(a, ray, N, hit, hitf);
+	for (i = 0; i < N; i++) {
+		struct pm_rng r1 = pm_rng_seed(9, 2, (uint64_t)i), r2 = r1;
+		struct pm_rgb want, got;
+		float t1, t2;
+
+		want = pm_photon_gather(ctx, ray[i].o, ray[i].d, &r1, &t1);
+		got = pm_photon_gather_hit(ctx, ray[i].o, ray[i].d, &r2, &t2,
+		    hitf[i], &hit[i]);
+		assert_memory_equal(&got, &want, sizeof(want));
+		assert_memory_equal(&t1, &t2, sizeof(t1));
+		assert_memory_equal(&r1, &r2, sizeof(r1));
+		nhit += hitf[i];
+		nmiss += !hitf[i];
+		nlit += want.g > 0.0f;
+	}
+	assert_true(nhit > 0 && nmiss > 0 && nlit > 0);
+}
+
 static void
 test_furnace_final_gather(void **state)
 {
@@ -440,6 +484,7 @@ test_furnace_final_gather(void **state)
 	assert_true(fabs(mean[1] / (Le.g / (1 - rho)) - 1.0) < 0.02);
 	assert_true(fabs(mean[2] / (Le.b / (1 - rho)) - 1.0) < 0.02);
 	pm_image_free(&im);
+	gather_first_hits(&ctx, world.accel);
 
 	/* Without records, gather rays end in the whole global map, every
 	 * photon of every depth when the depth is unlimited (pm-render's
