@@ -65,11 +65,11 @@ struct pm_icache {
 	int gw, gh;			/* grid points across and down */
 	float a;			/* Ward's accuracy: larger, smoother */
 	struct pm_icache_point *pt;	/* gw * gh, row by row; owned */
-	/* The points again for pm_icache_lookup, as PM_ICACHE_LANES
-	 * arrays of one quantity each (lanes_at says which), each gh rows
-	 * of gw + 6 with three invalid points before and after a row's
-	 * own: a lookup's four candidates in a row are then one load of
-	 * each array, tested together in SIMD lanes.  Owned. */
+	/* The points again for pm_icache_lookup, one array per quantity
+	 * (icache.c's L_* name them), each gh rows of gw + 6 with three
+	 * invalid points before and after a row's own: a lookup's four
+	 * candidates in a row are then one load of each array, tested
+	 * together in SIMD lanes.  Owned. */
 	float *lanes;
 };
 
