@@ -292,7 +292,14 @@ pm_accel_build(const struct pm_scene *s, struct pm_accel **out,
 	a->packet16 = rtcGetDeviceProperty(a->device,
 	    RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED) != 0;
 	a->scene = rtcNewScene(a->device);
-	rtcSetSceneFlags(a->scene, RTC_SCENE_FLAG_ROBUST);
+	/* Mitsuba 3's default, Embree's plain scene: its robust mode
+	 * (watertight triangles, conservative boxes) cast path tracing's
+	 * rays 1.08x slower in the Cornell box, photons 1.05x (one core
+	 * each, side by side, docs/accuracy.md); a scene that needs rays
+	 * never to slip between two triangles' shared edge asks for it as
+	 * it would Mitsuba. */
+	rtcSetSceneFlags(a->scene, s->robust ? RTC_SCENE_FLAG_ROBUST :
+	    RTC_SCENE_FLAG_NONE);
 	rtcSetSceneBuildQuality(a->scene, PM_ACCEL_QUALITY);
 	for (i = 0; i < s->nshapes; i++) {
 		const struct pm_shape *sh = &s->shapes[i];

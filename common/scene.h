@@ -181,6 +181,11 @@ struct pm_scene {
 	int env_light;			/* index of the constant or envmap
 					 * light (at most one), or -1 */
 	char *path;			/* the file it was loaded from */
+	/* Mitsuba's scene parameter embree_use_robust_intersections:
+	 * Embree's watertight triangle test and conservative traversal
+	 * (RTC_SCENE_FLAG_ROBUST), off by default as in Mitsuba 3, whose
+	 * rays then go where pm's do (common/accel.c) */
+	bool robust;
 	size_t dropped_triangles;	/* degenerate triangles left out of meshes */
 	/* Measured BRDF tables, one per file however many BSDFs use it;
 	 * freed with the scene. */

@@ -29,6 +29,17 @@ build_scene(struct ld *ld)
 
 	if ((e = sx_build_idmap(ld)) != PM_OK)
 		return e;
+	/* The scene's own parameters (Mitsuba's Scene plugin): only its
+	 * choice of Embree's robust mode, which pm follows. */
+	{
+		struct plist pl;
+
+		if ((e = sx_collect_scene(ld, ld->root, &pl)) != PM_OK ||
+		    (e = sx_get_bool(ld, &pl, "embree_use_robust_intersections",
+		    false, &ld->s->robust)) != PM_OK ||
+		    (e = sx_finish(ld, &pl)) != PM_OK)
+			return e;
+	}
 	/* BSDF definitions first, so that their errors come in order. */
 	for (k = ld->root->kids; k != NULL; k = k->next)
 		if (strcmp(k->tag, "bsdf") == 0 &&
@@ -52,7 +63,9 @@ build_scene(struct ld *ld)
 			e = sx_check_phase(ld, k);
 		else if (strcmp(k->tag, "texture") == 0)
 			e = sx_texture_index(ld, k, &ti);	/* once, if used */
-		else if (sx_is_object_tag(k->tag) || sx_ptype_of(k->tag) >= 0)
+		else if (sx_ptype_of(k->tag) >= 0)
+			continue;	/* the scene's own, read above */
+		else if (sx_is_object_tag(k->tag))
 			e = sx_fail(ld, k, PM_ERR_INVALID, "<%s> cannot appear "
 			    "directly inside <scene>", k->tag);
 		else

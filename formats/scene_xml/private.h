@@ -207,6 +207,8 @@ enum pm_err sx_xyz(struct ld *ld, const struct xnode *n, double def,
 /* props.c */
 enum pm_err sx_collect(struct ld *ld, const struct xnode *owner,
     const char *kind, const char *type, struct plist *pl);
+enum pm_err sx_collect_scene(struct ld *ld, const struct xnode *root,
+    struct plist *pl);
 enum pm_err sx_finish(struct ld *ld, struct plist *pl);
 enum pm_err sx_get_bool(struct ld *ld, struct plist *pl, const char *name,
     bool def, bool *out);

@@ -119,6 +119,44 @@ parse_prop(struct ld *ld, const struct xnode *k, enum ptype t, struct prop *p)
 	return PM_OK;
 }
 
+/* Starts pl for owner's children, with room for every one of them as a
+ * property. */
+static enum pm_err
+plist_start(struct ld *ld, const struct xnode *owner, struct plist *pl)
+{
+	struct xnode *k;
+	size_t n = 0;
+
+	memset(pl, 0, sizeof(*pl));
+	pl->owner = owner;
+	for (k = owner->kids; k != NULL; k = k->next)
+		n++;
+	if (n > 0 && (pl->p = sx_arena_alloc(&ld->arena, n * sizeof(*pl->p)))
+	    == NULL)
+		return sx_nomem(ld);
+	return PM_OK;
+}
+
+/* Adds the property element k (of type t) to pl; a name given twice is
+ * an error. */
+static enum pm_err
+plist_add(struct ld *ld, struct plist *pl, const struct xnode *k, int t)
+{
+	struct prop *p = &pl->p[pl->n];
+	size_t i;
+	enum pm_err e;
+
+	if ((e = parse_prop(ld, k, (enum ptype)t, p)) != PM_OK)
+		return e;
+	for (i = 0; i < pl->n; i++)
+		if (strcmp(pl->p[i].name, p->name) == 0)
+			return sx_fail(ld, k, PM_ERR_INVALID, "%s: parameter "
+			    "\"%s\" given twice (also at line %d)", pl->what,
+			    p->name, pl->p[i].n->line);
+	pl->n++;
+	return PM_OK;
+}
+
 /*
  * Reads the children of an object element: properties into pl->p, nested
  * objects and refs into pl->obj.  Anything else is an error.
@@ -128,31 +166,16 @@ sx_collect(struct ld *ld, const struct xnode *owner, const char *kind,
     const char *type, struct plist *pl)
 {
 	struct xnode *k;
-	size_t n = 0, i;
 	int t;
 	enum pm_err e;
 
-	memset(pl, 0, sizeof(*pl));
-	pl->owner = owner;
+	if ((e = plist_start(ld, owner, pl)) != PM_OK)
+		return e;
 	snprintf(pl->what, sizeof(pl->what), "%s \"%s\"", kind, type);
-	for (k = owner->kids; k != NULL; k = k->next)
-		n++;
-	if (n > 0 && (pl->p = sx_arena_alloc(&ld->arena, n * sizeof(*pl->p)))
-	    == NULL)
-		return sx_nomem(ld);
 	for (k = owner->kids; k != NULL; k = k->next) {
 		if ((t = sx_ptype_of(k->tag)) >= 0) {
-			struct prop *p = &pl->p[pl->n];
-
-			if ((e = parse_prop(ld, k, (enum ptype)t, p)) != PM_OK)
+			if ((e = plist_add(ld, pl, k, t)) != PM_OK)
 				return e;
-			for (i = 0; i < pl->n; i++)
-				if (strcmp(pl->p[i].name, p->name) == 0)
-					return sx_fail(ld, k, PM_ERR_INVALID,
-					    "%s: parameter \"%s\" given twice "
-					    "(also at line %d)", pl->what,
-					    p->name, pl->p[i].n->line);
-			pl->n++;
 		} else if (strcmp(k->tag, "texture") == 0) {
 			if (pl->ntex == sizeof(pl->tex) / sizeof(pl->tex[0]))
 				return sx_fail(ld, k, PM_ERR_LIMIT,
@@ -168,6 +191,25 @@ sx_collect(struct ld *ld, const struct xnode *owner, const char *kind,
 			    "unknown element <%s> in %s", k->tag, pl->what);
 		}
 	}
+	return PM_OK;
+}
+
+/* The property children of <scene> (its own parameters), leaving its
+ * objects to the caller. */
+enum pm_err
+sx_collect_scene(struct ld *ld, const struct xnode *root, struct plist *pl)
+{
+	struct xnode *k;
+	int t;
+	enum pm_err e;
+
+	if ((e = plist_start(ld, root, pl)) != PM_OK)
+		return e;
+	snprintf(pl->what, sizeof(pl->what), "<scene>");
+	for (k = root->kids; k != NULL; k = k->next)
+		if ((t = sx_ptype_of(k->tag)) >= 0 &&
+		    (e = plist_add(ld, pl, k, t)) != PM_OK)
+			return e;
 	return PM_OK;
 }
 

@@ -869,6 +869,37 @@ test_sensor(void **state)
 	pm_scene_free(&s);
 }
 
+/* The scene's own parameter embree_use_robust_intersections, as
+ * Mitsuba's: off unless given; any other parameter of <scene> fails. */
+static void
+test_scene_params(void **state)
+{
+	struct pm_scene s;
+
+	(void)state;
+	load_ok("<scene version=\"3.0.0\"><shape type=\"sphere\"/></scene>",
+	    &s);
+	assert_false(s.robust);
+	pm_scene_free(&s);
+	load_ok("<scene version=\"3.0.0\"><shape type=\"sphere\"/>"
+	    "<boolean name=\"embree_use_robust_intersections\" "
+	    "value=\"true\"/></scene>", &s);
+	assert_true(s.robust);
+	assert_int_equal(s.nshapes, 1);
+	pm_scene_free(&s);
+	load_fails("<scene version=\"3.0.0\">\n"
+	    "<float name=\"embree_use_robust_intersectionz\" value=\"1\"/>"
+	    "</scene>", 2, "unknown parameter \"embree_use_robust_"
+	    "intersectionz\" for <scene>");
+	load_fails("<scene version=\"3.0.0\">\n"
+	    "<float name=\"embree_use_robust_intersections\" value=\"1\"/>"
+	    "</scene>", 2, "embree_use_robust_intersections");
+	load_fails("<scene version=\"3.0.0\">\n<boolean name=\"embree_use_"
+	    "robust_intersections\" value=\"true\"/>\n<boolean name=\"embree_"
+	    "use_robust_intersections\" value=\"false\"/></scene>", 3,
+	    "given twice");
+}
+
 static void
 test_integrators(void **state)
 {
@@ -1663,6 +1694,7 @@ main(void)
 		cmocka_unit_test(test_include),
 		cmocka_unit_test(test_transform_order),
 		cmocka_unit_test(test_errors),
+		cmocka_unit_test(test_scene_params),
 		cmocka_unit_test(test_cbox),
 	};
 
