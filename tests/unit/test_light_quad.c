@@ -4,7 +4,8 @@
  * pm_light_quad): recognised where it is one and only there, its points
  * uniform over it (chi-square over a grid in its own coordinates), and
  * the irradiance its samples estimate equal to the rectangle's closed
- * form, with the density a ray that finds the point agrees on.
+ * form, with the density a ray that finds the point agrees on; photons
+ * leave it (common/shoot.c) with its whole power and on its lit side.
  */
 #include <math.h>
 #include <setjmp.h>
@@ -17,7 +18,9 @@
 #include <cmocka.h>
 
 #include "../../common/light.h"
+#include "../../common/photon.h"
 #include "../../common/rng.h"
+#include "../../common/shoot.h"
 #include "../../common/world.h"
 #include "../../formats/scene_xml.h"
 
@@ -178,6 +181,78 @@ test_uniform_and_unbiased(void **state)
 	pm_scene_free(&s);
 }
 
+/*
+ * Photons from a rectangle light (a quad) inside a closed black box: every
+ * path's first hit stores the light's power, pi A Le, whole (cosine
+ * sampling makes each photon's flux that exactly, up to RGBE rounding),
+ * and none starts on the dark side: the box's floor (below the light,
+ * which faces -z after its turn) takes every photon, centred under it as
+ * the light is on its centre (a point map bent towards a corner moves
+ * the mean by many standard errors).
+ */
+static void
+test_photons_leave_the_lit_side(void **state)
+{
+	const uint64_t n = 100000;
+	struct pm_scene s;
+	struct pm_world w;
+	struct pm_shooter sh;
+	struct pm_photon_buf b = {NULL, 0, 0};
+	struct pm_shoot_opts o = {PM_PASS_GLOBAL, 7, 0, n, 0, 1, NULL, NULL,
+	    NULL, NULL};
+	struct pm_shoot_stats st;
+	struct pm_error err;
+	double sum[3] = {0, 0, 0}, mx = 0, my = 0, sx = 0, sy = 0;
+	size_t i, below = 0;
+
+	(void)state;
+	load("<shape type=\"cube\"><transform name=\"to_world\"><scale "
+	    "value=\"2\"/></transform><bsdf type=\"diffuse\"><rgb name="
+	    "\"reflectance\" value=\"0\"/></bsdf></shape>\n"
+	    "<shape type=\"rectangle\"><transform name=\"to_world\">"
+	    "<scale x=\"0.5\" y=\"0.25\"/><rotate x=\"1\" angle=\"180\"/>"
+	    "<translate z=\"1\"/></transform><emitter type=\"area\">"
+	    "<rgb name=\"radiance\" value=\"1, 2, 3\"/></emitter></shape>\n",
+	    &s, &w);
+	assert_true(w.lights.quad[0].on);
+	memset(&err, 0, sizeof(err));
+	assert_int_equal(pm_shooter_init(&sh, &s, w.accel, &w.lights, &err),
+	    PM_OK);
+	assert_int_equal(pm_shoot(&sh, &o, &b, &st, &err), PM_OK);
+	for (i = 0; i < b.n; i++) {
+		struct pm_rgb f = pm_rgbe_unpack(b.p[i].power);
+
+		assert_int_equal(b.p[i].depth, 0);
+		sum[0] += f.r;
+		sum[1] += f.g;
+		sum[2] += f.b;
+		below += b.p[i].pos[2] < 1.0f;
+		mx += b.p[i].pos[0];
+		my += b.p[i].pos[1];
+		sx += (double)b.p[i].pos[0] * b.p[i].pos[0];
+		sy += (double)b.p[i].pos[1] * b.p[i].pos[1];
+	}
+	mx /= n;
+	my /= n;
+	sx = sqrt((sx / n - mx * mx) / n);
+	sy = sqrt((sy / n - my * my) / n);
+	print_message("quad light photons: %zu stored, %zu below it, power "
+	    "%.5f %.5f %.5f (want pi/2 times 1, 2, 3), mean x %.5f +- %.5f, "
+	    "y %.5f +- %.5f\n", b.n, below, sum[0] / n, sum[1] / n,
+	    sum[2] / n, mx, sx, my, sy);
+	assert_true(fabs(mx) < 4 * sx);
+	assert_true(fabs(my) < 4 * sy);
+	assert_int_equal(b.n, n);
+	assert_int_equal(below, n);
+	for (i = 0; i < 3; i++)
+		assert_true(fabs(sum[i] / n - M_PI / 2 * (i + 1)) <
+		    1e-3 * M_PI / 2 * (i + 1));
+	pm_photon_buf_free(&b);
+	pm_shooter_free(&sh);
+	pm_world_free(&w);
+	pm_scene_free(&s);
+}
+
 int
 main(void)
 {
@@ -185,6 +260,7 @@ main(void)
 		cmocka_unit_test(test_recognised),
 		cmocka_unit_test(test_kite_is_not_a_quad),
 		cmocka_unit_test(test_uniform_and_unbiased),
+		cmocka_unit_test(test_photons_leave_the_lit_side),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);
