@@ -227,6 +227,14 @@ static inline float pm_diffuse_pdf(struct pm_vec3 wi, struct pm_vec3 wo)
 	return wo.z * PM_INV_PI;
 }
 
+/* A plain diffuse BSDF (no map, no lobe selection), the commonest at a
+ * path's vertices: its eval, pdf and sample are the inline diffuse lobe's
+ * (below), the same bits as through bsdf.c, with twosided's flip. */
+static inline bool pm_bsdf_plain_diffuse(const struct pm_bsdf *b)
+{
+	return b->type == PM_BSDF_DIFFUSE && !b->perturbed && b->only == 0;
+}
+
 static inline bool pm_diffuse_sample(struct pm_rgb r, struct pm_vec3 wi,
     float u2, float u3, struct pm_bsdf_sample *s)
 {

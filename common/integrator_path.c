@@ -20,22 +20,16 @@
 #include "texture.h"
 
 /*
- * A plain diffuse BSDF (no map, no lobe selection), the commonest at a
+ * A plain diffuse BSDF (pm_bsdf_plain_diffuse), the commonest at a
  * path's vertices, goes to bsdf.h's inline diffuse lobe without the calls
  * and the dispatch (the same bits as through bsdf.c); every other BSDF
  * goes through bsdf.c.  Diffuse reflection transmits nothing, so
  * twosided's flip needs only wi below the surface.
  */
-static inline bool
-plain_diffuse(const struct pm_bsdf *b)
-{
-	return b->type == PM_BSDF_DIFFUSE && !b->perturbed && b->only == 0;
-}
-
 static inline struct pm_rgb
 bsdf_eval(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo)
 {
-	if (!plain_diffuse(b))
+	if (!pm_bsdf_plain_diffuse(b))
 		return pm_bsdf_eval(b, wi, wo, PM_RADIANCE);
 	if (b->twosided && wi.z < 0.0f) {
 		wi.z = -wi.z;
@@ -47,7 +41,7 @@ bsdf_eval(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo)
 static inline float
 bsdf_pdf(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo)
 {
-	if (!plain_diffuse(b))
+	if (!pm_bsdf_plain_diffuse(b))
 		return pm_bsdf_pdf(b, wi, wo);
 	if (b->twosided && wi.z < 0.0f) {
 		wi.z = -wi.z;
@@ -62,7 +56,7 @@ bsdf_sample(const struct pm_bsdf *b, struct pm_vec3 wi, float u1, float u2,
 {
 	bool flip;
 
-	if (!plain_diffuse(b))
+	if (!pm_bsdf_plain_diffuse(b))
 		return pm_bsdf_sample(b, wi, u1, u2, u3, PM_RADIANCE, bs);
 	flip = b->twosided && wi.z < 0.0f;
 	if (flip)

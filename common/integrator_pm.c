@@ -515,6 +515,22 @@ gather_in(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 		u1 = pm_rng_float(rng);
 		u2 = pm_rng_float(rng);
 		u3 = pm_rng_float(rng);
+		if (pm_bsdf_plain_diffuse(b)) {
+			/* A diffuse surface ends the gather with the records'
+			 * irradiance, so its BSDF sample's direction would go
+			 * unused (its cosine map was 7% of a photon render):
+			 * only its weight counts, the reflectance, when light
+			 * can come from wi's side (pm_diffuse_sample's test,
+			 * after twosided's flip).  The numbers are drawn all
+			 * the same: the random stream stays as it was. */
+			float wz = b->twosided && wi.z < 0.0f ? -wi.z : wi.z;
+
+			if (wz <= 0.0f)
+				break;
+			return pm_rgb_madd(L, pm_rgb_mul(beta, b->diffuse),
+			    pm_rgb_scale(records_irradiance(m, h.p, nrm),
+			    1.0f / PM_PI));
+		}
 		if (!pm_bsdf_sample(b, wi, u1, u2, u3, PM_RADIANCE, &bs))
 			break;
 		beta = pm_rgb_mul(beta, bs.weight);
