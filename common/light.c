@@ -524,12 +524,6 @@ pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
 			o->p = pm_madd(sh->center, u, sh->radius);
 			o->n = sh->flip_normals ? pm_neg(u) : u;
 			ns = o->n;
-		} else if (ls->quad[li].on) {
-			const struct pm_light_quad *q = &ls->quad[li];
-
-			o->p = pm_madd(pm_madd(q->p0, q->e1, u1), q->e2, u2);
-			o->n = q->n;
-			ns = q->ns;
 		} else {
 			const struct pm_mesh *m = &sh->mesh;
 			size_t t0 = ls->tri0[li];

@@ -1,11 +1,11 @@
 /*
  * test_light_quad.c: an area light that is one parallelogram (Mitsuba's
- * rectangle) is sampled as a parallelogram (light.h, struct
- * pm_light_quad): recognised where it is one and only there, its points
- * uniform over it (chi-square over a grid in its own coordinates), and
- * the irradiance its samples estimate equal to the rectangle's closed
- * form, with the density a ray that finds the point agrees on; photons
- * leave it (common/shoot.c) with its whole power and on its lit side.
+ * rectangle) is recognised as one (light.h, struct pm_light_quad) where
+ * it is one and only there; light samples on it are uniform over it
+ * (chi-square over a grid in its own coordinates), and the irradiance
+ * they estimate equals the rectangle's closed form, with the density a
+ * ray that finds the point agrees on; photons leave it (common/shoot.c,
+ * by the quad) with its whole power, on its lit side, centred.
  */
 #include <math.h>
 #include <setjmp.h>
