@@ -15,9 +15,7 @@
  * this brought pm's variance per sample from 2.25 times Mitsuba's (whose
  * choice is uniform) to 1.64 times.  Photons are emitted by power alone
  * (pick).  A point on an area light is chosen uniformly by
- * area (triangles by area, then uniformly within; photons from a light
- * that is one parallelogram, such as Mitsuba's rectangle, directly on
- * it).
+ * area (triangles by area, then uniformly within).
  */
 #ifndef PM_LIGHT_H
 #define PM_LIGHT_H
@@ -55,26 +53,6 @@ struct pm_light_tri {
 	bool flat;			/* no vertex normals, or three equal */
 };
 
-/*
- * An area light that is one parallelogram (two triangles sharing a
- * diagonal: Mitsuba's rectangle): photons leave it (shoot.c) as Mitsuba
- * samples its rectangle, p0 + u1 e1 + u2 e2, uniform by area as the
- * triangles' way, without drawing a triangle and a square root first.
- * Light samples still go by triangles: by the parallelogram they were
- * 1.05x faster and the photon render's error at 16 spp 12% lower in the
- * Cornell box (its first light sample per pixel is stratified, and the
- * direct map keeps the strata), but their new noise put data/smoke.xml's
- * comparison with Mitsuba over its limit, through a bias of +0.28% that
- * was there before (docs/media.md, docs/accuracy.md stop 28): back on
- * once that is found.
- */
-struct pm_light_quad {
-	struct pm_vec3 p0, e1, e2;
-	struct pm_vec3 n, ns;		/* geometric and shading normal */
-	bool on;			/* the light is such a parallelogram,
-					 * untextured, flat */
-};
-
 struct pm_lights {
 	struct pm_distrib pick;		/* over scene.lights, by power: photons */
 	struct pm_distrib nee;		/* half by power (an environment's
@@ -95,7 +73,6 @@ struct pm_lights {
 	struct pm_light_tri *tri;
 	struct pm_alias *tri_alias;
 	size_t *tri0;
-	struct pm_light_quad *quad;	/* per light (n) */
 };
 
 /* Builds an alias table over w[0..n) (n >= 1, finite w >= 0 with a
