@@ -38,7 +38,7 @@
 # SPOT_RES (128), SPOT_MITSUBA_SPP (4096) and SPOT_PM_SPP (1024, path
 # mode) for spot-haze,
 # MITSUBA_VARIANT, PM_VENV (build/venv), SMOKE_MITSUBA_SPP (smoke's
-# Mitsuba spp, MITSUBA_SPP / 4 unset), MITSUBA_ONLY (the checks to run,
+# Mitsuba spp, MITSUBA_SPP unset), MITSUBA_ONLY (the checks to run,
 # by the names the results give them, separated by spaces, e.g. "fog-box
 # texture-lookups"; unset: all).
 
@@ -87,12 +87,17 @@ now() { date +%s; }
 
 # mitsuba NAME TAG SCENE SPP SEED [render_mitsuba options]: one Mitsuba
 # render to $OUT/NAME-TAG.exr; its log goes to the TAP diagnostics.
+# MI_DEFINES (name=value ..., empty but for smoke) are Mitsuba's alone.
+MI_DEFINES=
 mitsuba() {
 	_out=$OUT/$1-$2.exr
 	_scene=$3
 	_spp=$4
 	_seed=$5
 	shift 5
+	for _d in $MI_DEFINES; do
+		set -- "$@" -D "$_d"
+	done
 	"$PY" "$HERE/render_mitsuba.py" "$_scene" "$_out" --spp "$_spp" \
 	    -D "res=$RES" --seed "$_seed" --variant "$VARIANT" \
 	    --key-scope scene ${MITSUBA_RECORD:+--record "$MITSUBA_RECORD"} \
@@ -365,15 +370,23 @@ fi
 # its grids), and fog-box's fog as a constant RGB grid volume
 # (heterogeneous, delta tracking against a majorant, the camera inside it)
 # where fog-box has it homogeneous.
-# Mitsuba's volpath tracks the smoke against the grid's largest value
-# alone, each null collision a turn of its whole loop: at 256x256 and
-# only 64 spp its renders took 528 s and 574 s (2026-12-01, a shared and
-# loaded machine, where hetero-box's at 256 spp took 114 s and 130 s), so
-# it gets a quarter of MITSUBA_SPP (SMOKE_MITSUBA_SPP overrides).
+# Mitsuba renders smoke with the medium's sample_emitters off: its
+# volpath's light samples from points of a medium within a few tenths of
+# the light, whose shadow rays leave through a null boundary, come out
+# far too dark (data/smoke.xml's plume top, 0.24 under the light: 10x in
+# a homogeneous test box, against quadrature; docs/media.md), while its
+# phase-function sampling alone agrees with quadrature and with pm.
+# pm-render keeps its light samples (the scene's default).  Without them
+# Mitsuba's smoke also renders faster: 2x64 spp at 256x256 in 72 s and
+# 54 s (2026-12-03), where with them it took 268 s and 473 s, its shadow
+# rays tracked through the grid against its largest value.
+# SMOKE_MITSUBA_SPP sets its spp apart (MITSUBA_SPP unset).
 if [ -f data/smoke.xml ] && [ -f data/smoke.vol ]; then
 	_mi_spp=$MI_SPP
-	MI_SPP=${SMOKE_MITSUBA_SPP:-$(( MI_SPP / 4 > 0 ? MI_SPP / 4 : 1 ))}
+	MI_SPP=${SMOKE_MITSUBA_SPP:-$MI_SPP}
+	MI_DEFINES=sample_emitters=false
 	run smoke data/smoke.xml
+	MI_DEFINES=
 	MI_SPP=$_mi_spp
 elif wanted smoke; then
 	check "smoke: data/smoke.xml or its grid (make data/smoke.vol) is missing" false
@@ -399,8 +412,10 @@ if [ "$selftest" = 0 ]; then
 	if [ -f data/smoke.xml ] && [ -f data/smoke.vol ] &&
 	    wanted smoke-photon; then
 		_mi_spp=$MI_SPP
-		MI_SPP=${SMOKE_MITSUBA_SPP:-$(( MI_SPP / 4 > 0 ? MI_SPP / 4 : 1 ))}
+		MI_SPP=${SMOKE_MITSUBA_SPP:-$MI_SPP}
+		MI_DEFINES=sample_emitters=false	# as for smoke, above
 		against smoke-photon data/smoke.xml photon
+		MI_DEFINES=
 		MI_SPP=$_mi_spp
 	fi
 	[ -f "$VARIANTS/hetero-box.xml" ] && wanted hetero-box-photon &&
