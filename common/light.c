@@ -140,6 +140,55 @@ pm_alias_build(struct pm_alias *t, const double *w, size_t n,
 	return PM_OK;
 }
 
+/*
+ * Whether mesh m (its light triangles lt) is one flat parallelogram: two
+ * triangles sharing two vertices, the other two opposite them (their sum
+ * that of the shared two, to a millionth of the size), with equal
+ * normals.  Then q is set on.
+ */
+static void
+find_quad(const struct pm_mesh *m, const struct pm_light_tri *lt,
+    struct pm_light_quad *q)
+{
+	const uint32_t *a = &m->idx[0], *b = &m->idx[3];
+	int i, k, ua = -1, ub = -1, ns = 0;
+	uint32_t s[2] = {0, 0};
+	struct pm_vec3 va, vb, gap;
+	float size;
+
+	q->on = false;
+	if (m->ntris != 2 || !lt[0].flat || !lt[1].flat ||
+	    memcmp(&lt[0].ns, &lt[1].ns, sizeof(lt[0].ns)) != 0 ||
+	    pm_dot(lt[0].n, lt[1].n) < 1.0f - 1e-6f)
+		return;
+	for (i = 0; i < 3; i++) {
+		for (k = 0; k < 3 && b[k] != a[i]; k++)
+			;
+		if (k < 3 && ns < 2)
+			s[ns++] = a[i];
+		else
+			ua = i;
+	}
+	for (i = 0; i < 3; i++)
+		if (b[i] != s[0] && b[i] != s[1])
+			ub = i;
+	if (ns != 2 || ua < 0 || ub < 0)
+		return;
+	va = pm_mesh_vertex(m, a[ua]);
+	vb = pm_mesh_vertex(m, b[ub]);
+	gap = pm_sub(pm_add(va, vb), pm_add(pm_mesh_vertex(m, s[0]),
+	    pm_mesh_vertex(m, s[1])));
+	size = pm_length(pm_sub(vb, va));
+	if (!(pm_length(gap) <= 1e-6f * size))
+		return;
+	q->p0 = va;
+	q->e1 = pm_sub(pm_mesh_vertex(m, s[0]), va);
+	q->e2 = pm_sub(pm_mesh_vertex(m, s[1]), va);
+	q->n = lt[0].n;
+	q->ns = lt[0].ns;
+	q->on = true;
+}
+
 enum pm_err
 pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
     struct pm_error *err)
@@ -155,6 +204,7 @@ pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
 	ls->tri = NULL;
 	ls->tri_alias = NULL;
 	ls->tri0 = NULL;
+	ls->quad = NULL;
 	ls->pick.cdf = NULL;
 	ls->pick.n = 0;
 	ls->nee.cdf = NULL;
@@ -204,7 +254,9 @@ pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
 	ls->nee_alias = calloc(s->nlights, sizeof(*ls->nee_alias));
 	ls->nee_p = calloc(s->nlights, sizeof(*ls->nee_p));
 	ls->tri0 = calloc(s->nlights + 1, sizeof(*ls->tri0));
-	if (ls->nee_alias == NULL || ls->nee_p == NULL || ls->tri0 == NULL) {
+	ls->quad = calloc(s->nlights, sizeof(*ls->quad));
+	if (ls->nee_alias == NULL || ls->nee_p == NULL || ls->tri0 == NULL ||
+	    ls->quad == NULL) {
 		rc = pm_fail(err, PM_ERR_NOMEM, "no memory for light tables");
 		goto out;
 	}
@@ -281,6 +333,8 @@ pm_lights_init(struct pm_lights *ls, const struct pm_scene *s,
 		    err);
 		if (rc != PM_OK)
 			goto out;
+		if (l->tex == 0)
+			find_quad(m, &ls->tri[ls->tri0[i]], &ls->quad[i]);
 	}
 out:
 	free(w);
@@ -304,6 +358,8 @@ pm_lights_free(struct pm_lights *ls)
 	free(ls->tri);
 	free(ls->tri_alias);
 	free(ls->tri0);
+	free(ls->quad);
+	ls->quad = NULL;
 	ls->nee_alias = NULL;
 	ls->nee_p = NULL;
 	ls->tri = NULL;
@@ -468,6 +524,12 @@ pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
 			o->p = pm_madd(sh->center, u, sh->radius);
 			o->n = sh->flip_normals ? pm_neg(u) : u;
 			ns = o->n;
+		} else if (ls->quad[li].on) {
+			const struct pm_light_quad *q = &ls->quad[li];
+
+			o->p = pm_madd(pm_madd(q->p0, q->e1, u1), q->e2, u2);
+			o->n = q->n;
+			ns = q->ns;
 		} else {
 			const struct pm_mesh *m = &sh->mesh;
 			size_t t0 = ls->tri0[li];

@@ -15,7 +15,8 @@
  * this brought pm's variance per sample from 2.25 times Mitsuba's (whose
  * choice is uniform) to 1.64 times.  Photons are emitted by power alone
  * (pick).  A point on an area light is chosen uniformly by
- * area (triangles by area, then uniformly within).
+ * area (triangles by area, then uniformly within; a light that is one
+ * parallelogram, such as Mitsuba's rectangle, directly on it).
  */
 #ifndef PM_LIGHT_H
 #define PM_LIGHT_H
@@ -53,6 +54,19 @@ struct pm_light_tri {
 	bool flat;			/* no vertex normals, or three equal */
 };
 
+/*
+ * An area light that is one parallelogram (two triangles sharing a
+ * diagonal: Mitsuba's rectangle), sampled as Mitsuba samples its
+ * rectangle, p0 + u1 e1 + u2 e2: uniform by area as the triangles' way,
+ * without drawing a triangle and a square root first.
+ */
+struct pm_light_quad {
+	struct pm_vec3 p0, e1, e2;
+	struct pm_vec3 n, ns;		/* geometric and shading normal */
+	bool on;			/* the light is such a parallelogram,
+					 * untextured, flat */
+};
+
 struct pm_lights {
 	struct pm_distrib pick;		/* over scene.lights, by power: photons */
 	struct pm_distrib nee;		/* half by power (an environment's
@@ -73,6 +87,7 @@ struct pm_lights {
 	struct pm_light_tri *tri;
 	struct pm_alias *tri_alias;
 	size_t *tri0;
+	struct pm_light_quad *quad;	/* per light (n) */
 };
 
 /* Builds an alias table over w[0..n) (n >= 1, finite w >= 0 with a

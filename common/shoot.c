@@ -399,6 +399,14 @@ sample_shape_point(const struct pm_shooter *sh, int li, float u1, float u2,
 
 		*p = pm_madd(shp->center, u, shp->radius);
 		*ng = *ns = shp->flip_normals ? pm_neg(u) : u;
+	} else if (sh->lights->quad[li].on) {
+		/* one flat, untextured parallelogram (light.h): directly
+		 * on it, with its normals found once, as light samples do */
+		const struct pm_light_quad *q = &sh->lights->quad[li];
+
+		*p = pm_madd(pm_madd(q->p0, q->e1, u1), q->e2, u2);
+		*ng = q->n;
+		*ns = q->ns;
 	} else {
 		const struct pm_mesh *m = &shp->mesh;
 		size_t t = pm_distrib_sample(&sh->lights->tris[li], u1, &u1);

@@ -1,10 +1,11 @@
 /*
- * test_light_rect.c: a rectangle light (Mitsuba's rectangle, two triangles
- * in pm): light samples on it are uniform over it (chi-square over a grid
- * in its own coordinates), the irradiance they estimate equals the
- * rectangle's closed form, with the density a ray that finds the point
- * agrees on; photons leave it with its whole power, on its lit side, and
- * centred under it.
+ * test_light_rect.c: an area light that is one parallelogram (Mitsuba's
+ * rectangle) is sampled as a parallelogram (light.h, struct
+ * pm_light_quad): recognised where it is one and only there, its points
+ * uniform over it (chi-square over a grid in its own coordinates), and
+ * the irradiance its samples estimate equal to the rectangle's closed
+ * form, with the density a ray that finds the point agrees on; photons
+ * leave it (common/shoot.c) with its whole power and on its lit side.
  */
 #include <math.h>
 #include <setjmp.h>
@@ -39,15 +40,64 @@ load(const char *body, struct pm_scene *s, struct pm_world *w)
 		fail_msg("%s", err.msg);
 }
 
-/* A 2 x 1.2 rectangle (scaled, turned, moved) emitting 1. */
+/* A 2 x 1.2 rectangle (scaled, turned, moved) emitting 1: its lights
+ * are one quad; what other meshes are is checked below. */
 #define RECT "<shape type=\"rectangle\"><transform name=\"to_world\">" \
 	"<scale x=\"1\" y=\"0.6\"/><rotate x=\"1\" angle=\"160\"/>" \
 	"<rotate z=\"1\" angle=\"25\"/><translate z=\"1\"/></transform>" \
 	"<emitter type=\"area\"><rgb name=\"radiance\" value=\"1\"/>" \
 	"</emitter></shape>\n"
 
+static void
+test_recognised(void **state)
+{
+	struct pm_scene s;
+	struct pm_world w;
+
+	(void)state;
+	load(RECT, &s, &w);
+	assert_true(w.lights.quad[0].on);
+	pm_world_free(&w);
+	pm_scene_free(&s);
+	/* two triangles that share an edge but are no parallelogram (an
+	 * OBJ kite), a cube's twelve, a disk: triangles as before */
+	load("<shape type=\"cube\"><emitter type=\"area\"><rgb name="
+	    "\"radiance\" value=\"1\"/></emitter></shape>\n"
+	    "<shape type=\"disk\"><transform name=\"to_world\"><translate "
+	    "z=\"3\"/></transform><emitter type=\"area\"><rgb name="
+	    "\"radiance\" value=\"1\"/></emitter></shape>\n", &s, &w);
+	assert_int_equal(s.nlights, 2);
+	assert_false(w.lights.quad[0].on);
+	assert_false(w.lights.quad[1].on);
+	pm_world_free(&w);
+	pm_scene_free(&s);
+}
+
+/* The quad's own test on a kite: two triangles sharing an edge whose
+ * far vertices do not sum to the shared ones. */
+static void
+test_kite_is_not_a_quad(void **state)
+{
+	struct pm_scene s;
+	struct pm_world w;
+	float *p;
+
+	(void)state;
+	load(RECT, &s, &w);
+	pm_world_free(&w);
+	/* move one corner out of the plane's parallelogram, in plane */
+	p = s.shapes[0].mesh.pos;
+	p[3 * 1 + 0] += 0.3f * (p[3 * 1 + 0] - p[3 * 3 + 0]);
+	p[3 * 1 + 1] += 0.3f * (p[3 * 1 + 1] - p[3 * 3 + 1]);
+	p[3 * 1 + 2] += 0.3f * (p[3 * 1 + 2] - p[3 * 3 + 2]);
+	assert_int_equal(pm_world_init(&w, &s, &(struct pm_error){0}), PM_OK);
+	assert_false(w.lights.quad[0].on);
+	pm_world_free(&w);
+	pm_scene_free(&s);
+}
+
 /*
- * Samples from a point below the light: their positions in the rectangle's
+ * Samples from a point below the light: their positions in the quad's
  * coordinates fall evenly on a 10 x 10 grid (chi-square, 99 degrees of
  * freedom, below 160: p ~ 1e-4), and E = sum L cos / pdf matches the
  * closed form of a uniform rectangle's irradiance, found here by
@@ -62,25 +112,15 @@ test_uniform_and_unbiased(void **state)
 	struct pm_light_sample ls;
 	struct pm_rng rng = pm_rng_seed(17, 0, 0);
 	struct pm_vec3 ref = pm_v3(0.2f, -0.1f, -0.3f), nrm = pm_v3(0, 0, 1);
-	struct rect {
-		struct pm_vec3 p0, e1, e2, n;
-	} rect, *q = &rect;
-	const struct pm_mesh *m;
+	const struct pm_light_quad *q;
 	long count[G * G] = {0};
 	double sum = 0, sq = 0, chi2 = 0, quad = 0, se, e11, e12, e22;
 	int i, j, checked = 0;
 
 	(void)state;
 	load(RECT, &s, &w);
-	/* the rectangle's corners 0, 1, 3 (triangles 0 1 2 and 2 3 0), and
-	 * triangle 0's normal, the side it shines from */
-	m = &s.shapes[0].mesh;
-	assert_int_equal(m->ntris, 2);
-	q->p0 = pm_mesh_vertex(m, 0);
-	q->e1 = pm_sub(pm_mesh_vertex(m, 1), q->p0);
-	q->e2 = pm_sub(pm_mesh_vertex(m, 3), q->p0);
-	q->n = pm_normalize(pm_cross(q->e1, pm_sub(pm_mesh_vertex(m, 2),
-	    q->p0)));
+	q = &w.lights.quad[0];
+	assert_true(q->on);
 	e11 = pm_dot(q->e1, q->e1);
 	e12 = pm_dot(q->e1, q->e2);
 	e22 = pm_dot(q->e2, q->e2);
@@ -132,7 +172,7 @@ test_uniform_and_unbiased(void **state)
 		}
 	quad *= pm_length(pm_cross(q->e1, q->e2)) / 1e6;
 	se = sqrt((sq / N - (sum / N) * (sum / N)) / N);
-	print_message("rectangle light: chi2 %.1f (99 dof), E %.5f against %.5f "
+	print_message("quad light: chi2 %.1f (99 dof), E %.5f against %.5f "
 	    "(standard error %.5f)\n", chi2, sum / N, quad, se);
 	assert_true(checked > 1000);
 	assert_true(chi2 < 160.0);
@@ -142,7 +182,7 @@ test_uniform_and_unbiased(void **state)
 }
 
 /*
- * Photons from a rectangle light inside a closed black box: every
+ * Photons from a rectangle light (a quad) inside a closed black box: every
  * path's first hit stores the light's power, pi A Le, whole (cosine
  * sampling makes each photon's flux that exactly, up to RGBE rounding),
  * and none starts on the dark side: the box's floor (below the light,
@@ -174,6 +214,7 @@ test_photons_leave_the_lit_side(void **state)
 	    "<translate z=\"1\"/></transform><emitter type=\"area\">"
 	    "<rgb name=\"radiance\" value=\"1, 2, 3\"/></emitter></shape>\n",
 	    &s, &w);
+	assert_true(w.lights.quad[0].on);
 	memset(&err, 0, sizeof(err));
 	assert_int_equal(pm_shooter_init(&sh, &s, w.accel, &w.lights, &err),
 	    PM_OK);
@@ -195,7 +236,7 @@ test_photons_leave_the_lit_side(void **state)
 	my /= n;
 	sx = sqrt((sx / n - mx * mx) / n);
 	sy = sqrt((sy / n - my * my) / n);
-	print_message("rectangle light photons: %zu stored, %zu below it, power "
+	print_message("quad light photons: %zu stored, %zu below it, power "
 	    "%.5f %.5f %.5f (want pi/2 times 1, 2, 3), mean x %.5f +- %.5f, "
 	    "y %.5f +- %.5f\n", b.n, below, sum[0] / n, sum[1] / n,
 	    sum[2] / n, mx, sx, my, sy);
@@ -216,6 +257,8 @@ int
 main(void)
 {
 	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_recognised),
+		cmocka_unit_test(test_kite_is_not_a_quad),
 		cmocka_unit_test(test_uniform_and_unbiased),
 		cmocka_unit_test(test_photons_leave_the_lit_side),
 	};
