@@ -374,8 +374,9 @@ fi
 # volpath's light samples from points of a medium within a few tenths of
 # the light, whose shadow rays leave through a null boundary, come out
 # far too dark (data/smoke.xml's plume top, 0.24 under the light: 10x in
-# a homogeneous test box, against quadrature; docs/media.md), while its
-# phase-function sampling alone agrees with quadrature and with pm.
+# a homogeneous test box, against quadrature: null_box_nee.py and
+# docs/media.md), while its phase-function sampling alone agrees with
+# quadrature and with pm.
 # pm-render keeps its light samples (the scene's default).  Without them
 # Mitsuba's smoke also renders faster: 2x64 spp at 256x256 in 72 s and
 # 54 s (2026-12-03), where with them it took 268 s and 473 s, its shadow
