@@ -186,6 +186,7 @@ find_quad(const struct pm_mesh *m, const struct pm_light_tri *lt,
 	q->e2 = pm_sub(pm_mesh_vertex(m, s[1]), va);
 	q->n = lt[0].n;
 	q->ns = lt[0].ns;
+	q->f = pm_frame_from_normal(q->n);
 	q->on = true;
 }
 

@@ -63,6 +63,8 @@ struct pm_light_tri {
 struct pm_light_quad {
 	struct pm_vec3 p0, e1, e2;
 	struct pm_vec3 n, ns;		/* geometric and shading normal */
+	struct pm_frame f;		/* pm_frame_from_normal(n), found
+					 * once for photons' directions */
 	bool on;			/* the light is such a parallelogram,
 					 * untextured, flat */
 };

@@ -76,6 +76,12 @@ static inline struct pm_vec3 pm_square_to_cosine_hemisphere(float u1, float u2)
 	pm_square_to_disk(u1, u2, &x, &y);
 	return pm_v3(x, y, sqrtf(pm_fmaxf(0.0f, 1.0f - x * x - y * y)));
 }
+/* The same warp of n pairs (u1[i], u2[i]) at once, in SIMD where the
+ * compiler has it: (x[i], y[i], z[i]) is pm_square_to_cosine_hemisphere's
+ * result bit for bit (test_sampling), for code that draws many
+ * directions before it needs one (pm_shoot's emission). */
+void pm_square_to_cosine_hemisphere_n(const float *u1, const float *u2,
+    float *x, float *y, float *z, size_t n);
 /* Its density, cos(theta)/pi above the horizon, zero below it (inline
  * for the same reason: the vector passed by value went through the
  * stack). */

@@ -20,6 +20,7 @@
 #include "../../common/light.h"
 #include "../../common/photon.h"
 #include "../../common/rng.h"
+#include "../../common/sampling.h"
 #include "../../common/shoot.h"
 #include "../../common/world.h"
 #include "../../formats/scene_xml.h"
@@ -253,6 +254,95 @@ test_photons_leave_the_lit_side(void **state)
 	pm_scene_free(&s);
 }
 
+/*
+ * pm_shoot emits a parallelogram's photons eight paths at a time, in SIMD
+ * lanes (common/shoot.c, emit_batch), and pm_shooter_emit one at a time:
+ * both must be emission as defined, the shape's point, the cosine
+ * direction in pm_frame_from_normal's frame, the flux and the offset
+ * origin, computed here from the general functions: pm_shooter_emit's
+ * results bit for bit, pm_shoot's photons byte for byte (position, and
+ * power as RGBE stores it).  A turned light in a black box stores each
+ * path's first hit only, so the k-th photon is the k-th path that
+ * carries flux; 1003 paths from path 5 leave a batch of three, which
+ * goes lane by lane.  (test_sampling checks the lanes' warp.)
+ */
+static void
+test_batched_emission_is_the_definition(void **state)
+{
+	const uint64_t first = 5, n = 1003, seed = 7;
+	struct pm_scene s;
+	struct pm_world w;
+	struct pm_shooter sh;
+	struct pm_photon_buf b = {NULL, 0, 0};
+	struct pm_shoot_opts o = {PM_PASS_GLOBAL, seed, first, n, 0, 1, NULL,
+	    NULL, NULL, NULL};
+	struct pm_shoot_stats st;
+	struct pm_error err;
+	const struct pm_light *l;
+	size_t k = 0;
+	uint64_t i;
+	float psel;
+
+	(void)state;
+	load("<shape type=\"cube\"><transform name=\"to_world\"><scale "
+	    "value=\"2\"/></transform><bsdf type=\"diffuse\"><rgb name="
+	    "\"reflectance\" value=\"0\"/></bsdf></shape>\n" RECT, &s, &w);
+	assert_true(w.lights.quad[0].on);
+	l = &s.lights[0];
+	psel = (float)pm_distrib_prob(&w.lights.pick, 0);
+	memset(&err, 0, sizeof(err));
+	assert_int_equal(pm_shooter_init(&sh, &s, w.accel, &w.lights, &err),
+	    PM_OK);
+	assert_int_equal(pm_shoot(&sh, &o, &b, &st, &err), PM_OK);
+	for (i = first; i < first + n; i++) {
+		struct pm_rng rng = pm_rng_seed(seed, i, PM_PASS_GLOBAL);
+		struct pm_rng r2 = rng;
+		struct pm_vec3 p, ng, ns, d, org, eo, ed;
+		struct pm_rgb flux, ef;
+		struct pm_hit lh, h;
+		float u[6], c, pdf;
+		uint8_t power[4];
+		int j;
+		bool ok;
+
+		for (j = 0; j < 6; j++)
+			u[j] = pm_rng_float(&rng);
+		pm_shooter_shape_point(&sh, 0, u[1], u[2], &p, &ng, &ns, &lh);
+		d = pm_to_world(pm_frame_from_normal(ng),
+		    pm_square_to_cosine_hemisphere(u[3], u[4]));
+		c = pm_dot(d, ng);
+		pdf = pm_fmaxf(c, 0.0f) * PM_INV_PI;
+		ok = c > 0.0f && pm_dot(d, ns) > 0.0f && pdf > 0.0f;
+		flux = pm_rgb_scale(l->radiance, c * (float)l->area /
+		    (psel * pdf));
+		org = pm_offset_origin(p, ng, d);
+		/* one at a time */
+		assert_int_equal(pm_shooter_emit(&sh, &r2, &eo, &ed, &ef), ok);
+		if (!ok)
+			continue;
+		assert_memory_equal(&eo, &org, sizeof(org));
+		assert_memory_equal(&ed, &d, sizeof(d));
+		assert_memory_equal(&ef, &flux, sizeof(flux));
+		/* in lanes: the photon at the first hit */
+		assert_true(pm_accel_intersect(w.accel, org, d, 0.0f, INFINITY,
+		    &h));
+		pm_rgbe_pack(flux, pm_rng_float(&rng), power);
+		assert_true(k < b.n);
+		assert_int_equal(b.p[k].depth, 0);
+		assert_memory_equal(b.p[k].pos, &h.p.x, sizeof(float));
+		assert_memory_equal(b.p[k].pos + 1, &h.p.y, sizeof(float));
+		assert_memory_equal(b.p[k].pos + 2, &h.p.z, sizeof(float));
+		assert_memory_equal(b.p[k].power, power, sizeof(power));
+		k++;
+	}
+	assert_int_equal(k, b.n);
+	assert_true(k > n / 2);
+	pm_photon_buf_free(&b);
+	pm_shooter_free(&sh);
+	pm_world_free(&w);
+	pm_scene_free(&s);
+}
+
 int
 main(void)
 {
@@ -261,6 +351,7 @@ main(void)
 		cmocka_unit_test(test_kite_is_not_a_quad),
 		cmocka_unit_test(test_uniform_and_unbiased),
 		cmocka_unit_test(test_photons_leave_the_lit_side),
+		cmocka_unit_test(test_batched_emission_is_the_definition),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);

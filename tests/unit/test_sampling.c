@@ -151,6 +151,75 @@ test_disk_sincos(void **state)
 		}
 }
 
+/*
+ * pm_square_to_cosine_hemisphere_n is the scalar warp bit for bit: on a
+ * 1024 x 1024 grid of the square (its centre, both diagonals, where the
+ * wedges meet, and the axes, where one coordinate is 0, among them), at
+ * the corners 0 and the largest u below 1, and at 2^20 random pairs;
+ * all in one call (the SIMD lanes take all but the last few), then in
+ * runs of lengths that leave every remainder of the SIMD width.
+ * It fails with the lanes' wedges chosen by >= instead of >, a Horner
+ * step reordered, or the centre's lanes left unmasked.
+ */
+static void
+test_cosine_lanes(void **state)
+{
+	enum { G = 1024, R = 1 << 20, N = G * G + 4 + R };
+	float *u1 = malloc(N * sizeof(*u1)), *u2 = malloc(N * sizeof(*u2));
+	float *x = malloc(N * sizeof(*x)), *y = malloc(N * sizeof(*y));
+	float *z = malloc(N * sizeof(*z));
+	const float top = 0x1.fffffep-1f;	/* pm_rng_float's largest */
+	struct pm_rng rng = pm_rng_seed(3, 1, 4);
+	size_t i, at, run, bad = 0;
+	int pass;
+
+	(void)state;
+	assert_non_null(u1);
+	assert_non_null(u2);
+	assert_non_null(x);
+	assert_non_null(y);
+	assert_non_null(z);
+	for (i = 0; i < (size_t)G * G; i++) {
+		u1[i] = (float)(i % G) / (float)G;
+		u2[i] = (float)(i / G) / (float)G;
+	}
+	u1[i] = 0.0f, u2[i++] = 0.0f;
+	u1[i] = top, u2[i++] = top;
+	u1[i] = 0.0f, u2[i++] = top;
+	u1[i] = top, u2[i++] = 0.0f;
+	for (; i < N; i++) {
+		u1[i] = pm_rng_float(&rng);
+		u2[i] = pm_rng_float(&rng);
+	}
+	for (pass = 0; pass < 2; pass++) {
+		for (at = 0, run = pass == 0 ? N : 1; at < N;
+		    at += run, run = run % 13 + 1) {
+			if (run > N - at)
+				run = N - at;
+			pm_square_to_cosine_hemisphere_n(u1 + at, u2 + at,
+			    x + at, y + at, z + at, run);
+		}
+		for (i = 0; i < N; i++) {
+			struct pm_vec3 v = pm_square_to_cosine_hemisphere(u1[i],
+			    u2[i]);
+
+			if ((memcmp(&v.x, &x[i], sizeof(float)) != 0 ||
+			    memcmp(&v.y, &y[i], sizeof(float)) != 0 ||
+			    memcmp(&v.z, &z[i], sizeof(float)) != 0) &&
+			    bad++ < 5)
+				print_message("(%a, %a): scalar (%a, %a, %a), "
+				    "lanes (%a, %a, %a)\n", u1[i], u2[i],
+				    v.x, v.y, v.z, x[i], y[i], z[i]);
+		}
+		assert_int_equal(bad, 0);
+	}
+	free(u1);
+	free(u2);
+	free(x);
+	free(y);
+	free(z);
+}
+
 /* The pdfs integrate to one over their domains. */
 static void
 test_pdf_normalisation(void **state)
@@ -538,6 +607,7 @@ main(void)
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_cosine_hemisphere),
 		cmocka_unit_test(test_disk_sincos),
+		cmocka_unit_test(test_cosine_lanes),
 		cmocka_unit_test(test_alias),
 		cmocka_unit_test(test_uniform_hemisphere),
 		cmocka_unit_test(test_uniform_sphere),
