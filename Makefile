@@ -17,7 +17,12 @@ PKGS     = OpenEXR expat libpng libjpeg zlib
 # -fno-math-errno: pm never reads errno after libm, and without it GCC
 # keeps a call to sqrtf behind every inlined sqrtss for the errno of a
 # negative argument (1.5% of a path-traced frame); results are the same.
+# -ffp-contract=off: no multiply-add fused into an FMA behind the code's
+# back, so that SIMD lanes give their scalar code's bits (icache.c,
+# sampling.c) with any compiler (GCC does so in C17 anyway; clang fuses
+# by default where the target has FMA).
 PM_CFLAGS = -std=c17 -Wall -Wextra -pthread -D_DEFAULT_SOURCE -fno-math-errno \
+	-ffp-contract=off \
 	$(shell pkg-config --cflags $(PKGS) 2>/dev/null)
 # OpenEXR's pkg-config pulls in the C++ libraries; pm uses only the C core.
 PM_LIBS  = -lembree3 -lOpenEXRCore -lflann $(shell pkg-config --libs expat libpng libjpeg zlib 2>/dev/null) \

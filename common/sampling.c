@@ -183,7 +183,7 @@ pm_distrib_prob(const struct pm_distrib *d, size_t i)
  * pm_square_to_cosine_hemisphere_n: the warp's operations in its order,
  * its branches as selects, four lanes at a time, so that each lane is the
  * bits the scalar warp gives (IEEE division and square root are exact in
- * SIMD as in scalar code, and C17 without GNU extensions contracts no
+ * SIMD as in scalar code, and the Makefile's -ffp-contract=off fuses no
  * multiply-add into an FMA).  SSE2 where the compiler has it (PM_NO_SIMD:
  * the scalar warp throughout); GCC does not vectorise the plain loop by
  * itself.  In pm-shoot, a path's emission was one long chain of
