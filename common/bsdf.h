@@ -235,12 +235,15 @@ static inline bool pm_bsdf_plain_diffuse(const struct pm_bsdf *b)
 	return b->type == PM_BSDF_DIFFUSE && !b->perturbed && b->only == 0;
 }
 
-static inline bool pm_diffuse_sample(struct pm_rgb r, struct pm_vec3 wi,
-    float u2, float u3, struct pm_bsdf_sample *s)
+/* pm_diffuse_sample with its direction v already warped from (u2, u3)
+ * (pm_square_to_cosine_hemisphere): the same result, for callers that
+ * warp many pairs at once. */
+static inline bool pm_diffuse_sample_warped(struct pm_rgb r, struct pm_vec3 wi,
+    struct pm_vec3 v, struct pm_bsdf_sample *s)
 {
 	if (wi.z <= 0.0f)
 		return false;
-	s->wo = pm_square_to_cosine_hemisphere(u2, u3);
+	s->wo = v;
 	s->pdf = pm_cosine_hemisphere_pdf(s->wo);
 	if (!(s->pdf > 0.0f))
 		return false;
@@ -248,6 +251,15 @@ static inline bool pm_diffuse_sample(struct pm_rgb r, struct pm_vec3 wi,
 	s->eta = 1.0f;
 	s->lobe = PM_LOBE_DIFFUSE;
 	return true;
+}
+
+static inline bool pm_diffuse_sample(struct pm_rgb r, struct pm_vec3 wi,
+    float u2, float u3, struct pm_bsdf_sample *s)
+{
+	if (wi.z <= 0.0f)
+		return false;
+	return pm_diffuse_sample_warped(r, wi,
+	    pm_square_to_cosine_hemisphere(u2, u3), s);
 }
 
 /* Plastic's coating as a deterministic mirror sample (weight Fresnel x

@@ -68,22 +68,55 @@ bsdf_sample(const struct pm_bsdf *b, struct pm_vec3 wi, float u1, float u2,
 	return true;
 }
 
+/* bsdf_sample given v, (u2, u3) warped to the cosine hemisphere
+ * (path_li_batch warps a round's pairs at once): the same result. */
+static inline bool
+bsdf_sample_warped(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
+    float u2, float u3, struct pm_vec3 v, struct pm_bsdf_sample *bs)
+{
+	bool flip;
+
+	if (!pm_bsdf_plain_diffuse(b))
+		return pm_bsdf_sample(b, wi, u1, u2, u3, PM_RADIANCE, bs);
+	flip = b->twosided && wi.z < 0.0f;
+	if (flip)
+		wi.z = -wi.z;
+	if (!pm_diffuse_sample_warped(b->diffuse, wi, v, bs))
+		return false;
+	if (flip)
+		bs->wo.z = -bs->wo.z;
+	return true;
+}
+
 /* A light sample for direct_light: the BSDF's value f for it (false
  * when there is none or f is black, and then nothing arrives). */
+static bool
+light_sample_u(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
+    const struct pm_hit *h, struct pm_frame fr, struct pm_vec3 wi_local,
+    const float u[3], struct pm_light_sample *ls, struct pm_vec3 *wo_local,
+    struct pm_rgb *f)
+{
+	if (!pm_lights_sample(ctx->lights, ctx->scene, h->p, u[0], u[1], u[2],
+	    ls))
+		return false;
+	*wo_local = pm_to_local(fr, ls->wi);
+	*f = bsdf_eval(b, wi_local, *wo_local);
+	return !pm_rgb_is_black(*f);
+}
+
+/* light_sample_u with its three numbers drawn from rng. */
 static bool
 light_sample(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
     const struct pm_hit *h, struct pm_frame fr, struct pm_vec3 wi_local,
     struct pm_rng *rng, struct pm_light_sample *ls, struct pm_vec3 *wo_local,
     struct pm_rgb *f)
 {
-	float u0 = pm_rng_float(rng), u1 = pm_rng_float(rng);
-	float u2 = pm_rng_float(rng);
+	float u[3];
 
-	if (!pm_lights_sample(ctx->lights, ctx->scene, h->p, u0, u1, u2, ls))
-		return false;
-	*wo_local = pm_to_local(fr, ls->wi);
-	*f = bsdf_eval(b, wi_local, *wo_local);
-	return !pm_rgb_is_black(*f);
+	u[0] = pm_rng_float(rng);
+	u[1] = pm_rng_float(rng);
+	u[2] = pm_rng_float(rng);
+	return light_sample_u(ctx, b, h, fr, wi_local, u, ls, wo_local, f);
 }
 
 /* What the light sample ls brings through f if nothing blocks it,
@@ -248,6 +281,16 @@ struct path_lane {
 	bool alive;
 };
 
+/* A round's vertex between drawing its numbers and shading. */
+struct vertex {
+	const struct pm_bsdf *b;
+	struct pm_frame fr;
+	struct pm_vec3 wi;		/* local */
+	float lu[3], u1;		/* the light sample's numbers, the BSDF's first */
+	size_t k;			/* its path in the round */
+	bool light;			/* a light sample is taken */
+};
+
 static void
 path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
     size_t n)
@@ -256,9 +299,13 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 	struct path_lane l[PATH_BATCH];
 	struct pm_ray rays[PATH_BATCH], srays[PATH_BATCH];
 	struct pm_hit hits[PATH_BATCH];
+	struct vertex vx[PATH_BATCH];
+	struct pm_bsdf bt[PATH_BATCH];	/* textured BSDFs looked up */
+	float u2[PATH_BATCH], u3[PATH_BATCH];
+	float wx[PATH_BATCH], wy[PATH_BATCH], wz[PATH_BATCH];
 	bool hitf[PATH_BATCH], occ[PATH_BATCH];
 	uint8_t idx[PATH_BATCH], sidx[PATH_BATCH];
-	size_t i, k, na = n, ns;
+	size_t i, j, k, m, na = n, ns;
 
 	for (i = 0; i < n; i++) {
 		pm_path_start(&l[i].pa, smp[i].o, smp[i].d, smp[i].tmin,
@@ -286,15 +333,15 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 		if (na == 0)
 			break;
 		pm_accel_intersect_n(ctx->accel, rays, na, hits, hitf);
-		for (k = ns = 0; k < na; k++) {
+		/* The vertices' random numbers drawn first, in each path's
+		 * order (the light sample's three, then the BSDF's), so that
+		 * the round's BSDF directions are warped together in SIMD
+		 * lanes (sampling.h); then each vertex shades as before. */
+		for (k = m = 0; k < na; k++) {
 			struct path_lane *q = &l[idx[k]];
 			struct pm_rng *rng = &smp[idx[k]].rng;
 			const struct pm_hit *h = &hits[k];
-			const struct pm_bsdf *b;
-			struct pm_bsdf bt;
-			struct pm_bsdf_sample bs;
-			struct pm_frame fr;
-			struct pm_vec3 wi_local;
+			struct vertex *v = &vx[m];
 
 			if (!(q->depth == 1 && ctx->hide_emitters))
 				q->L = pm_rgb_madd(q->L, q->pa.beta,
@@ -306,17 +353,38 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 				q->alive = false;
 				continue;
 			}
-			b = pm_bsdf_frame_at(s, h, q->pa.d, &bt, &fr);
-			wi_local = pm_to_local(fr, pm_neg(q->pa.d));
-			if (!pm_bsdf_is_delta(b)) {
+			/* bt[m] holds a textured BSDF through the round */
+			v->b = pm_bsdf_frame_at(s, h, q->pa.d, &bt[m], &v->fr);
+			v->wi = pm_to_local(v->fr, pm_neg(q->pa.d));
+			v->light = !pm_bsdf_is_delta(v->b);
+			if (v->light) {
+				v->lu[0] = pm_rng_float(rng);
+				v->lu[1] = pm_rng_float(rng);
+				v->lu[2] = pm_rng_float(rng);
+			}
+			v->u1 = pm_rng_float(rng);
+			u2[m] = pm_rng_float(rng);
+			u3[m] = pm_rng_float(rng);
+			v->k = k;
+			m++;
+		}
+		pm_square_to_cosine_hemisphere_n(u2, u3, wx, wy, wz, m);
+		for (j = ns = 0; j < m; j++) {
+			const struct vertex *v = &vx[j];
+			struct path_lane *q = &l[idx[v->k]];
+			struct pm_rng *rng = &smp[idx[v->k]].rng;
+			const struct pm_hit *h = &hits[v->k];
+			struct pm_bsdf_sample bs;
+
+			if (v->light) {
 				struct pm_light_sample ls;
 				struct pm_vec3 wo_local;
 				struct pm_rgb f, c = pm_rgb1(0.0f);
 				bool pending = false;
 
-				if (light_sample(ctx, b, h, fr, wi_local, rng, &ls,
-				    &wo_local, &f)) {
-					c = light_weighted(b, wi_local, wo_local,
+				if (light_sample_u(ctx, v->b, h, v->fr, v->wi,
+				    v->lu, &ls, &wo_local, &f)) {
+					c = light_weighted(v->b, v->wi, wo_local,
 					    &ls, f);
 					pending = pm_light_shadow_ray(h, &ls,
 					    &srays[ns]);
@@ -324,21 +392,14 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 				if (pending) {
 					q->dl = c;
 					q->dl_beta = q->pa.beta;
-					sidx[ns++] = idx[k];
+					sidx[ns++] = idx[v->k];
 				} else {
 					q->L = pm_rgb_madd(q->L, q->pa.beta, c);
 				}
 			}
-			{
-				float u1 = pm_rng_float(rng), u2 = pm_rng_float(rng);
-				float u3 = pm_rng_float(rng);
-
-				if (!bsdf_sample(b, wi_local, u1, u2, u3, &bs)) {
-					q->alive = false;
-					continue;
-				}
-			}
-			if (!path_continue(&q->pa, h, &fr, &bs, q->depth,
+			if (!bsdf_sample_warped(v->b, v->wi, v->u1, u2[j], u3[j],
+			    pm_v3(wx[j], wy[j], wz[j]), &bs) ||
+			    !path_continue(&q->pa, h, &v->fr, &bs, q->depth,
 			    ctx->rr_depth, rng)) {
 				q->alive = false;
 				continue;
