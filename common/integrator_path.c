@@ -88,35 +88,31 @@ bsdf_sample_warped(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
 	return true;
 }
 
-/* A light sample for direct_light: the BSDF's value f for it (false
- * when there is none or f is black, and then nothing arrives). */
-static bool
-light_sample_u(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
-    const struct pm_hit *h, struct pm_frame fr, struct pm_vec3 wi_local,
-    const float u[3], struct pm_light_sample *ls, struct pm_vec3 *wo_local,
+/* The BSDF's value f for light sample ls (false when f is black, and
+ * then nothing arrives). */
+static inline bool
+light_eval(const struct pm_bsdf *b, struct pm_frame fr, struct pm_vec3 wi_local,
+    const struct pm_light_sample *ls, struct pm_vec3 *wo_local,
     struct pm_rgb *f)
 {
-	if (!pm_lights_sample(ctx->lights, ctx->scene, h->p, u[0], u[1], u[2],
-	    ls))
-		return false;
 	*wo_local = pm_to_local(fr, ls->wi);
 	*f = bsdf_eval(b, wi_local, *wo_local);
 	return !pm_rgb_is_black(*f);
 }
 
-/* light_sample_u with its three numbers drawn from rng. */
+/* A light sample for direct_light, and the BSDF's value f for it (false
+ * when there is none or f is black). */
 static bool
 light_sample(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
     const struct pm_hit *h, struct pm_frame fr, struct pm_vec3 wi_local,
     struct pm_rng *rng, struct pm_light_sample *ls, struct pm_vec3 *wo_local,
     struct pm_rgb *f)
 {
-	float u[3];
+	float u0 = pm_rng_float(rng), u1 = pm_rng_float(rng);
+	float u2 = pm_rng_float(rng);
 
-	u[0] = pm_rng_float(rng);
-	u[1] = pm_rng_float(rng);
-	u[2] = pm_rng_float(rng);
-	return light_sample_u(ctx, b, h, fr, wi_local, u, ls, wo_local, f);
+	return pm_lights_sample(ctx->lights, ctx->scene, h->p, u0, u1, u2,
+	    ls) && light_eval(b, fr, wi_local, ls, wo_local, f);
 }
 
 /* What the light sample ls brings through f if nothing blocks it,
@@ -286,9 +282,9 @@ struct vertex {
 	const struct pm_bsdf *b;
 	struct pm_frame fr;
 	struct pm_vec3 wi;		/* local */
-	float lu[3], u1;		/* the light sample's numbers, the BSDF's first */
+	float u1;			/* the BSDF's first number */
 	size_t k;			/* its path in the round */
-	bool light;			/* a light sample is taken */
+	int light;			/* its light sample's index, or -1 */
 };
 
 static void
@@ -303,9 +299,13 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 	struct pm_bsdf bt[PATH_BATCH];	/* textured BSDFs looked up */
 	float u2[PATH_BATCH], u3[PATH_BATCH];
 	float wx[PATH_BATCH], wy[PATH_BATCH], wz[PATH_BATCH];
+	struct pm_vec3 lref[PATH_BATCH];
+	float lu[PATH_BATCH][3];
+	struct pm_light_sample lsmp[PATH_BATCH];
+	bool lok[PATH_BATCH];
 	bool hitf[PATH_BATCH], occ[PATH_BATCH];
 	uint8_t idx[PATH_BATCH], sidx[PATH_BATCH];
-	size_t i, j, k, m, na = n, ns;
+	size_t i, j, k, m, nl, na = n, ns;
 
 	for (i = 0; i < n; i++) {
 		pm_path_start(&l[i].pa, smp[i].o, smp[i].d, smp[i].tmin,
@@ -335,9 +335,11 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 		pm_accel_intersect_n(ctx->accel, rays, na, hits, hitf);
 		/* The vertices' random numbers drawn first, in each path's
 		 * order (the light sample's three, then the BSDF's), so that
-		 * the round's BSDF directions are warped together in SIMD
-		 * lanes (sampling.h); then each vertex shades as before. */
-		for (k = m = 0; k < na; k++) {
+		 * the round's light samples and BSDF directions are taken
+		 * together in SIMD lanes (pm_lights_sample_n,
+		 * pm_square_to_cosine_hemisphere_n); then each vertex shades
+		 * as before. */
+		for (k = m = nl = 0; k < na; k++) {
 			struct path_lane *q = &l[idx[k]];
 			struct pm_rng *rng = &smp[idx[k]].rng;
 			const struct pm_hit *h = &hits[k];
@@ -356,11 +358,13 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 			/* bt[m] holds a textured BSDF through the round */
 			v->b = pm_bsdf_frame_at(s, h, q->pa.d, &bt[m], &v->fr);
 			v->wi = pm_to_local(v->fr, pm_neg(q->pa.d));
-			v->light = !pm_bsdf_is_delta(v->b);
-			if (v->light) {
-				v->lu[0] = pm_rng_float(rng);
-				v->lu[1] = pm_rng_float(rng);
-				v->lu[2] = pm_rng_float(rng);
+			v->light = -1;
+			if (!pm_bsdf_is_delta(v->b)) {
+				lu[nl][0] = pm_rng_float(rng);
+				lu[nl][1] = pm_rng_float(rng);
+				lu[nl][2] = pm_rng_float(rng);
+				lref[nl] = h->p;
+				v->light = (int)nl++;
 			}
 			v->u1 = pm_rng_float(rng);
 			u2[m] = pm_rng_float(rng);
@@ -368,6 +372,8 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 			v->k = k;
 			m++;
 		}
+		pm_lights_sample_n(ctx->lights, s, lref, (const float (*)[3])lu,
+		    nl, lsmp, lok);
 		pm_square_to_cosine_hemisphere_n(u2, u3, wx, wy, wz, m);
 		for (j = ns = 0; j < m; j++) {
 			const struct vertex *v = &vx[j];
@@ -376,17 +382,18 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 			const struct pm_hit *h = &hits[v->k];
 			struct pm_bsdf_sample bs;
 
-			if (v->light) {
-				struct pm_light_sample ls;
+			if (v->light >= 0) {
+				const struct pm_light_sample *ls =
+				    &lsmp[v->light];
 				struct pm_vec3 wo_local;
 				struct pm_rgb f, c = pm_rgb1(0.0f);
 				bool pending = false;
 
-				if (light_sample_u(ctx, v->b, h, v->fr, v->wi,
-				    v->lu, &ls, &wo_local, &f)) {
+				if (lok[v->light] && light_eval(v->b, v->fr,
+				    v->wi, ls, &wo_local, &f)) {
 					c = light_weighted(v->b, v->wi, wo_local,
-					    &ls, f);
-					pending = pm_light_shadow_ray(h, &ls,
+					    ls, f);
+					pending = pm_light_shadow_ray(h, ls,
 					    &srays[ns]);
 				}
 				if (pending) {

@@ -593,6 +593,130 @@ pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
 	}
 }
 
+/*
+ * pm_lights_sample_n: the parallelogram case of pm_lights_sample, its
+ * operations in its order (a dot product's adds left to right, the
+ * direction scaled by the distance's reciprocal), four points a lane,
+ * so that each point gets the bits the scalar code gives; IEEE square
+ * root and division are exact in SIMD as in scalar code, and nothing is
+ * fused into an FMA (-ffp-contract=off).  In a path-traced Cornell box
+ * the scalar light sample, one chain of dependent arithmetic with a
+ * square root and two divisions in it, was an eighth of the time.
+ */
+#if (defined(__x86_64__) || defined(__i386__)) && defined(__SSE2__) && \
+    (defined(__GNUC__) || defined(__clang__)) && !defined(PM_NO_SIMD)
+#include <immintrin.h>
+
+static size_t
+quad_lanes(const struct pm_lights *ls, const struct pm_scene *s,
+    const struct pm_vec3 *ref, const float (*u)[3], size_t n,
+    struct pm_light_sample *out, bool *ok)
+{
+	const struct pm_light *l = &s->lights[0];
+	const struct pm_light_quad *q = &ls->quad[0];
+	const float psel = ls->nee_p[0], area = (float)l->area;
+	const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f);
+	const __m128 sign = _mm_set1_ps(-0.0f);
+	size_t i, j;
+
+	for (i = 0; i + 4 <= n; i += 4) {
+		float w[3][4], pt[3][4], dist[4], pdf[4];
+		int good, front;
+		__m128 u1 = _mm_setr_ps(u[i][1], u[i + 1][1], u[i + 2][1],
+		    u[i + 3][1]);
+		__m128 u2 = _mm_setr_ps(u[i][2], u[i + 1][2], u[i + 2][2],
+		    u[i + 3][2]);
+		__m128 p[3], d[3], d2, r, inv, c, cs;
+		const float *p0 = &q->p0.x, *e1 = &q->e1.x, *e2 = &q->e2.x;
+		int a;
+
+		for (a = 0; a < 3; a++) {
+			__m128 x = _mm_setr_ps((&ref[i].x)[a],
+			    (&ref[i + 1].x)[a], (&ref[i + 2].x)[a],
+			    (&ref[i + 3].x)[a]);
+
+			p[a] = _mm_add_ps(_mm_add_ps(_mm_set1_ps(p0[a]),
+			    _mm_mul_ps(_mm_set1_ps(e1[a]), u1)),
+			    _mm_mul_ps(_mm_set1_ps(e2[a]), u2));
+			d[a] = _mm_sub_ps(p[a], x);
+		}
+		d2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(d[0], d[0]),
+		    _mm_mul_ps(d[1], d[1])), _mm_mul_ps(d[2], d[2]));
+		r = _mm_sqrt_ps(d2);
+		inv = _mm_div_ps(one, r);
+		for (a = 0; a < 3; a++)
+			d[a] = _mm_mul_ps(d[a], inv);	/* now wi */
+		c = _mm_add_ps(_mm_add_ps(
+		    _mm_mul_ps(_mm_set1_ps(q->n.x), d[0]),
+		    _mm_mul_ps(_mm_set1_ps(q->n.y), d[1])),
+		    _mm_mul_ps(_mm_set1_ps(q->n.z), d[2]));
+		c = _mm_andnot_ps(sign, c);	/* cos_l */
+		cs = _mm_add_ps(_mm_add_ps(
+		    _mm_mul_ps(_mm_set1_ps(q->ns.x), d[0]),
+		    _mm_mul_ps(_mm_set1_ps(q->ns.y), d[1])),
+		    _mm_mul_ps(_mm_set1_ps(q->ns.z), d[2]));
+		/* the scalar tests: d2 > 0, the light's front (ns . wi < 0),
+		 * cos_l > 0; a NaN fails each as it does there */
+		good = _mm_movemask_ps(_mm_and_ps(_mm_and_ps(
+		    _mm_cmpgt_ps(d2, zero), _mm_cmplt_ps(cs, zero)),
+		    _mm_cmpgt_ps(c, zero)));
+		front = _mm_movemask_ps(_mm_cmpgt_ps(d2, zero));
+		_mm_storeu_ps(pdf, _mm_div_ps(_mm_mul_ps(_mm_set1_ps(psel), d2),
+		    _mm_mul_ps(c, _mm_set1_ps(area))));
+		_mm_storeu_ps(dist, r);
+		for (a = 0; a < 3; a++) {
+			_mm_storeu_ps(w[a], d[a]);
+			_mm_storeu_ps(pt[a], p[a]);
+		}
+		for (j = 0; j < 4; j++) {
+			struct pm_light_sample *o = &out[i + j];
+
+			o->light = 0;
+			o->delta = false;
+			o->p = pm_v3(pt[0][j], pt[1][j], pt[2][j]);
+			o->n = q->n;
+			if (!(front >> j & 1)) {
+				ok[i + j] = false;	/* d2 <= 0 */
+				continue;
+			}
+			o->dist = dist[j];
+			o->wi = pm_v3(w[0][j], w[1][j], w[2][j]);
+			o->value = good >> j & 1 ? l->radiance : pm_rgb1(0.0f);
+			ok[i + j] = (good >> j & 1) != 0;
+			if (ok[i + j])
+				o->pdf = pdf[j];
+		}
+	}
+	return i;
+}
+#else
+static size_t
+quad_lanes(const struct pm_lights *ls, const struct pm_scene *s,
+    const struct pm_vec3 *ref, const float (*u)[3], size_t n,
+    struct pm_light_sample *out, bool *ok)
+{
+	(void)ls, (void)s, (void)ref, (void)u, (void)n, (void)out, (void)ok;
+	return 0;
+}
+#endif
+
+void
+pm_lights_sample_n(const struct pm_lights *ls, const struct pm_scene *s,
+    const struct pm_vec3 *ref, const float (*u)[3], size_t n,
+    struct pm_light_sample *out, bool *ok)
+{
+	size_t i = 0;
+
+	/* one light, a flat untextured parallelogram that shines */
+	if (ls->n == 1 && s->lights[0].type == PM_LIGHT_AREA &&
+	    s->shapes[s->lights[0].shape].type != PM_SHAPE_SPHERE &&
+	    ls->quad[0].on && !pm_rgb_is_black(s->lights[0].radiance))
+		i = quad_lanes(ls, s, ref, u, n, out, ok);
+	for (; i < n; i++)
+		ok[i] = pm_lights_sample(ls, s, ref[i], u[i][0], u[i][1],
+		    u[i][2], &out[i]);
+}
+
 float
 pm_lights_pdf_area(const struct pm_lights *ls, const struct pm_scene *s,
     int light, struct pm_vec3 ref, struct pm_vec3 p, struct pm_vec3 n)

@@ -153,6 +153,13 @@ void pm_lights_free(struct pm_lights *ls);
  * (no lights, or the chosen point cannot light ref). */
 bool pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
     struct pm_vec3 ref, float u0, float u1, float u2, struct pm_light_sample *ls_out);
+/* pm_lights_sample at n points at once, ref[i] with u[i][0..3) giving
+ * out[i] and ok[i], the same bits: in a scene with one light that is a
+ * parallelogram (the common case of a rectangle light), in SIMD lanes,
+ * else one by one. */
+void pm_lights_sample_n(const struct pm_lights *ls, const struct pm_scene *s,
+    const struct pm_vec3 *ref, const float (*u)[3], size_t n,
+    struct pm_light_sample *out, bool *ok);
 
 /*
  * True if something lies between the hit and the light sample.  The shadow

@@ -13,6 +13,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include <cmocka.h>
@@ -255,6 +256,89 @@ test_photons_leave_the_lit_side(void **state)
 }
 
 /*
+ * pm_lights_sample_n, whose SIMD lanes take a parallelogram's light
+ * samples four at a time, against pm_lights_sample one at a time, bit
+ * for bit: 100003 points around the turned light, in front of it and
+ * behind it (samples refused there), on its plane, and at its corners,
+ * where a sample may land on the point itself.  It fails with the
+ * distance's reciprocal folded into a division or the light's back
+ * accepted.
+ */
+static void
+test_light_samples_in_lanes(void **state)
+{
+	enum { N = 100003 };
+	struct pm_scene s;
+	struct pm_world w;
+	struct pm_vec3 *ref = malloc(N * sizeof(*ref));
+	float (*u)[3] = malloc(N * sizeof(*u));
+	struct pm_light_sample *got = malloc(N * sizeof(*got));
+	bool *ok = malloc(N * sizeof(*ok));
+	struct pm_rng rng = pm_rng_seed(23, 0, 0);
+	const struct pm_light_quad *q;
+	size_t i, lit = 0;
+
+	(void)state;
+	assert_non_null(ref);
+	assert_non_null(u);
+	assert_non_null(got);
+	assert_non_null(ok);
+	load(RECT, &s, &w);
+	q = &w.lights.quad[0];
+	assert_true(q->on);
+	for (i = 0; i < N; i++) {
+		float a = pm_rng_float(&rng), b = pm_rng_float(&rng);
+
+		switch (i % 5) {
+		case 0:		/* on the light's plane */
+			ref[i] = pm_madd(pm_madd(q->p0, q->e1, 2 * a - 0.5f),
+			    q->e2, 2 * b - 0.5f);
+			break;
+		case 1:		/* a corner, which u = 0 samples */
+			ref[i] = q->p0;
+			u[i][0] = u[i][1] = u[i][2] = 0.0f;
+			continue;
+		default:	/* anywhere around it */
+			ref[i] = pm_v3(4 * a - 2, 4 * b - 2,
+			    4 * pm_rng_float(&rng) - 1);
+		}
+		u[i][0] = pm_rng_float(&rng);
+		u[i][1] = pm_rng_float(&rng);
+		u[i][2] = pm_rng_float(&rng);
+	}
+	pm_lights_sample_n(&w.lights, &s, ref, (const float (*)[3])u, N, got,
+	    ok);
+	for (i = 0; i < N; i++) {
+		struct pm_light_sample want;
+		bool w_ok = pm_lights_sample(&w.lights, &s, ref[i], u[i][0],
+		    u[i][1], u[i][2], &want);
+
+		assert_int_equal(ok[i], w_ok);
+		if (!w_ok)
+			continue;
+		lit++;
+		assert_memory_equal(&got[i].wi, &want.wi, sizeof(want.wi));
+		assert_memory_equal(&got[i].dist, &want.dist, sizeof(want.dist));
+		assert_memory_equal(&got[i].p, &want.p, sizeof(want.p));
+		assert_memory_equal(&got[i].n, &want.n, sizeof(want.n));
+		assert_memory_equal(&got[i].value, &want.value,
+		    sizeof(want.value));
+		assert_memory_equal(&got[i].pdf, &want.pdf, sizeof(want.pdf));
+		assert_int_equal(got[i].delta, want.delta);
+		assert_int_equal(got[i].light, want.light);
+	}
+	print_message("light samples in lanes: %zu of %d lit, all the "
+	    "scalar ones' bits\n", lit, N);
+	assert_true(lit > N / 4 && lit < N - N / 4);
+	free(ref);
+	free(u);
+	free(got);
+	free(ok);
+	pm_world_free(&w);
+	pm_scene_free(&s);
+}
+
+/*
  * pm_shoot emits a parallelogram's photons eight paths at a time, in SIMD
  * lanes (common/shoot.c, emit_batch), and pm_shooter_emit one at a time:
  * both must be emission as defined, the shape's point, the cosine
@@ -352,6 +436,7 @@ main(void)
 		cmocka_unit_test(test_uniform_and_unbiased),
 		cmocka_unit_test(test_photons_leave_the_lit_side),
 		cmocka_unit_test(test_batched_emission_is_the_definition),
+		cmocka_unit_test(test_light_samples_in_lanes),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);
