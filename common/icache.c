@@ -108,15 +108,21 @@ build_point(struct icache_job *j, int gx, int gy)
 		struct pm_ray ray[GATHER_BATCH];
 		struct pm_hit gh[GATHER_BATCH];
 		bool gf[GATHER_BATCH];
+		float u1[GATHER_BATCH], u2[GATHER_BATCH];
+		float x[GATHER_BATCH], y[GATHER_BATCH], z[GATHER_BATCH];
 		int i, m = nrays - i0 < GATHER_BATCH ? nrays - i0 : GATHER_BATCH;
 
 		for (i = 0; i < m; i++) {
 			int a = (i0 + i) / j->k, b = (i0 + i) % j->k;
-			float u1 = ((float)a + pm_rng_float(&rng)) / (float)j->k;
-			float u2 = ((float)b + pm_rng_float(&rng)) / (float)j->k;
 
+			u1[i] = ((float)a + pm_rng_float(&rng)) / (float)j->k;
+			u2[i] = ((float)b + pm_rng_float(&rng)) / (float)j->k;
+		}
+		/* the batch's cosine warps in SIMD lanes (sampling.h) */
+		pm_square_to_cosine_hemisphere_n(u1, u2, x, y, z, (size_t)m);
+		for (i = 0; i < m; i++) {
 			ray[i].d = pm_normalize(pm_to_world(fr,
-			    pm_square_to_cosine_hemisphere(u1, u2)));
+			    pm_v3(x[i], y[i], z[i])));
 			ray[i].o = pm_hit_origin(&h, ray[i].d);
 			ray[i].tmin = 0.0f;
 			ray[i].tmax = INFINITY;
