@@ -50,9 +50,12 @@ bsdf_pdf(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo)
 	return pm_diffuse_pdf(wi, wo);
 }
 
+/* pm_bsdf_sample, a plain diffuse BSDF's in line; v, if not NULL, is
+ * (u2, u3) warped to the cosine hemisphere already (path_li_batch warps a
+ * round's pairs at once): the same result. */
 static inline bool
-bsdf_sample(const struct pm_bsdf *b, struct pm_vec3 wi, float u1, float u2,
-    float u3, struct pm_bsdf_sample *bs)
+bsdf_sample_v(const struct pm_bsdf *b, struct pm_vec3 wi, float u1, float u2,
+    float u3, const struct pm_vec3 *v, struct pm_bsdf_sample *bs)
 {
 	bool flip;
 
@@ -61,31 +64,19 @@ bsdf_sample(const struct pm_bsdf *b, struct pm_vec3 wi, float u1, float u2,
 	flip = b->twosided && wi.z < 0.0f;
 	if (flip)
 		wi.z = -wi.z;
-	if (!pm_diffuse_sample(b->diffuse, wi, u2, u3, bs))
+	if (!(v != NULL ? pm_diffuse_sample_warped(b->diffuse, wi, *v, bs) :
+	    pm_diffuse_sample(b->diffuse, wi, u2, u3, bs)))
 		return false;
 	if (flip)
 		bs->wo.z = -bs->wo.z;
 	return true;
 }
 
-/* bsdf_sample given v, (u2, u3) warped to the cosine hemisphere
- * (path_li_batch warps a round's pairs at once): the same result. */
 static inline bool
-bsdf_sample_warped(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
-    float u2, float u3, struct pm_vec3 v, struct pm_bsdf_sample *bs)
+bsdf_sample(const struct pm_bsdf *b, struct pm_vec3 wi, float u1, float u2,
+    float u3, struct pm_bsdf_sample *bs)
 {
-	bool flip;
-
-	if (!pm_bsdf_plain_diffuse(b))
-		return pm_bsdf_sample(b, wi, u1, u2, u3, PM_RADIANCE, bs);
-	flip = b->twosided && wi.z < 0.0f;
-	if (flip)
-		wi.z = -wi.z;
-	if (!pm_diffuse_sample_warped(b->diffuse, wi, v, bs))
-		return false;
-	if (flip)
-		bs->wo.z = -bs->wo.z;
-	return true;
+	return bsdf_sample_v(b, wi, u1, u2, u3, NULL, bs);
 }
 
 /* The BSDF's value f for light sample ls (false when f is black, and
@@ -380,6 +371,7 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 			struct path_lane *q = &l[idx[v->k]];
 			struct pm_rng *rng = &smp[idx[v->k]].rng;
 			const struct pm_hit *h = &hits[v->k];
+			struct pm_vec3 wv = pm_v3(wx[j], wy[j], wz[j]);
 			struct pm_bsdf_sample bs;
 
 			if (v->light >= 0) {
@@ -404,8 +396,8 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 					q->L = pm_rgb_madd(q->L, q->pa.beta, c);
 				}
 			}
-			if (!bsdf_sample_warped(v->b, v->wi, v->u1, u2[j], u3[j],
-			    pm_v3(wx[j], wy[j], wz[j]), &bs) ||
+			if (!bsdf_sample_v(v->b, v->wi, v->u1, u2[j], u3[j], &wv,
+			    &bs) ||
 			    !path_continue(&q->pa, h, &v->fr, &bs, q->depth,
 			    ctx->rr_depth, rng)) {
 				q->alive = false;
