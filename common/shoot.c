@@ -510,12 +510,15 @@ projector_direction(const struct pm_shooter *sh, size_t li, float u,
 
 /*
  * Emits a photon path from its first six random numbers u: origin,
- * direction, flux and the medium it starts in.  False if the sampled
- * photon carries nothing (it still counts as emitted).
+ * direction, flux and the medium it starts in.  cosine is (u[3], u[4])
+ * warped to the cosine hemisphere (emit_batch warps many at once), the
+ * local direction of an area light's unaimed photon.  False if the
+ * sampled photon carries nothing (it still counts as emitted).
  */
 static bool
 emit_u(const struct pm_shooter *sh, enum pm_map_pass pass, const float u[6],
-    struct pm_vec3 *o, struct pm_vec3 *d, struct pm_rgb *flux, int *medium)
+    struct pm_vec3 cosine, struct pm_vec3 *o, struct pm_vec3 *d,
+    struct pm_rgb *flux, int *medium)
 {
 	const struct pm_scene *s = sh->scene;
 	const struct pm_lights *ls = sh->lights;
@@ -536,12 +539,12 @@ emit_u(const struct pm_shooter *sh, enum pm_map_pass pass, const float u[6],
 		 * computes, in its order, with the frame found once and
 		 * nothing looked up (the radiance is untextured, and its
 		 * side test is the shading normal's below): 77 -> 55 ns an
-		 * emission, one core.  emit_batch has it in lanes. */
+		 * emission, one core, before emit_batch's lanes. */
 		const struct pm_light_quad *q = &ls->quad[li];
 		float c;
 
 		p = pm_madd(pm_madd(q->p0, q->e1, u1), q->e2, u2);
-		w = pm_to_world(q->f, pm_square_to_cosine_hemisphere(u3, u4));
+		w = pm_to_world(q->f, cosine);
 		c = pm_dot(w, q->n);
 		pdf_dir = pm_fmaxf(c, 0.0f) * PM_INV_PI;
 		if (c <= 0.0f || pm_dot(w, q->ns) <= 0.0f || pdf_dir <= 0.0f)
@@ -562,7 +565,7 @@ emit_u(const struct pm_shooter *sh, enum pm_map_pass pass, const float u[6],
 			pdf_dir = aim_pdf(sh, p, w);
 		} else {
 			w = pm_to_world(pm_frame_from_normal(ng),
-			    pm_square_to_cosine_hemisphere(u3, u4));
+			    cosine);
 			pdf_dir = pm_fmaxf(pm_dot(w, ng), 0.0f) * PM_INV_PI;
 		}
 		if (pm_dot(w, ng) <= 0.0f || pm_dot(w, ns) <= 0.0f || pdf_dir <= 0.0f)
@@ -663,7 +666,8 @@ emit(const struct pm_shooter *sh, enum pm_map_pass pass, struct pm_rng *rng,
 
 	for (j = 0; j < 6; j++)
 		u[j] = pm_rng_float(rng);
-	return emit_u(sh, pass, u, o, d, flux, medium);
+	return emit_u(sh, pass, u, pm_square_to_cosine_hemisphere(u[3], u[4]),
+	    o, d, flux, medium);
 }
 
 /* A photon path's start: its random numbers' state after the emission,
@@ -683,64 +687,31 @@ struct path_start {
  * Paths first .. first + n - 1 (n <= EMIT_LANES) emitted as emit() would
  * emit them one by one, the same bits.  Emission was a seventh of the
  * Cornell box's photon pass, most of it one long chain of dependent
- * arithmetic a path; in a scene with one parallelogram light (light.h)
- * shooting cosine-distributed photons, the common case, the lanes' chains
- * run side by side in SIMD.  Anything else goes lane by lane.
+ * arithmetic a path, the cosine warp's the longest: the lanes' warps run
+ * side by side in SIMD (pm_square_to_cosine_hemisphere_n), whatever the
+ * lights (a light that does not use one wastes a quarter of a lane's
+ * work).
  */
 static void
 emit_batch(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
     uint64_t first, int n, struct path_start *ps)
 {
-	const struct pm_scene *s = sh->scene;
-	const struct pm_lights *ls = sh->lights;
-	float u[6][EMIT_LANES], x[EMIT_LANES], y[EMIT_LANES], z[EMIT_LANES];
-	const struct pm_light *l = &s->lights[0];
-	const struct pm_light_quad *q = &ls->quad[0];
-	float psel, area;
+	float u[EMIT_LANES][6], u3[EMIT_LANES], u4[EMIT_LANES];
+	float x[EMIT_LANES], y[EMIT_LANES], z[EMIT_LANES];
 	int k, j;
 
 	for (k = 0; k < n; k++) {
 		ps[k].rng = pm_rng_seed(opts->seed, first + (uint64_t)k,
 		    (uint64_t)opts->pass);
 		for (j = 0; j < 6; j++)
-			u[j][k] = pm_rng_float(&ps[k].rng);
+			u[k][j] = pm_rng_float(&ps[k].rng);
+		u3[k] = u[k][3];
+		u4[k] = u[k][4];
 	}
-	if (n < EMIT_LANES || s->nlights != 1 || l->type != PM_LIGHT_AREA ||
-	    !q->on || s->shapes[l->shape].type == PM_SHAPE_SPHERE ||
-	    (opts->pass == PM_PASS_CAUSTIC && sh->naim > 0)) {
-		for (k = 0; k < n; k++) {
-			float uk[6];
-
-			for (j = 0; j < 6; j++)
-				uk[j] = u[j][k];
-			ps[k].ok = emit_u(sh, opts->pass, uk, &ps[k].o,
-			    &ps[k].d, &ps[k].flux, &ps[k].medium);
-		}
-		return;
-	}
-	/* emit_u's parallelogram case, lane by lane in its order (one
-	 * light: pm_distrib_sample gives 0 for any u0) */
-	psel = (float)pm_distrib_prob(&ls->pick, 0);
-	area = (float)l->area;
-	pm_square_to_cosine_hemisphere_n(u[3], u[4], x, y, z, EMIT_LANES);
-	for (k = 0; k < EMIT_LANES; k++) {
-		struct pm_vec3 p = pm_madd(pm_madd(q->p0, q->e1, u[1][k]),
-		    q->e2, u[2][k]);
-		struct pm_vec3 w = pm_to_world(q->f, pm_v3(x[k], y[k], z[k]));
-		float c = pm_dot(w, q->n);
-		float pdf_dir = pm_fmaxf(c, 0.0f) * PM_INV_PI;
-
-		ps[k].medium = sh->light_medium != NULL ?
-		    sh->light_medium[0] : -1;
-		ps[k].ok = false;
-		if (c <= 0.0f || pm_dot(w, q->ns) <= 0.0f || pdf_dir <= 0.0f)
-			continue;
-		ps[k].flux = pm_rgb_scale(l->radiance, c * area /
-		    (psel * pdf_dir));
-		ps[k].o = pm_offset_origin(p, q->n, w);
-		ps[k].d = w;
-		ps[k].ok = pm_rgb_max(ps[k].flux) > 0.0f;
-	}
+	pm_square_to_cosine_hemisphere_n(u3, u4, x, y, z, (size_t)n);
+	for (k = 0; k < n; k++)
+		ps[k].ok = emit_u(sh, opts->pass, u[k], pm_v3(x[k], y[k], z[k]),
+		    &ps[k].o, &ps[k].d, &ps[k].flux, &ps[k].medium);
 }
 
 bool

@@ -339,16 +339,17 @@ test_light_samples_in_lanes(void **state)
 }
 
 /*
- * pm_shoot emits a parallelogram's photons eight paths at a time, in SIMD
- * lanes (common/shoot.c, emit_batch), and pm_shooter_emit one at a time:
+ * pm_shoot emits photons eight paths at a time, their cosine directions
+ * warped in SIMD lanes (common/shoot.c, emit_batch), and pm_shooter_emit
+ * one at a time:
  * both must be emission as defined, the shape's point, the cosine
  * direction in pm_frame_from_normal's frame, the flux and the offset
  * origin, computed here from the general functions: pm_shooter_emit's
  * results bit for bit, pm_shoot's photons byte for byte (position, and
  * power as RGBE stores it).  A turned light in a black box stores each
  * path's first hit only, so the k-th photon is the k-th path that
- * carries flux; 1003 paths from path 5 leave a batch of three, which
- * goes lane by lane.  (test_sampling checks the lanes' warp.)
+ * carries flux; 1003 paths from path 5 leave a batch of three, whose
+ * warps take the scalar tail.  (test_sampling checks the lanes' warp.)
  */
 static void
 test_batched_emission_is_the_definition(void **state)
