@@ -1399,7 +1399,7 @@ sample_thindielectric(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
 
 static bool
 sample_plastic(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
-    float u2, float u3, struct pm_bsdf_sample *s)
+    float u2, float u3, const struct pm_vec3 *v, struct pm_bsdf_sample *s)
 {
 	float fi, fo, ps, pd;
 
@@ -1416,7 +1416,7 @@ sample_plastic(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
 		s->lobe = PM_LOBE_DELTA_REFLECTION;
 		return true;
 	}
-	s->wo = pm_square_to_cosine_hemisphere(u2, u3);
+	s->wo = v != NULL ? *v : pm_square_to_cosine_hemisphere(u2, u3);
 	s->pdf = pd * pm_cosine_hemisphere_pdf(s->wo);
 	if (!(s->pdf > 0.0f))
 		return false;
@@ -1478,6 +1478,14 @@ bool
 pm_bsdf_sample(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
     float u2, float u3, enum pm_transport mode, struct pm_bsdf_sample *s)
 {
+	return pm_bsdf_sample_warped(b, wi, u1, u2, u3, mode, NULL, s);
+}
+
+bool
+pm_bsdf_sample_warped(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
+    float u2, float u3, enum pm_transport mode, const struct pm_vec3 *v,
+    struct pm_bsdf_sample *s)
+{
 	bool flip = twosided_flip(b, wi), ok = false;
 
 	if (excluded(b))
@@ -1488,7 +1496,8 @@ pm_bsdf_sample(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
 		wi.z = -wi.z;
 	switch (b->type) {
 	case PM_BSDF_DIFFUSE:
-		ok = pm_diffuse_sample(b->diffuse, wi, u2, u3, s);
+		ok = v != NULL ? pm_diffuse_sample_warped(b->diffuse, wi, *v, s) :
+		    pm_diffuse_sample(b->diffuse, wi, u2, u3, s);
 		break;
 	case PM_BSDF_CONDUCTOR:
 		if (wi.z <= 0.0f)
@@ -1511,7 +1520,7 @@ pm_bsdf_sample(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
 		ok = sample_thindielectric(b, wi, u1, s);
 		break;
 	case PM_BSDF_PLASTIC:
-		ok = sample_plastic(b, wi, u1, u2, u3, s);
+		ok = sample_plastic(b, wi, u1, u2, u3, v, s);
 		break;
 	case PM_BSDF_NULL:
 		s->wo = pm_neg(wi);

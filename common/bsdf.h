@@ -204,6 +204,13 @@ float pm_bsdf_pdf(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo)
 /* u1 chooses the lobe, (u2, u3) the direction; false if nothing was sampled. */
 bool pm_bsdf_sample(const struct pm_bsdf *b, struct pm_vec3 wi, float u1,
     float u2, float u3, enum pm_transport mode, struct pm_bsdf_sample *s);
+/* pm_bsdf_sample with v, if not NULL, (u2, u3) warped to the cosine
+ * hemisphere already (pm_square_to_cosine_hemisphere), which a diffuse or
+ * plastic BSDF's diffuse lobe takes as its direction: the same result,
+ * for callers that warp many pairs at once. */
+bool pm_bsdf_sample_warped(const struct pm_bsdf *b, struct pm_vec3 wi,
+    float u1, float u2, float u3, enum pm_transport mode,
+    const struct pm_vec3 *v, struct pm_bsdf_sample *s);
 
 /*
  * The diffuse lobe's eval, pdf and sample in the local frame, wi above
@@ -260,6 +267,27 @@ static inline bool pm_diffuse_sample(struct pm_rgb r, struct pm_vec3 wi,
 		return false;
 	return pm_diffuse_sample_warped(r, wi,
 	    pm_square_to_cosine_hemisphere(u2, u3), s);
+}
+
+/* pm_bsdf_sample_warped, a plain diffuse BSDF's in line (the commonest
+ * at a path's vertices). */
+static inline bool pm_bsdf_sample_v(const struct pm_bsdf *b, struct pm_vec3 wi,
+    float u1, float u2, float u3, enum pm_transport mode,
+    const struct pm_vec3 *v, struct pm_bsdf_sample *s)
+{
+	bool flip;
+
+	if (!pm_bsdf_plain_diffuse(b))
+		return pm_bsdf_sample_warped(b, wi, u1, u2, u3, mode, v, s);
+	flip = b->twosided && wi.z < 0.0f;
+	if (flip)
+		wi.z = -wi.z;
+	if (!(v != NULL ? pm_diffuse_sample_warped(b->diffuse, wi, *v, s) :
+	    pm_diffuse_sample(b->diffuse, wi, u2, u3, s)))
+		return false;
+	if (flip)
+		s->wo.z = -s->wo.z;
+	return true;
 }
 
 /* Plastic's coating as a deterministic mirror sample (weight Fresnel x

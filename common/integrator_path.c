@@ -50,26 +50,12 @@ bsdf_pdf(const struct pm_bsdf *b, struct pm_vec3 wi, struct pm_vec3 wo)
 	return pm_diffuse_pdf(wi, wo);
 }
 
-/* pm_bsdf_sample, a plain diffuse BSDF's in line; v, if not NULL, is
- * (u2, u3) warped to the cosine hemisphere already (path_li_batch warps a
- * round's pairs at once): the same result. */
+/* pm_bsdf_sample_v for radiance. */
 static inline bool
 bsdf_sample_v(const struct pm_bsdf *b, struct pm_vec3 wi, float u1, float u2,
     float u3, const struct pm_vec3 *v, struct pm_bsdf_sample *bs)
 {
-	bool flip;
-
-	if (!pm_bsdf_plain_diffuse(b))
-		return pm_bsdf_sample(b, wi, u1, u2, u3, PM_RADIANCE, bs);
-	flip = b->twosided && wi.z < 0.0f;
-	if (flip)
-		wi.z = -wi.z;
-	if (!(v != NULL ? pm_diffuse_sample_warped(b->diffuse, wi, *v, bs) :
-	    pm_diffuse_sample(b->diffuse, wi, u2, u3, bs)))
-		return false;
-	if (flip)
-		bs->wo.z = -bs->wo.z;
-	return true;
+	return pm_bsdf_sample_v(b, wi, u1, u2, u3, PM_RADIANCE, v, bs);
 }
 
 static inline bool

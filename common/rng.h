@@ -26,12 +26,18 @@ static inline uint64_t pm_mix64(uint64_t z)
 	return z ^ (z >> 31);
 }
 
+/* Steps the state past one number without computing it. */
+static inline void pm_rng_skip(struct pm_rng *r)
+{
+	r->state = r->state * 6364136223846793005ULL + r->inc;
+}
+
 static inline uint32_t pm_rng_u32(struct pm_rng *r)
 {
 	uint64_t old = r->state;
 	uint32_t xorshifted, rot;
 
-	r->state = old * 6364136223846793005ULL + r->inc;
+	pm_rng_skip(r);
 	xorshifted = (uint32_t)(((old >> 18) ^ old) >> 27);
 	rot = (uint32_t)(old >> 59);
 	return (xorshifted >> rot) | (xorshifted << ((-rot) & 31));

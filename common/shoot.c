@@ -670,6 +670,11 @@ emit(const struct pm_shooter *sh, enum pm_map_pass pass, struct pm_rng *rng,
 	    o, d, flux, medium);
 }
 
+/* Bounces a path's diffuse directions are warped ahead for (emit_batch):
+ * in the Cornell box two cover 1.25 of the 1.85 bounces a path (its
+ * photons of depth 0 and 1, of all depths). */
+#define PRE_BOUNCES 2
+
 /* A photon path's start: its random numbers' state after the emission,
  * and what the emission gave. */
 struct path_start {
@@ -678,6 +683,13 @@ struct path_start {
 	struct pm_rgb flux;
 	int medium;
 	bool ok;			/* false: it carries nothing */
+	/* Cosine directions warped ahead (pre_v[i]) from the two numbers
+	 * the path's generator gives from state pre_state[i] on, for
+	 * i < npre: a bounce that draws its (u2, u3) from that state
+	 * takes the direction as drawn. */
+	int npre;
+	uint64_t pre_state[PRE_BOUNCES];
+	struct pm_vec3 pre_v[PRE_BOUNCES];
 };
 
 /* Paths emitted together (emit_batch). */
@@ -691,27 +703,53 @@ struct path_start {
  * side by side in SIMD (pm_square_to_cosine_hemisphere_n), whatever the
  * lights (a light that does not use one wastes a quarter of a lane's
  * work).
+ *
+ * A diffuse bounce's warp is the same chain, a path's bounces one after
+ * another, so in the global pass the lanes also take each path's first
+ * PRE_BOUNCES bounces' directions, guessed ahead: a bounce at a
+ * non-specular surface draws five numbers (the photon's dither, u1, u2,
+ * u3, the roulette's), so in a path of such bounces bounce i's (u2, u3)
+ * come from the state after 5 i + 2 draws.  The guess is checked where
+ * it is used (trace_path compares states), so a path that went otherwise
+ * (a mirror, a medium, a lobe choice) warps its own.
  */
 static void
 emit_batch(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
     uint64_t first, int n, struct path_start *ps)
 {
-	float u[EMIT_LANES][6], u3[EMIT_LANES], u4[EMIT_LANES];
-	float x[EMIT_LANES], y[EMIT_LANES], z[EMIT_LANES];
-	int k, j;
+	enum { W = EMIT_LANES * (1 + PRE_BOUNCES) };
+	float u[EMIT_LANES][6], ua[W], ub[W];
+	float x[W], y[W], z[W];
+	int k, j, m, npre = opts->pass == PM_PASS_GLOBAL ? PRE_BOUNCES : 0;
 
 	for (k = 0; k < n; k++) {
 		ps[k].rng = pm_rng_seed(opts->seed, first + (uint64_t)k,
 		    (uint64_t)opts->pass);
 		for (j = 0; j < 6; j++)
 			u[k][j] = pm_rng_float(&ps[k].rng);
-		u3[k] = u[k][3];
-		u4[k] = u[k][4];
+		ua[k] = u[k][3];
+		ub[k] = u[k][4];
 	}
-	pm_square_to_cosine_hemisphere_n(u3, u4, x, y, z, (size_t)n);
-	for (k = 0; k < n; k++)
+	for (k = 0, m = n; k < n; k++) {
+		struct pm_rng r = ps[k].rng;
+
+		ps[k].npre = npre;
+		for (j = 0; j < npre; j++, m++) {
+			pm_rng_skip(&r);	/* the dither */
+			pm_rng_skip(&r);	/* u1 */
+			ps[k].pre_state[j] = r.state;
+			ua[m] = pm_rng_float(&r);
+			ub[m] = pm_rng_float(&r);
+			pm_rng_skip(&r);	/* the roulette */
+		}
+	}
+	pm_square_to_cosine_hemisphere_n(ua, ub, x, y, z, (size_t)m);
+	for (k = 0, m = n; k < n; k++) {
 		ps[k].ok = emit_u(sh, opts->pass, u[k], pm_v3(x[k], y[k], z[k]),
 		    &ps[k].o, &ps[k].d, &ps[k].flux, &ps[k].medium);
+		for (j = 0; j < npre; j++, m++)
+			ps[k].pre_v[j] = pm_v3(x[m], y[m], z[m]);
+	}
 }
 
 bool
@@ -837,7 +875,9 @@ trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 		struct pm_frame fr;
 		struct pm_vec3 wi_local;
 		struct pm_bsdf_sample bs;
+		const struct pm_vec3 *v;
 		float q, u1, u2, u3;
+		int i;
 
 		bool hit = pm_accel_intersect(sh->accel, o, d, 0.0f, INFINITY, &h);
 
@@ -905,9 +945,13 @@ trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 			break;
 		wi_local = pm_to_local(fr, pm_neg(d));
 		u1 = pm_rng_float(&rng);
+		for (i = 0, v = NULL; i < ps->npre; i++)
+			if (rng.state == ps->pre_state[i])
+				v = &ps->pre_v[i];	/* (u2, u3) warped */
 		u2 = pm_rng_float(&rng);
 		u3 = pm_rng_float(&rng);
-		if (!pm_bsdf_sample(b, wi_local, u1, u2, u3, PM_IMPORTANCE, &bs))
+		if (!pm_bsdf_sample_v(b, wi_local, u1, u2, u3, PM_IMPORTANCE, v,
+		    &bs))
 			break;
 		if (opts->pass == PM_PASS_CAUSTIC && !event_specular(b, &bs))
 			break;

@@ -19,6 +19,11 @@
 
 #include <cmocka.h>
 
+#include "../../common/accel.h"
+#include "../../common/bsdf.h"
+#include "../../common/frame.h"
+#include "../../common/photon.h"
+#include "../../common/rng.h"
 #include "../../common/shoot.h"
 #include "../../common/world.h"
 
@@ -147,6 +152,147 @@ test_flux_by_depth(void **state)
 	}
 	pm_photon_buf_free(&b);
 	world_free(&w);
+}
+
+/*
+ * trace_path's definition in the global pass (no media), one path at a
+ * time from the general functions: emission by pm_shooter_emit, every
+ * bounce by pm_bsdf_sample.  pm_shoot emits eight paths together and
+ * warps their first bounces' diffuse directions ahead in SIMD lanes
+ * (emit_batch), which must give these photons bit for bit.  Returns the
+ * photons of path i written to out[0..].
+ */
+static size_t
+reference_path(const struct world *w, uint64_t seed, uint64_t i,
+    int max_depth, struct pm_photon *out, size_t cap)
+{
+	const struct pm_scene *s = &w->scene;
+	struct pm_rng rng = pm_rng_seed(seed, i, PM_PASS_GLOBAL);
+	struct pm_vec3 o, d;
+	struct pm_rgb flux;
+	bool specular_only = true, via_diffuse = false;
+	size_t k = 0;
+	int depth;
+
+	if (!pm_shooter_emit(&w->shooter, &rng, &o, &d, &flux))
+		return 0;
+	for (depth = 0;; depth++) {
+		struct pm_hit h;
+		struct pm_bsdf bt;
+		struct pm_frame fr;
+		struct pm_bsdf_sample bs;
+		const struct pm_bsdf *b;
+		float u1, u2, u3, q;
+
+		if (!pm_accel_intersect(w->world.accel, o, d, 0.0f, INFINITY, &h))
+			break;
+		b = pm_bsdf_frame_at(s, &h, d, &bt, &fr);
+		if (b->lobes & (PM_LOBE_DIFFUSE | PM_LOBE_GLOSSY)) {
+			struct pm_photon *ph = &out[k++];
+
+			assert_true(k <= cap);
+			memset(ph, 0, sizeof(*ph));
+			ph->pos[0] = h.p.x;
+			ph->pos[1] = h.p.y;
+			ph->pos[2] = h.p.z;
+			pm_rgbe_pack(flux, pm_rng_float(&rng), ph->power);
+			pm_dir_pack(pm_neg(d), ph->dir);
+			pm_dir_pack(pm_dot(h.ng, d) < 0.0f ? h.ns : pm_neg(h.ns),
+			    ph->normal);
+			ph->flags = PM_KD_LEAF |
+			    (via_diffuse ? PM_PHOTON_VIA_DIFFUSE : 0) |
+			    (specular_only && depth > 0 ? PM_PHOTON_CAUSTIC : 0);
+			ph->depth = (uint8_t)depth;
+		}
+		if (depth >= max_depth)
+			break;
+		u1 = pm_rng_float(&rng);
+		u2 = pm_rng_float(&rng);
+		u3 = pm_rng_float(&rng);
+		if (!pm_bsdf_sample(b, pm_to_local(fr, pm_neg(d)), u1, u2, u3,
+		    PM_IMPORTANCE, &bs))
+			break;
+		q = pm_fminf(pm_rgb_max(bs.weight), 1.0f);
+		if (!(q > 0.0f) || pm_rng_float(&rng) >= q)
+			break;
+		flux = pm_rgb_scale(pm_rgb_mul(flux, bs.weight), 1.0f / q);
+		if (!(bs.lobe & PM_LOBE_DELTA)) {
+			specular_only = false;
+			via_diffuse = true;
+		}
+		d = pm_normalize(pm_to_world(fr, bs.wo));
+		o = pm_hit_origin(&h, d);
+	}
+	return k;
+}
+
+/* Every photon pm_shoot stores is reference_path's, in order: in the
+ * furnace with a diffuse and then a plastic enclosure (whose diffuse
+ * lobe takes the directions warped ahead), with a mirror sphere beside
+ * the light, where a path's numbers shift and the guess made ahead must
+ * be refused. */
+static void
+test_paths_are_the_definition(void **state)
+{
+	const uint64_t seed = 42, first = 3, n = 4001;
+	const int max_depth = 12;
+	int variant;
+
+	(void)state;
+	for (variant = 0; variant < 2; variant++) {
+		struct world w;
+		struct pm_scene *s = &w.scene;
+		struct pm_photon_buf b = {NULL, 0, 0};
+		struct pm_shoot_opts o = {PM_PASS_GLOBAL, seed, first, n,
+		    max_depth, 2, NULL, NULL, NULL, NULL};
+		struct pm_shoot_stats st;
+		struct pm_error err;
+		struct pm_photon ref[64];
+		size_t k = 0, bounced = 0, j, m;
+		uint64_t i;
+		int wall, mirror, sh, l;
+
+		pm_scene_init(s);
+		wall = add_diffuse(s, 0.8f);
+		if (variant == 1) {
+			s->bsdfs[wall].type = PM_BSDF_PLASTIC;
+			s->bsdfs[wall].diffuse = pm_rgb(0.7f, 0.5f, 0.3f);
+			s->bsdfs[wall].specular = pm_rgb1(1.0f);
+			s->bsdfs[wall].ior = 1.5f;
+		}
+		mirror = add_diffuse(s, 0.0f);
+		s->bsdfs[mirror].type = PM_BSDF_CONDUCTOR;
+		s->bsdfs[mirror].specular = pm_rgb1(0.9f);
+		s->bsdfs[mirror].eta = pm_rgb1(0.0f);
+		s->bsdfs[mirror].k = pm_rgb1(1.0f);
+		add_sphere(s, pm_v3(0, 0, 0), 10.0f, wall, true);
+		add_sphere(s, pm_v3(4, 0, 0), 2.5f, mirror, false);
+		sh = add_sphere(s, pm_v3(0, 0, 0), 1.0f, add_diffuse(s, 0.0f),
+		    false);
+		l = pm_scene_add_light(s);
+		s->lights[l].type = PM_LIGHT_AREA;
+		s->lights[l].radiance = pm_rgb(1.0f, 0.5f, 2.0f);
+		s->lights[l].shape = sh;
+		s->shapes[sh].light = l;
+		world_finish(&w);
+		assert_int_equal(pm_shoot(&w.shooter, &o, &b, &st, &err), PM_OK);
+		for (i = first; i < first + n; i++) {
+			m = reference_path(&w, seed, i, max_depth, ref, 64);
+			bounced += m > 1;
+			for (j = 0; j < m; j++, k++) {
+				assert_true(k < b.n);
+				assert_memory_equal(&b.p[k], &ref[j], sizeof(ref[j]));
+			}
+		}
+		assert_int_equal(k, b.n);
+		/* most paths bounce, many more than the lanes' two times */
+		print_message("variant %d: %zu photons, %zu paths that bounced\n",
+		    variant, k, bounced);
+		assert_true(bounced > n / 2);
+		assert_true(k > 3 * n);
+		pm_photon_buf_free(&b);
+		world_free(&w);
+	}
 }
 
 static void
@@ -507,6 +653,7 @@ main(void)
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_flux_by_depth),
+		cmocka_unit_test(test_paths_are_the_definition),
 		cmocka_unit_test(test_shards_equal_one_run),
 		cmocka_unit_test(test_sink),
 		cmocka_unit_test(test_caustic_aiming_is_unbiased),
