@@ -18,6 +18,8 @@
 #include "rng.h"
 #include "scene.h"
 
+struct pm_occupancy;
+
 /* Balanced photon maps and how to look them up (integrator_pm.c). */
 struct pm_photon_maps {
 	const struct pm_photon *global;	/* kd-tree order */
@@ -26,6 +28,9 @@ struct pm_photon_maps {
 	const struct pm_photon *caustic;
 	size_t ncaustic;
 	float caustic_scale;
+	/* Where the caustic map has no photon within caustic_r2 (NULL:
+	 * not known), so that an estimate there skips its walk. */
+	const struct pm_occupancy *caustic_occ;
 	float global_r2, caustic_r2;	/* squared maximum lookup radii */
 	/* Precomputed irradiance records (kd-tree order; power is E in
 	 * W/m^2, undivided), NULL if the map file has none, and the grid

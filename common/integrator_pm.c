@@ -53,6 +53,7 @@
 #include "irradiance.h"
 #include "kdtree.h"
 #include "merl.h"
+#include "occupancy.h"
 #include "frame.h"
 #include "texture.h"
 
@@ -243,10 +244,10 @@ estimate_fixed(const struct pm_photon *ph, size_t n, float scale, float r2,
 /* Radiance towards wi_local from photons near p on a surface of normal
  * nrm (see the top of the file), of at most max_depth bounces. */
 static struct pm_rgb
-estimate(const struct pm_photon *ph, size_t n, float scale, float max_r2, int k,
-    bool fixed, uint8_t mask, uint8_t want, bool cone, const struct pm_bsdf *b,
-    struct pm_vec3 p, struct pm_vec3 nrm, int max_depth, struct pm_frame fr,
-    struct pm_vec3 wi_local)
+estimate(const struct pm_photon *ph, size_t n, const struct pm_occupancy *occ,
+    float scale, float max_r2, int k, bool fixed, uint8_t mask, uint8_t want,
+    bool cone, const struct pm_bsdf *b, struct pm_vec3 p, struct pm_vec3 nrm,
+    int max_depth, struct pm_frame fr, struct pm_vec3 wi_local)
 {
 	struct pm_knn nb[PM_MAX_LOOKUP];
 	float q[3] = {p.x, p.y, p.z}, r2, r, w;
@@ -255,7 +256,9 @@ estimate(const struct pm_photon *ph, size_t n, float scale, float max_r2, int k,
 	float side;
 	bool lambert;
 
-	if (n == 0 || max_r2 <= 0.0f)
+	/* nothing within the radius: what the walk would find (occ NULL:
+	 * not known) */
+	if (n == 0 || max_r2 <= 0.0f || !pm_occupancy_maybe(occ, q, max_r2))
 		return sum;
 	if (fixed)
 		return estimate_fixed(ph, n, scale, max_r2, mask, want, cone, b, p,
@@ -466,9 +469,10 @@ gather_in(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 			if ((b->lobes & PM_LOBE_DIFFUSE) &&
 			    m->irradiance_grid == NULL)
 				L = pm_rgb_madd(L, beta, estimate(m->global,
-				    m->nglobal, m->global_scale, m->global_r2,
-				    m->lookup_size, m->fixed_radius, 0, 0, false,
-				    bb, h.p, nrm, m->gather_max_depth, fr, wi));
+				    m->nglobal, NULL, m->global_scale,
+				    m->global_r2, m->lookup_size, m->fixed_radius,
+				    0, 0, false, bb, h.p, nrm, m->gather_max_depth,
+				    fr, wi));
 			else if (b->lobes & PM_LOBE_DIFFUSE) {
 				u1 = pm_rng_float(rng);
 				u2 = pm_rng_float(rng);
@@ -489,8 +493,9 @@ gather_in(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 				    fr, wi, 1, true, NULL, medium, rng));
 		} else if (has_nonspecular(b) && m->irradiance_grid == NULL)
 			return pm_rgb_madd(L, beta, estimate(m->global, m->nglobal,
-			    m->global_scale, m->global_r2, m->lookup_size, m->fixed_radius,
-			    0, 0, false, b, h.p, nrm, m->gather_max_depth, fr, wi));
+			    NULL, m->global_scale, m->global_r2, m->lookup_size,
+			    m->fixed_radius, 0, 0, false, b, h.p, nrm,
+			    m->gather_max_depth, fr, wi));
 		if (has_nonspecular(b) && (is_glossy(b) || is_split(b))) {
 			const struct pm_bsdf *bg = split_lobe(b, PM_LOBE_GLOSSY,
 			    &glossy_tmp);
@@ -751,8 +756,8 @@ photon_li(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 			    ctx->max_depth - depth - 1;
 
 			E = pm_rgb_add(E, estimate(m->caustic, m->ncaustic,
-			    m->caustic_scale, m->caustic_r2, m->lookup_size,
-			    m->fixed_radius, 0, 0, true,
+			    m->caustic_occ, m->caustic_scale, m->caustic_r2,
+			    m->lookup_size, m->fixed_radius, 0, 0, true,
 			    bb, h.p, nrm, dcap, fr, wi));
 			/* A gather ray adds a segment and its surface's
 			 * photons at least one more. */
@@ -766,9 +771,10 @@ photon_li(const struct pm_render_ctx *ctx, struct pm_vec3 o,
 					    rng));
 			} else
 				E = pm_rgb_add(E, estimate(m->global, m->nglobal,
-				    m->global_scale, m->global_r2, m->lookup_size,
-				    m->fixed_radius, PM_PHOTON_VIA_DIFFUSE, PM_PHOTON_VIA_DIFFUSE, false,
-				    bb, h.p, nrm, dcap, fr, wi));
+				    NULL, m->global_scale, m->global_r2,
+				    m->lookup_size, m->fixed_radius,
+				    PM_PHOTON_VIA_DIFFUSE, PM_PHOTON_VIA_DIFFUSE,
+				    false, bb, h.p, nrm, dcap, fr, wi));
 			L = pm_rgb_madd(L, pa.beta, E);
 			if (!(b->lobes & (PM_LOBE_DELTA | PM_LOBE_GLOSSY |
 			    PM_LOBE_TRANSMISSION |
