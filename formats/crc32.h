@@ -13,8 +13,14 @@
  * returns, for any crc, buf and len (pm_crc32(0, NULL, 0) is 0). */
 uint32_t pm_crc32(uint32_t crc, const void *buf, size_t len);
 
-/* Whether pm_crc32 folds with PCLMULQDQ on this CPU (for tests and
- * benchmarks: the answer is the same either way). */
-int pm_crc32_is_folded(void);
+/* The path pm_crc32 takes on this CPU, for tests and benchmarks (the
+ * answer is the same on every path): 0 zlib, 1 folded with PCLMULQDQ,
+ * 2 folded eight chunks at a time with VPCLMULQDQ. */
+int pm_crc32_path(void);
+
+/* Lets pm_crc32 take no path wider than `widest` (as numbered above), so
+ * that tests can check the narrower paths on CPUs that have the wider;
+ * returns the limit before.  Not for use while other threads checksum. */
+int pm_crc32_limit(int widest);
 
 #endif

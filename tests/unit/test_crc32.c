@@ -1,9 +1,10 @@
 /*
  * test_crc32.c: pm_crc32 is zlib's crc32_z.  Every length from 0 to 1100
  * bytes (under, at and past the 64-byte block and the 16-byte chunk of the
- * folded path) at every alignment, each from a random starting crc, then
- * long buffers whole and in uneven pieces, and inputs whose folds are
- * all ones or all zeros, must give zlib's value bit for bit.
+ * folded path, and the 128-byte block of the wide one) at every
+ * alignment, each from a random starting crc, then long buffers whole and
+ * in uneven pieces, and inputs whose folds are all ones or all zeros,
+ * must give zlib's value bit for bit, on every path this CPU has.
  */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -34,14 +35,13 @@ zref(uint32_t crc, const unsigned char *p, size_t n)
 }
 
 static void
-test_every_length(void **state)
+every_length(void)
 {
 	enum { MAXLEN = 1100 };
 	unsigned char *b = malloc(MAXLEN + 16);
 	uint64_t s = 0x9e3779b97f4a7c15ull;
 	size_t len, off, i, bad = 0;
 
-	(void)state;
 	assert_non_null(b);
 	for (i = 0; i < MAXLEN + 16; i++)
 		b[i] = (unsigned char)next(&s);
@@ -58,7 +58,7 @@ test_every_length(void **state)
 }
 
 static void
-test_long_and_pieces(void **state)
+long_and_pieces(void)
 {
 	const size_t n = (size_t)9 << 20;	/* 9 MiB */
 	unsigned char *b = malloc(n);
@@ -66,7 +66,6 @@ test_long_and_pieces(void **state)
 	uint32_t whole, pieced = 0;
 	size_t i, at, step;
 
-	(void)state;
 	assert_non_null(b);
 	for (i = 0; i < n; i++)
 		b[i] = (unsigned char)next(&s);
@@ -90,15 +89,46 @@ test_long_and_pieces(void **state)
 	free(b);
 }
 
-/* Which path ran is printed, so that a log shows the folded one was
+/* Runs check on every path this CPU has, from the widest down. */
+static void
+on_every_path(void (*check)(void))
+{
+	int widest = pm_crc32_path(), path;
+
+	for (path = widest; path >= 0; path--) {
+		pm_crc32_limit(path);
+		assert_int_equal(pm_crc32_path(), path);
+		check();
+	}
+	pm_crc32_limit(widest);
+}
+
+static void
+test_every_length(void **state)
+{
+	(void)state;
+	on_every_path(every_length);
+}
+
+static void
+test_long_and_pieces(void **state)
+{
+	(void)state;
+	on_every_path(long_and_pieces);
+}
+
+/* Which paths ran is printed, so that a log shows the folded ones were
  * tested (the CI machines have PCLMULQDQ). */
 static void
 test_path(void **state)
 {
+	static const char *name[] = { "zlib only", "folded with PCLMULQDQ",
+	    "folded with PCLMULQDQ and, eight chunks at a time, VPCLMULQDQ" };
+	int path = pm_crc32_path();
+
 	(void)state;
-	print_message("pm_crc32: %s\n", pm_crc32_is_folded() ?
-	    "folded with PCLMULQDQ" : "zlib only");
-	assert_true(pm_crc32_is_folded() == 0 || pm_crc32_is_folded() == 1);
+	assert_true(path >= 0 && path <= 2);
+	print_message("pm_crc32: %s\n", name[path]);
 }
 
 int
