@@ -15,7 +15,8 @@
 #     of the same scene on one core (the ceiling for photon tracing);
 #   - the parallel speed-up from 1 thread to every core of pm-shoot,
 #     pm-balance and pm-render (the render twice: 128x128 at 16 spp, where
-#     the serial start is a tenth of the run, and 256x256 at 64 spp);
+#     the serial start is a tenth of the run, and 256x256 at 64 spp; each
+#     also for its render stage alone, as pm-render -v times it);
 #   - peak resident memory of pm-shoot and pm-balance (one thread,
 #     caustics.xml, 5M paths) against the size of the map they write;
 #   - bytes per photon in memory and on disk, plain and zlib-compressed;
@@ -94,6 +95,25 @@ best2() {
 	done
 	echo "$ba $bb"
 }
+# pm-render's, and the render stage's seconds of each command's fastest
+# stage, as -v prints them ("rendered N samples in S s", after loading):
+# what the threads can do, against what the whole process shows.
+stage() { sed -n 's/.*rendered [0-9]* samples in \([0-9.]*\) s.*/\1/p' "$1"; }
+lesser() { awk -v a="${1:-$2}" -v b="$2" 'BEGIN { print (b < a ? b : a) }'; }
+best2_render() {
+	ba=; bb=; sa=; sb=
+	i=0
+	while [ "$i" -lt "$R" ]; do
+		t=$(now); eval "$1" 2>"$OUT/r1.log"; x=$(since "$t")
+		t=$(now); eval "$2" 2>"$OUT/rN.log"; y=$(since "$t")
+		ba=$(lesser "$ba" "$x"); bb=$(lesser "$bb" "$y")
+		sa=$(lesser "$sa" "$(stage "$OUT/r1.log")")
+		sb=$(lesser "$sb" "$(stage "$OUT/rN.log")")
+		i=$((i + 1))
+	done
+	rm -f "$OUT/r1.log" "$OUT/rN.log"
+	echo "$ba $bb $sa $sb"
+}
 set -- $(best2 \
     '$B/pm-shoot -q -f -t 1 --photons 1000000 -o "$OUT/s1.pmap" $scene' \
     '$B/pm-shoot -q -f -t "$NCPU" --photons 1000000 -o "$OUT/sN.pmap" $scene')
@@ -105,19 +125,19 @@ emit "{\"what\": \"speedup\", \"tool\": \"pm-balance\", \"threads\": $NCPU, \"on
 # 16 spp: at 4 the whole run took 0.1 s, a third of it the serial start
 # (reading and checking the map, the irradiance grid), which decided the
 # ratio (1.41x) more than the render did.
-set -- $(best2 \
-    '$B/pm-render -q -f -t 1 --spp 16 --size 128x128 -o "$OUT/r1.exr" $scene "$OUT/bN.pmap"' \
-    '$B/pm-render -q -f -t "$NCPU" --spp 16 --size 128x128 -o "$OUT/rN.exr" $scene "$OUT/bN.pmap"')
-emit "{\"what\": \"speedup\", \"tool\": \"pm-render\", \"work\": \"128x128, 16 spp\", \"threads\": $NCPU, \"one_s\": $1, \"all_s\": $2, \"runs\": $R}"
+set -- $(best2_render \
+    '$B/pm-render -v -f -t 1 --spp 16 --size 128x128 -o "$OUT/r1.exr" $scene "$OUT/bN.pmap"' \
+    '$B/pm-render -v -f -t "$NCPU" --spp 16 --size 128x128 -o "$OUT/rN.exr" $scene "$OUT/bN.pmap"')
+emit "{\"what\": \"speedup\", \"tool\": \"pm-render\", \"work\": \"128x128, 16 spp\", \"threads\": $NCPU, \"one_s\": $1, \"all_s\": $2, \"one_stage_s\": $3, \"all_stage_s\": $4, \"runs\": $R}"
 # The same at 256x256, 64 spp (16 times the samples): on a quiet machine
 # the run above takes 0.16 s on one thread, of which the serial start
 # (starting, mapping and checking the map, the irradiance grid) and the
 # image's write are a tenth; a render a user waits for (the demo: 1024x1024,
 # 16 spp) is seconds to minutes, where they are nothing.
-set -- $(best2 \
-    '$B/pm-render -q -f -t 1 --spp 64 --size 256x256 -o "$OUT/r1.exr" $scene "$OUT/bN.pmap"' \
-    '$B/pm-render -q -f -t "$NCPU" --spp 64 --size 256x256 -o "$OUT/rN.exr" $scene "$OUT/bN.pmap"')
-emit "{\"what\": \"speedup\", \"tool\": \"pm-render\", \"work\": \"256x256, 64 spp\", \"threads\": $NCPU, \"one_s\": $1, \"all_s\": $2, \"runs\": $R}"
+set -- $(best2_render \
+    '$B/pm-render -v -f -t 1 --spp 64 --size 256x256 -o "$OUT/r1.exr" $scene "$OUT/bN.pmap"' \
+    '$B/pm-render -v -f -t "$NCPU" --spp 64 --size 256x256 -o "$OUT/rN.exr" $scene "$OUT/bN.pmap"')
+emit "{\"what\": \"speedup\", \"tool\": \"pm-render\", \"work\": \"256x256, 64 spp\", \"threads\": $NCPU, \"one_s\": $1, \"all_s\": $2, \"one_stage_s\": $3, \"all_stage_s\": $4, \"runs\": $R}"
 
 # Camera paths per second on one core, path mode, against Mitsuba 3's
 # path tracer on the same scene file (same max_depth and spp), where the
@@ -231,6 +251,10 @@ for r in rows:
             r["tool"], r["threads"],
             ", " + r["work"] if "work" in r else ""),
             r["one_s"] / r["all_s"], r["threads"], "x")
+        if "one_stage_s" in r:
+            row("  the render stage alone (-v), %.3g -> %.3g s" % (
+                r["one_stage_s"], r["all_stage_s"]),
+                r["one_stage_s"] / r["all_stage_s"], r["threads"], "x")
     elif w == "rss":
         row("%s peak memory / map, MB" % r["tool"],
             r["max_rss_kib"] * 1024 / 1e6, r["map_bytes"] / 1e6)
