@@ -19,6 +19,8 @@
 #     also for its render stage alone, as pm-render -v times it);
 #   - peak resident memory of pm-shoot and pm-balance (one thread,
 #     caustics.xml, 5M paths) against the size of the map they write;
+#   - the map's CRC-32 on each path the CPU has (zlib, PCLMULQDQ,
+#     VPCLMULQDQ), in cache and from memory, one core;
 #   - bytes per photon in memory and on disk, plain and zlib-compressed;
 #   - camera paths per second on one core in path mode against Mitsuba 3's
 #     path tracer (tests/bench/mitsuba_paths.py, from the accuracy venv).
@@ -188,6 +190,11 @@ if /usr/bin/time -f %M true >/dev/null 2>&1; then
 	rm -f "$OUT/rss"
 fi
 
+# The map's CRC-32 on each path the CPU has, one core.
+$PIN $X crc | while read -r line; do
+	emit "{\"what\": \"crc\", ${line#\{}"
+done
+
 # Bytes per photon.
 $B/pm-balance -q -f --compress -o "$OUT/bz.pmap" "$OUT/s1.pmap"
 emit "{\"what\": \"bytes\", \"photons\": $(key $OUT/bN.pmap photons), \"disk_bytes\": $(key $OUT/bN.pmap file_bytes), \"compressed_bytes\": $(key $OUT/bz.pmap file_bytes), $($X sizes | sed 's/^{//')"
@@ -255,6 +262,11 @@ for r in rows:
             row("  the render stage alone (-v), %.3g -> %.3g s" % (
                 r["one_stage_s"], r["all_stage_s"]),
                 r["one_stage_s"] / r["all_stage_s"], r["threads"], "x")
+    elif w == "crc":
+        print("%-52s %14s %14s %8s" % ("CRC-32 GB/s, %s, %s" % (
+            ("zlib", "PCLMULQDQ", "VPCLMULQDQ")[r["path"]],
+            "in cache" if r["bytes"] < 1 << 20 else "from memory"),
+            "%.4g" % r["gb_per_s"], "-", "-"))
     elif w == "rss":
         row("%s peak memory / map, MB" % r["tool"],
             r["max_rss_kib"] * 1024 / 1e6, r["map_bytes"] / 1e6)

@@ -93,8 +93,11 @@ long_and_pieces(void)
 static void
 on_every_path(void (*check)(void))
 {
-	int widest = pm_crc32_path(), path;
+	int widest, path;
 
+	/* the CPU's widest, whatever a failed test before left */
+	pm_crc32_limit(2);
+	widest = pm_crc32_path();
 	for (path = widest; path >= 0; path--) {
 		pm_crc32_limit(path);
 		assert_int_equal(pm_crc32_path(), path);
