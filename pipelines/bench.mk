@@ -9,7 +9,8 @@
 
 $(BUILD)/tests/bench: tests/bench/bench.c $(LIB)
 	@mkdir -p $(dir $@)
-	$(CC) $(PM_CFLAGS) $(CFLAGS) -o $@ tests/bench/bench.c $(LIB) $(PM_LIBS)
+	$(CC) $(PM_CFLAGS) $(CFLAGS) -o $@ tests/bench/bench.c $(LIB) $(PM_LIBS) \
+	    -Wl,--wrap=pm_accel_intersect
 
 bench: deps
 	$(MAKE) all $(BUILD)/tests/bench

@@ -24,6 +24,16 @@
  *	inside its bounds, without area lights) in cosine-distributed
  *	directions, so the rays are much like first photon bounces; prints
  *	one JSON object with rays per second.
+ *   bench casts SCENE.xml PATHS
+ *	how much of photon tracing is Embree's: the global pass of PATHS
+ *	photon paths (pm_shoot in memory, one thread, seed 0, the scene's
+ *	max_depth as pm-shoot turns it) with every ray it casts recorded,
+ *	then, in turns, best of 3 each, the same pass again unrecorded and
+ *	the recorded rays alone cast in the same order through the same
+ *	pm_accel_intersect (the hit filled in too); prints one JSON object
+ *	with both times, the rays and the photons stored.  The bench links
+ *	with --wrap=pm_accel_intersect (pipelines/bench.mk), so the rays
+ *	are the library's very own, taken without a hook in it.
  *   bench crc
  *	pm_crc32's throughput on every path this CPU has (zlib, PCLMULQDQ,
  *	VPCLMULQDQ), on a 256 KiB buffer in cache and a 64 MiB one from
@@ -49,6 +59,8 @@
 #include "../../common/knn_check.h"
 #include "../../common/rng.h"
 #include "../../common/sampling.h"
+#include "../../common/shoot.h"
+#include "../../common/world.h"
 #include "../../formats/crc32.h"
 #include "../../formats/pmap.h"
 #include "../../formats/scene_xml.h"
@@ -247,6 +259,10 @@ out:
 	return rc;
 }
 
+/* The library's pm_accel_intersect, unwrapped (bench casts, below). */
+bool __real_pm_accel_intersect(const struct pm_accel *a, struct pm_vec3 o,
+    struct pm_vec3 d, float tmin, float tmax, struct pm_hit *h);
+
 /* A point on one of the scene's emitting shapes: a ray cast from the
  * scene's centre towards a random direction finds the surfaces, and we
  * keep hits on emitters; fallback, points inside the bounds. */
@@ -274,8 +290,8 @@ bench_rays(const char *path, double seconds)
 		    pm_rng_float(&rng));
 		struct pm_hit h;
 
-		if (pm_accel_intersect(accel, c, d, 0.0f, INFINITY, &h) &&
-		    scene.shapes[h.shape].light >= 0) {
+		if (__real_pm_accel_intersect(accel, c, d, 0.0f, INFINITY,
+		    &h) && scene.shapes[h.shape].light >= 0) {
 			o[norig] = h.p;
 			ng[norig++] = pm_dot(h.ng, d) > 0 ? pm_neg(h.ng) : h.ng;
 		}
@@ -303,8 +319,9 @@ bench_rays(const char *path, double seconds)
 				dir = pm_square_to_uniform_sphere(pm_rng_float(&rng),
 				    pm_rng_float(&rng));
 			}
-			hits += pm_accel_intersect(accel, org, dir, 0.0f, INFINITY,
-			    &h);
+			/* unwrapped: the ceiling pays no recording test */
+			hits += __real_pm_accel_intersect(accel, org, dir, 0.0f,
+			    INFINITY, &h);
 			rays++;
 		}
 		t = now() - t0;
@@ -363,6 +380,125 @@ bench_crc(void)
 	return 0;
 }
 
+/*
+ * pm_accel_intersect as the library's callers reach it (the link's
+ * --wrap): while rec_on is set, each ray is appended to rec before it is
+ * cast.  One thread only (bench casts shoots on one).
+ */
+bool __wrap_pm_accel_intersect(const struct pm_accel *a, struct pm_vec3 o,
+    struct pm_vec3 d, float tmin, float tmax, struct pm_hit *h);
+
+static bool rec_on;
+static struct pm_ray *rec;
+static size_t nrec, caprec;
+
+bool
+__wrap_pm_accel_intersect(const struct pm_accel *a, struct pm_vec3 o,
+    struct pm_vec3 d, float tmin, float tmax, struct pm_hit *h)
+{
+	if (rec_on) {
+		if (nrec == caprec) {
+			size_t cap = caprec ? 2 * caprec : 1 << 20;
+			struct pm_ray *r = realloc(rec, cap * sizeof(*r));
+
+			if (r == NULL) {
+				fprintf(stderr, "bench: no memory for %zu rays\n",
+				    cap);
+				exit(1);
+			}
+			rec = r;
+			caprec = cap;
+		}
+		rec[nrec].o = o;
+		rec[nrec].d = d;
+		rec[nrec].tmin = tmin;
+		rec[nrec++].tmax = tmax;
+	}
+	return __real_pm_accel_intersect(a, o, d, tmin, tmax, h);
+}
+
+static int
+bench_casts(const char *path, uint64_t paths)
+{
+	struct pm_error err = {PM_OK, ""};
+	struct pm_scene scene;
+	struct pm_world world;
+	struct pm_shooter sh;
+	struct pm_shoot_opts so;
+	struct pm_shoot_stats st;
+	struct pm_photon_buf buf = {0};
+	double shoot_s = INFINITY, casts_s = INFINITY, t;
+	uint64_t hits = 0, stored;
+	int turn;
+	size_t i;
+
+	if (pm_scene_load(path, NULL, 0, &scene, &err) != PM_OK)
+		goto fail_scene;
+	if (pm_world_init(&world, &scene, &err) != PM_OK)
+		goto fail_world;
+	if (pm_shooter_init(&sh, &scene, world.accel, &world.lights, &err) !=
+	    PM_OK)
+		goto fail_shooter;
+	memset(&so, 0, sizeof(so));
+	so.pass = PM_PASS_GLOBAL;
+	so.count = paths;
+	so.threads = 1;
+	/* pm-shoot's default: the scene's max_depth counts segments from
+	 * the camera, two more than a photon's bounces */
+	so.max_depth = scene.integrator.max_depth < 0 ? -1 :
+	    (scene.integrator.max_depth > 2 ? scene.integrator.max_depth - 2 : 0);
+	rec_on = true;
+	if (pm_shoot(&sh, &so, &buf, &st, &err) != PM_OK)
+		goto fail;
+	rec_on = false;
+	stored = st.stored;
+	for (turn = 0; turn < 3; turn++) {
+		buf.n = 0;	/* the capacity stays: no growth timed */
+		t = now();
+		if (pm_shoot(&sh, &so, &buf, &st, &err) != PM_OK)
+			goto fail;
+		t = now() - t;
+		shoot_s = t < shoot_s ? t : shoot_s;
+		if (st.stored != stored) {
+			fprintf(stderr, "bench: %s: %llu photons, then %llu\n",
+			    path, (unsigned long long)stored,
+			    (unsigned long long)st.stored);
+			return 1;
+		}
+		hits = 0;
+		t = now();
+		for (i = 0; i < nrec; i++) {
+			struct pm_hit h;
+
+			hits += __real_pm_accel_intersect(world.accel, rec[i].o,
+			    rec[i].d, rec[i].tmin, rec[i].tmax, &h);
+		}
+		t = now() - t;
+		casts_s = t < casts_s ? t : casts_s;
+	}
+	printf("{\"scene\": \"%s\", \"paths\": %llu, \"rays\": %zu, "
+	    "\"hits\": %llu, \"stored\": %llu, \"shoot_s\": %.4f, "
+	    "\"casts_s\": %.4f}\n", path, (unsigned long long)paths, nrec,
+	    (unsigned long long)hits, (unsigned long long)stored, shoot_s,
+	    casts_s);
+	pm_photon_buf_free(&buf);
+	free(rec);
+	pm_shooter_free(&sh);
+	pm_world_free(&world);
+	pm_scene_free(&scene);
+	return 0;
+fail:
+	pm_photon_buf_free(&buf);
+	pm_shooter_free(&sh);
+fail_shooter:
+	pm_world_free(&world);
+fail_world:
+	pm_scene_free(&scene);
+fail_scene:
+	fprintf(stderr, "bench: %s: %s\n", path, err.msg);
+	return 1;
+}
+
 int
 main(int argc, char **argv)
 {
@@ -374,6 +510,8 @@ main(int argc, char **argv)
 		    strtoull(argv[5], NULL, 10));
 	if (argc == 4 && strcmp(argv[1], "rays") == 0)
 		return bench_rays(argv[2], strtod(argv[3], NULL));
+	if (argc == 4 && strcmp(argv[1], "casts") == 0)
+		return bench_casts(argv[2], strtoull(argv[3], NULL, 10));
 	if (argc == 2 && strcmp(argv[1], "crc") == 0)
 		return bench_crc();
 	if (argc == 2 && strcmp(argv[1], "sizes") == 0) {
@@ -383,6 +521,7 @@ main(int argc, char **argv)
 	}
 	fprintf(stderr, "usage: bench knn SHOT.pmap N K[,K...] QUERIES | "
 	    "bench range SHOT.pmap N K[,K...] QUERIES | "
-	    "bench rays SCENE.xml SECONDS | bench crc | bench sizes\n");
+	    "bench rays SCENE.xml SECONDS | bench casts SCENE.xml PATHS | "
+	    "bench crc | bench sizes\n");
 	return 2;
 }

@@ -12,7 +12,9 @@
 #     1M photons, with the radii of the 50th and 200th neighbours;
 #   - photon paths and stored photons per second per core (pm-shoot -t 1)
 #     against a plain loop of Embree closest-hit ray casts from the lights
-#     of the same scene on one core (the ceiling for photon tracing);
+#     of the same scene on one core (the ceiling for photon tracing); and
+#     the photon pass's own rays cast alone (bench casts), which says how
+#     much of photon tracing is Embree's and bounds the ratio above;
 #   - the parallel speed-up from 1 thread to every core of pm-shoot,
 #     pm-balance and pm-render (the render twice: 128x128 at 16 spp, where
 #     the serial start is a tenth of the run, and 256x256 at 64 spp; each
@@ -76,7 +78,10 @@ for s in cornell-box bunny; do
 	pps=$(sed -n 's/.*global map: .* (\([0-9.]*\) paths\/s), \([0-9]*\) photons stored.*/\1/p' "$OUT/shoot.log")
 	stored=$(key "$OUT/s1.pmap" global.photons)
 	rays=$($X rays data/$s.xml 2)
-	emit "{\"what\": \"shoot-vs-rays\", \"scene\": \"$s\", \"paths_per_s\": $pps, \"photons_per_path\": $(awk -v a="$stored" 'BEGIN { print a / 1000000 }'), \"rays\": $rays}"
+	# The same pass's own rays cast alone: how much of it is Embree's,
+	# and what the row above would read if pm's own work cost nothing.
+	casts=$($X casts data/$s.xml 1000000)
+	emit "{\"what\": \"shoot-vs-rays\", \"scene\": \"$s\", \"paths_per_s\": $pps, \"photons_per_path\": $(awk -v a="$stored" 'BEGIN { print a / 1000000 }'), \"rays\": $rays, \"casts\": $casts}"
 done
 
 # Speed-up from one thread to all, on the same work: each side the best
@@ -253,6 +258,14 @@ for r in rows:
             r["paths_per_s"] * ppath, r["rays"]["rays_per_s"])
         print("%-52s %14.4g %14s %8s" % ("%s: photon paths/s/core" % r["scene"],
                                          r["paths_per_s"], "-", "-"))
+        c = r.get("casts")
+        if c:
+            row("  its own rays cast alone, rays/s (Embree rays/s)",
+                c["rays"] / c["casts_s"], r["rays"]["rays_per_s"])
+            row("  the casts' time over tracing's (in memory)",
+                c["casts_s"], c["shoot_s"], " s")
+            row("  stored photons/s if pm's own work took no time",
+                c["stored"] / c["casts_s"], r["rays"]["rays_per_s"])
     elif w == "speedup":
         row("%s speed-up, 1 -> %d threads%s" % (
             r["tool"], r["threads"],
