@@ -39,9 +39,6 @@ struct pm_accel {
 	RTCScene scene;
 	const struct pm_scene *s;
 	struct pm_tri_geom **tri;	/* per shape, NULL for spheres */
-	bool packet16;			/* packets of 16 rays, not 8: where
-					 * Embree casts them natively
-					 * (AVX-512) */
 };
 
 /* Packets with fewer live rays than this go one at a time (a packet's
@@ -307,11 +304,6 @@ pm_accel_build(const struct pm_scene *s, struct pm_accel **out,
 		free(a);
 		return pm_fail(err, PM_ERR_GEOMETRY, "embree: cannot create a device");
 	}
-	/* On AVX-512 packets of 16 rays cast path tracing's incoherent
-	 * rays 1 to 3% faster than two packets of 8, with the same hits;
-	 * elsewhere Embree would only emulate them. */
-	a->packet16 = rtcGetDeviceProperty(a->device,
-	    RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED) != 0;
 	a->scene = rtcNewScene(a->device);
 	/* Mitsuba 3's default, Embree's plain scene: its robust mode
 	 * (watertight triangles, conservative boxes) cast path tracing's
@@ -483,11 +475,15 @@ pm_accel_occluded(const struct pm_accel *a, struct pm_vec3 o, struct pm_vec3 d,
 	return r.tfar < 0.0f;
 }
 
-/* The packet loops, once per width (accel_packets.h). */
+/*
+ * The packet loops (accel_packets.h), for packets of 8 rays on every
+ * CPU.  Packets of 16, which Embree casts natively with AVX-512, were
+ * 1-3% faster on one machine (stop 25) but slower on this workplace's
+ * AVX-512 Xeon: path mode 128x128, 64 spp, one core, 0.587-0.627 s with
+ * 8 against 0.614-0.634 s with 16 (cornell-box; caustics 0.594-0.605
+ * against 0.626-0.635), the photon render 0.104-0.105 s against 0.112 s.
+ */
 #define PW 8
-#include "accel_packets.h"
-#undef PW
-#define PW 16
 #include "accel_packets.h"
 #undef PW
 
@@ -503,10 +499,7 @@ pm_accel_intersect_n(const struct pm_accel *a, const struct pm_ray *r,
 			    r[i].tmax, &h[i]);
 		return;
 	}
-	if (a->packet16)
-		intersect_packets16(a, r, n, h, hit);
-	else
-		intersect_packets8(a, r, n, h, hit);
+	intersect_packets8(a, r, n, h, hit);
 }
 
 void
@@ -521,10 +514,7 @@ pm_accel_occluded_n(const struct pm_accel *a, const struct pm_ray *r,
 			    r[i].tmax);
 		return;
 	}
-	if (a->packet16)
-		occluded_packets16(a, r, n, occ);
-	else
-		occluded_packets8(a, r, n, occ);
+	occluded_packets8(a, r, n, occ);
 }
 
 void

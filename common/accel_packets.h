@@ -1,7 +1,7 @@
 /*
  * accel_packets.h: pm_accel_intersect_n's and pm_accel_occluded_n's loops
- * over packets of PW rays (8 or 16), one copy per width: accel.c includes
- * this twice, with PW defined, and picks the width Embree casts natively.
+ * over packets of PW rays, written once for any width Embree takes (4, 8
+ * or 16): accel.c includes this with PW defined (8; see there why).
  * Not a header of its own; the names below carry the width.
  */
 #define PW_PASTE(a, b) a##b
