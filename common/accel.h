@@ -53,8 +53,8 @@ bool pm_accel_occluded(const struct pm_accel *a, struct pm_vec3 o,
  * The same for n rays at once: hit[i] and h[i] (occ[i]) are exactly what
  * pm_accel_intersect (pm_accel_occluded) gives for r[i].  Groups of rays
  * go to Embree as packets of 8, which cast incoherent rays 25 to 35%
- * faster than one at a time and give the very same hits (Embree's triangle test is the same
- * code for both, the spheres' is pm's own).
+ * faster than one at a time and give the very same hits (Embree's
+ * triangle test is the same code for both, the spheres' is pm's own).
  */
 void pm_accel_intersect_n(const struct pm_accel *a, const struct pm_ray *r,
     size_t n, struct pm_hit *h, bool *hit);

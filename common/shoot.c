@@ -172,6 +172,14 @@ pm_shoot_default_paths(const struct pm_scene *s)
 	return (long long)(n + 0.5);
 }
 
+int
+pm_shoot_default_max_depth(const struct pm_scene *s)
+{
+	int md = s->integrator.max_depth;
+
+	return md < 0 ? -1 : (md > 2 ? md - 2 : 0);
+}
+
 void
 pm_photon_buf_free(struct pm_photon_buf *b)
 {

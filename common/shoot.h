@@ -54,6 +54,14 @@ void pm_shoot_effects(const struct pm_scene *s, struct pm_effects *e);
 #define PM_PATHS_NO_CAMERA 100000
 long long pm_shoot_default_paths(const struct pm_scene *s);
 
+/*
+ * The bounces a photon may make (pm_shoot_opts.max_depth) for the
+ * scene's max_depth, which counts path segments from camera to light: a
+ * photon of d bounces seen from a camera's first hit makes d + 2.  -1:
+ * unlimited.
+ */
+int pm_shoot_default_max_depth(const struct pm_scene *s);
+
 /* A growable array of photons. */
 struct pm_photon_buf {
 	struct pm_photon *p;

@@ -298,12 +298,8 @@ main(int argc, char **argv)
 		ncaustic = scene.integrator.photon.caustic_photons;
 	if (ncaustic < 0)
 		ncaustic = pm_shoot_default_paths(&scene);
-	/* The scene's max_depth counts path segments, camera to light; a
-	 * photon of d bounces seen from a camera's first hit makes d + 2. */
 	if (max_depth == -2)
-		max_depth = scene.integrator.max_depth < 0 ? -1 :
-		    (scene.integrator.max_depth > 2 ?
-		    scene.integrator.max_depth - 2 : 0);
+		max_depth = pm_shoot_default_max_depth(&scene);
 	pm_shoot_effects(&scene, &fx);
 	if (pm_world_init(&world, &scene, &err) != PM_OK) {
 		fprintf(stderr, PROG ": %s: %s\n", scene_path, err.msg);

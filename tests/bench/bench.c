@@ -443,10 +443,7 @@ bench_casts(const char *path, uint64_t paths)
 	so.pass = PM_PASS_GLOBAL;
 	so.count = paths;
 	so.threads = 1;
-	/* pm-shoot's default: the scene's max_depth counts segments from
-	 * the camera, two more than a photon's bounces */
-	so.max_depth = scene.integrator.max_depth < 0 ? -1 :
-	    (scene.integrator.max_depth > 2 ? scene.integrator.max_depth - 2 : 0);
+	so.max_depth = pm_shoot_default_max_depth(&scene);	/* pm-shoot's */
 	rec_on = true;
 	if (pm_shoot(&sh, &so, &buf, &st, &err) != PM_OK)
 		goto fail;

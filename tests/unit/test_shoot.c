@@ -648,6 +648,29 @@ test_default_paths(void **state)
 	pm_scene_free(&s);
 }
 
+/* A photon's bounces for a scene's max_depth: two segments fewer (the
+ * camera's ray and the gather from the photon's surface), none where
+ * max_depth leaves no room, unlimited where it is. */
+static void
+test_default_max_depth(void **state)
+{
+	struct pm_scene s;
+
+	(void)state;
+	pm_scene_init(&s);
+	s.integrator.max_depth = -1;
+	assert_int_equal(pm_shoot_default_max_depth(&s), -1);
+	s.integrator.max_depth = 1;
+	assert_int_equal(pm_shoot_default_max_depth(&s), 0);
+	s.integrator.max_depth = 2;
+	assert_int_equal(pm_shoot_default_max_depth(&s), 0);
+	s.integrator.max_depth = 3;
+	assert_int_equal(pm_shoot_default_max_depth(&s), 1);
+	s.integrator.max_depth = 65;
+	assert_int_equal(pm_shoot_default_max_depth(&s), 63);
+	pm_scene_free(&s);
+}
+
 int
 main(void)
 {
@@ -661,6 +684,7 @@ main(void)
 		cmocka_unit_test(test_effects),
 		cmocka_unit_test(test_scene_hash),
 		cmocka_unit_test(test_default_paths),
+		cmocka_unit_test(test_default_max_depth),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);
