@@ -65,7 +65,10 @@ static inline const struct pm_bsdf *
 pm_bsdf_frame_at(const struct pm_scene *s, const struct pm_hit *h,
     struct pm_vec3 d, struct pm_bsdf *tmp, struct pm_frame *fr)
 {
-	const struct pm_bsdf *b = pm_bsdf_at(s, h, tmp);
+	const struct pm_bsdf *b = &s->bsdfs[s->shapes[h->shape].bsdf];
+
+	if (pm_bsdf_textured(b))
+		b = pm_bsdf_at(s, h, tmp);
 
 	/* isotropic (nearly every hit): any frame around the normal, in
 	 * line, as before frames followed the surface */

@@ -201,6 +201,20 @@ pm_path_li(const struct pm_render_ctx *ctx, struct pm_vec3 o, struct pm_vec3 d,
 	return L;
 }
 
+/* pm_lights_emitted, with its commonest answer in line: a hit on a
+ * shape that is no light (or a miss with no environment) emits nothing. */
+static inline struct pm_rgb
+emitted(const struct pm_render_ctx *ctx, const struct pm_hit *h,
+    const struct pm_path *pa)
+{
+	const struct pm_scene *s = ctx->scene;
+
+	if (h != NULL ? s->shapes[h->shape].light < 0 : s->env_light < 0)
+		return pm_rgb1(0.0f);
+	return pm_lights_emitted(ctx->lights, s, h, pa->d, pa->prev_p,
+	    pa->prev_pdf, pa->prev_delta);
+}
+
 /* pm_path_continue, in line for path_li_batch (the frame by pointer,
  * not copied through the stack for each call) */
 static inline bool
@@ -324,9 +338,7 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 
 			if (!(q->depth == 1 && ctx->hide_emitters))
 				q->L = pm_rgb_madd(q->L, q->pa.beta,
-				    pm_lights_emitted(ctx->lights, s,
-				    hitf[k] ? h : NULL, q->pa.d, q->pa.prev_p,
-				    q->pa.prev_pdf, q->pa.prev_delta));
+				    emitted(ctx, hitf[k] ? h : NULL, &q->pa));
 			if (!hitf[k] ||
 			    (ctx->max_depth >= 0 && q->depth >= ctx->max_depth)) {
 				q->alive = false;

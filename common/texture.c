@@ -410,9 +410,7 @@ pm_bsdf_at(const struct pm_scene *s, const struct pm_hit *h,
 	const struct pm_bsdf *b = &s->bsdfs[s->shapes[h->shape].bsdf];
 	float u, v;
 
-	if (b->tex_diffuse == 0 && b->tex_specular == 0 && b->tex_alpha == 0 &&
-	    b->tex_transmittance == 0 && !b->pr.textured &&
-	    b->tex_weight == 0 && !b->nested_textures && b->tex_alpha_v == 0)
+	if (!pm_bsdf_textured(b))
 		return b;
 	*tmp = *b;
 	pm_hit_uv(s, h, &u, &v);

@@ -116,6 +116,17 @@ float pm_srgb_to_linear(float c);
 void pm_hit_uv(const struct pm_scene *s, const struct pm_hit *h, float *u,
     float *v);
 
+/* Whether b has a textured parameter, which pm_bsdf_at looks up (in line:
+ * a path's every vertex asks, and nearly every answer is no). */
+static inline bool
+pm_bsdf_textured(const struct pm_bsdf *b)
+{
+	return b->tex_diffuse != 0 || b->tex_specular != 0 ||
+	    b->tex_alpha != 0 || b->tex_transmittance != 0 ||
+	    b->pr.textured || b->tex_weight != 0 || b->nested_textures ||
+	    b->tex_alpha_v != 0;
+}
+
 /*
  * The BSDF at a hit: the scene's own when it has no textured parameter
  * (nothing is copied), else *tmp filled with the textured values looked
