@@ -94,7 +94,7 @@ light_sample(const struct pm_render_ctx *ctx, const struct pm_bsdf *b,
 
 /* What the light sample ls brings through f if nothing blocks it,
  * weighted for MIS. */
-static struct pm_rgb
+static inline struct pm_rgb
 light_weighted(const struct pm_bsdf *b, struct pm_vec3 wi_local,
     struct pm_vec3 wo_local, const struct pm_light_sample *ls, struct pm_rgb f)
 {
@@ -278,6 +278,327 @@ struct vertex {
 	int light;			/* its light sample's index, or -1 */
 };
 
+/*
+ * diffuse_lanes: loop 2 of path_li_batch (below) for the round's plain
+ * diffuse vertices, four at a time in SSE lanes: the light sample's
+ * value, MIS weight and shadow ray, the BSDF's sample and the path's next
+ * ray.  Each lane does the scalar code's operations in its order, its
+ * branches as selects (IEEE division and square root are exact in SIMD as
+ * in scalar code, and -ffp-contract=off fuses nothing), so every path
+ * gets the bits it got one vertex at a time; what each lane then writes
+ * (its light's contribution or shadow ray, its next ray, Russian
+ * roulette's number from its own stream) is done in lane order, scalar.
+ * In a path-traced Cornell box this loop, one vertex at a time, was a
+ * fifth of the time.  Returns how many of the nd vertices listed in dj it
+ * did (a multiple of 4); the rest go through the scalar loop.
+ */
+#if (defined(__x86_64__) || defined(__i386__)) && defined(__SSE2__) && \
+    (defined(__GNUC__) || defined(__clang__)) && !defined(PM_NO_SIMD)
+#include <immintrin.h>
+
+/* pm_fmaxf's and pm_fminf's select, lane by lane: a NaN b loses */
+static inline __m128
+max4(__m128 a, __m128 b)
+{
+	__m128 gt = _mm_cmpgt_ps(a, b), bn = _mm_cmpunord_ps(b, b);
+	__m128 ka = _mm_or_ps(gt, bn);
+
+	return _mm_or_ps(_mm_and_ps(ka, a), _mm_andnot_ps(ka, b));
+}
+
+static inline __m128
+min4(__m128 a, __m128 b)
+{
+	__m128 lt = _mm_cmplt_ps(a, b), bn = _mm_cmpunord_ps(b, b);
+	__m128 ka = _mm_or_ps(lt, bn);
+
+	return _mm_or_ps(_mm_and_ps(ka, a), _mm_andnot_ps(ka, b));
+}
+
+static inline __m128
+sel4(__m128 m, __m128 a, __m128 b)
+{
+	return _mm_or_ps(_mm_and_ps(m, a), _mm_andnot_ps(m, b));
+}
+
+/* a.x * b.x + a.y * b.y + a.z * b.z, left to right */
+static inline __m128
+dot4(__m128 ax, __m128 ay, __m128 az, __m128 bx, __m128 by, __m128 bz)
+{
+	return _mm_add_ps(_mm_add_ps(_mm_mul_ps(ax, bx), _mm_mul_ps(ay, by)),
+	    _mm_mul_ps(az, bz));
+}
+
+#define LANES4(e) _mm_setr_ps(e(0), e(1), e(2), e(3))
+#define MASK4(e) _mm_castsi128_ps(_mm_setr_epi32(-(int)(e(0)), \
+    -(int)(e(1)), -(int)(e(2)), -(int)(e(3))))
+
+static size_t
+diffuse_lanes(const struct pm_render_ctx *ctx, const uint8_t *dj, size_t nd,
+    const struct vertex *vx, struct path_lane *l, const uint8_t *idx,
+    struct pm_path_sample *smp, const struct pm_hit *hits,
+    const struct pm_light_sample *lsmp, const bool *lok, const float *wx,
+    const float *wy, const float *wz, struct pm_ray *srays, uint8_t *sidx,
+    size_t *pns)
+{
+	const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f);
+	const __m128 sign = _mm_set1_ps(-0.0f), inv_pi = _mm_set1_ps(PM_INV_PI);
+	const __m128 inf = _mm_set1_ps(INFINITY);
+	size_t g, c, ns = *pns;
+
+	for (g = 0; g + 4 <= nd; g += 4) {
+		const struct vertex *v[4];
+		const struct pm_hit *h[4];
+		const struct pm_light_sample *ls[4];
+		struct path_lane *q[4];
+		bool ok[4];
+		float cr[4], cg[4], cb[4], sox[4], soy[4], soz[4], sdx[4];
+		float sdy[4], sdz[4], stm[4], br[4], bg[4], bb[4], pdfv[4];
+		float ndx[4], ndy[4], ndz[4], nox[4], noy[4], noz[4];
+		float qv[4], iq[4];
+		int lm, pend, alive;
+		__m128 wiz, flip, lwx, lwy, lwz, woz, val, sc, fr_, fg, fb;
+		__m128 pdfl, a2, b2, ph, w, wl, px, py, pz, gx, gy, gz, mx;
+		__m128 eps, e, ox, oy, oz, dx, dy, dz, d2, tmax, isinf_;
+		__m128 ar, ag, ab, vz, pdf, nbr, nbg, nbb, dd, nl, nrm;
+		__m128 qq, sx, sy, sz, tx, ty, tz, nx, ny, nz, wox, woy, woz2;
+
+		for (c = 0; c < 4; c++) {
+			v[c] = &vx[dj[g + c]];
+			h[c] = &hits[v[c]->k];
+			q[c] = &l[idx[v[c]->k]];
+			ls[c] = &lsmp[v[c]->light];
+			ok[c] = lok[v[c]->light];
+		}
+#define E_WIZ(c) v[c]->wi.z
+#define E_TW(c) v[c]->b->twosided
+		wiz = LANES4(E_WIZ);
+		flip = _mm_and_ps(MASK4(E_TW), _mm_cmplt_ps(wiz, zero));
+		wiz = _mm_xor_ps(wiz, _mm_and_ps(flip, sign));
+#define E_FSX(c) v[c]->fr.s.x
+#define E_FSY(c) v[c]->fr.s.y
+#define E_FSZ(c) v[c]->fr.s.z
+#define E_FTX(c) v[c]->fr.t.x
+#define E_FTY(c) v[c]->fr.t.y
+#define E_FTZ(c) v[c]->fr.t.z
+#define E_FNX(c) v[c]->fr.n.x
+#define E_FNY(c) v[c]->fr.n.y
+#define E_FNZ(c) v[c]->fr.n.z
+		nx = LANES4(E_FNX);
+		ny = LANES4(E_FNY);
+		nz = LANES4(E_FNZ);
+		/* the light sample (none where the lane's is not ok: its
+		 * fields may be unset, so 1s stand in) */
+#define E_LWX(c) (ok[c] ? ls[c]->wi.x : 1.0f)
+#define E_LWY(c) (ok[c] ? ls[c]->wi.y : 1.0f)
+#define E_LWZ(c) (ok[c] ? ls[c]->wi.z : 1.0f)
+		lwx = LANES4(E_LWX);
+		lwy = LANES4(E_LWY);
+		lwz = LANES4(E_LWZ);
+		woz = dot4(lwx, lwy, lwz, nx, ny, nz);
+		woz = _mm_xor_ps(woz, _mm_and_ps(flip, sign));
+		/* pm_diffuse_eval and pm_diffuse_pdf: zero unless both
+		 * above the surface */
+		val = _mm_andnot_ps(_mm_or_ps(_mm_cmple_ps(wiz, zero),
+		    _mm_cmple_ps(woz, zero)), _mm_cmpeq_ps(zero, zero));
+#define E_AR(c) v[c]->b->diffuse.r
+#define E_AG(c) v[c]->b->diffuse.g
+#define E_AB(c) v[c]->b->diffuse.b
+		ar = LANES4(E_AR);
+		ag = LANES4(E_AG);
+		ab = LANES4(E_AB);
+		sc = _mm_mul_ps(woz, inv_pi);
+		fr_ = _mm_and_ps(val, _mm_mul_ps(ar, sc));
+		fg = _mm_and_ps(val, _mm_mul_ps(ag, sc));
+		fb = _mm_and_ps(val, _mm_mul_ps(ab, sc));
+#define E_OK(c) ok[c]
+		lm = _mm_movemask_ps(_mm_andnot_ps(_mm_and_ps(_mm_and_ps(
+		    _mm_cmpeq_ps(fr_, zero), _mm_cmpeq_ps(fg, zero)),
+		    _mm_cmpeq_ps(fb, zero)), MASK4(E_OK)));
+		/* light_weighted: the power heuristic against the BSDF's pdf */
+#define E_LPDF(c) (ok[c] ? ls[c]->pdf : 1.0f)
+#define E_LDELTA(c) (ok[c] && ls[c]->delta)
+		pdfl = LANES4(E_LPDF);
+		a2 = _mm_mul_ps(pdfl, pdfl);
+		b2 = _mm_and_ps(val, sc);
+		b2 = _mm_mul_ps(b2, b2);
+		ph = _mm_add_ps(a2, b2);
+		ph = _mm_and_ps(_mm_cmpgt_ps(ph, zero), _mm_div_ps(a2, ph));
+		ph = sel4(_mm_cmpeq_ps(a2, inf), one, ph);
+		w = sel4(MASK4(E_LDELTA), one, ph);
+		wl = _mm_div_ps(w, pdfl);
+#define E_LVR(c) (ok[c] ? ls[c]->value.r : 0.0f)
+#define E_LVG(c) (ok[c] ? ls[c]->value.g : 0.0f)
+#define E_LVB(c) (ok[c] ? ls[c]->value.b : 0.0f)
+		_mm_storeu_ps(cr, _mm_mul_ps(_mm_mul_ps(fr_, LANES4(E_LVR)), wl));
+		_mm_storeu_ps(cg, _mm_mul_ps(_mm_mul_ps(fg, LANES4(E_LVG)), wl));
+		_mm_storeu_ps(cb, _mm_mul_ps(_mm_mul_ps(fb, LANES4(E_LVB)), wl));
+		/* pm_light_shadow_ray: pm_hit_origin towards the light */
+#define E_PX(c) h[c]->p.x
+#define E_PY(c) h[c]->p.y
+#define E_PZ(c) h[c]->p.z
+#define E_GX(c) h[c]->ng.x
+#define E_GY(c) h[c]->ng.y
+#define E_GZ(c) h[c]->ng.z
+#define E_SCALE(c) h[c]->scale
+		px = LANES4(E_PX);
+		py = LANES4(E_PY);
+		pz = LANES4(E_PZ);
+		gx = LANES4(E_GX);
+		gy = LANES4(E_GY);
+		gz = LANES4(E_GZ);
+		mx = max4(_mm_andnot_ps(sign, px), max4(_mm_andnot_ps(sign, py),
+		    _mm_andnot_ps(sign, pz)));
+		eps = max4(_mm_mul_ps(max4(mx, LANES4(E_SCALE)),
+		    _mm_set1_ps(2e-5f)), _mm_set1_ps(1e-30f));
+		e = sel4(_mm_cmpge_ps(dot4(gx, gy, gz, lwx, lwy, lwz), zero), eps,
+		    _mm_xor_ps(eps, sign));
+		ox = _mm_add_ps(px, _mm_mul_ps(gx, e));
+		oy = _mm_add_ps(py, _mm_mul_ps(gy, e));
+		oz = _mm_add_ps(pz, _mm_mul_ps(gz, e));
+#define E_LDIST(c) (ok[c] ? ls[c]->dist : 1.0f)
+#define E_LPX(c) (ok[c] ? ls[c]->p.x : 0.0f)
+#define E_LPY(c) (ok[c] ? ls[c]->p.y : 0.0f)
+#define E_LPZ(c) (ok[c] ? ls[c]->p.z : 0.0f)
+		isinf_ = _mm_cmpeq_ps(_mm_andnot_ps(sign, LANES4(E_LDIST)), inf);
+		dx = _mm_sub_ps(LANES4(E_LPX), ox);
+		dy = _mm_sub_ps(LANES4(E_LPY), oy);
+		dz = _mm_sub_ps(LANES4(E_LPZ), oz);
+		d2 = dot4(dx, dy, dz, dx, dy, dz);
+		pend = lm & _mm_movemask_ps(_mm_or_ps(isinf_,
+		    _mm_cmpgt_ps(d2, zero)));
+		dx = sel4(isinf_, lwx, dx);
+		dy = sel4(isinf_, lwy, dy);
+		dz = sel4(isinf_, lwz, dz);
+		tmax = sel4(isinf_, inf, _mm_set1_ps(1.0f - 1e-4f));
+		_mm_storeu_ps(sox, ox);
+		_mm_storeu_ps(soy, oy);
+		_mm_storeu_ps(soz, oz);
+		_mm_storeu_ps(sdx, dx);
+		_mm_storeu_ps(sdy, dy);
+		_mm_storeu_ps(sdz, dz);
+		_mm_storeu_ps(stm, tmax);
+		/* the BSDF's sample (pm_diffuse_sample_warped) */
+#define E_WX(c) wx[dj[g + c]]
+#define E_WY(c) wy[dj[g + c]]
+#define E_WZ(c) wz[dj[g + c]]
+		vz = LANES4(E_WZ);
+		pdf = _mm_and_ps(_mm_cmpgt_ps(vz, zero), _mm_mul_ps(vz, inv_pi));
+		alive = _mm_movemask_ps(_mm_andnot_ps(_mm_cmple_ps(wiz, zero),
+		    _mm_cmpgt_ps(pdf, zero)));
+		_mm_storeu_ps(pdfv, pdf);
+		wox = LANES4(E_WX);
+		woy = LANES4(E_WY);
+		woz2 = _mm_xor_ps(vz, _mm_and_ps(flip, sign));
+		/* path_continue */
+#define E_BR(c) q[c]->pa.beta.r
+#define E_BG(c) q[c]->pa.beta.g
+#define E_BB(c) q[c]->pa.beta.b
+		nbr = _mm_mul_ps(LANES4(E_BR), ar);
+		nbg = _mm_mul_ps(LANES4(E_BG), ag);
+		nbb = _mm_mul_ps(LANES4(E_BB), ab);
+		alive &= ~_mm_movemask_ps(_mm_and_ps(_mm_and_ps(
+		    _mm_cmpeq_ps(nbr, zero), _mm_cmpeq_ps(nbg, zero)),
+		    _mm_cmpeq_ps(nbb, zero)));
+		_mm_storeu_ps(br, nbr);
+		_mm_storeu_ps(bg, nbg);
+		_mm_storeu_ps(bb, nbb);
+		sx = LANES4(E_FSX);
+		sy = LANES4(E_FSY);
+		sz = LANES4(E_FSZ);
+		tx = LANES4(E_FTX);
+		ty = LANES4(E_FTY);
+		tz = LANES4(E_FTZ);
+		dx = _mm_add_ps(_mm_add_ps(_mm_mul_ps(sx, wox),
+		    _mm_mul_ps(tx, woy)), _mm_mul_ps(nx, woz2));
+		dy = _mm_add_ps(_mm_add_ps(_mm_mul_ps(sy, wox),
+		    _mm_mul_ps(ty, woy)), _mm_mul_ps(ny, woz2));
+		dz = _mm_add_ps(_mm_add_ps(_mm_mul_ps(sz, wox),
+		    _mm_mul_ps(tz, woy)), _mm_mul_ps(nz, woz2));
+		dd = dot4(dx, dy, dz, dx, dy, dz);
+		/* normalised only where not unit to rounding (pm_normalize:
+		 * a zero vector stays as it is) */
+		nrm = _mm_cmple_ps(_mm_andnot_ps(sign, _mm_sub_ps(dd, one)),
+		    _mm_set1_ps(1e-6f));
+		nl = _mm_sqrt_ps(dd);
+		nrm = _mm_or_ps(nrm, _mm_cmpngt_ps(nl, zero));
+		nl = _mm_div_ps(one, nl);
+		dx = sel4(nrm, dx, _mm_mul_ps(dx, nl));
+		dy = sel4(nrm, dy, _mm_mul_ps(dy, nl));
+		dz = sel4(nrm, dz, _mm_mul_ps(dz, nl));
+		_mm_storeu_ps(ndx, dx);
+		_mm_storeu_ps(ndy, dy);
+		_mm_storeu_ps(ndz, dz);
+		e = sel4(_mm_cmpge_ps(dot4(gx, gy, gz, dx, dy, dz), zero), eps,
+		    _mm_xor_ps(eps, sign));
+		_mm_storeu_ps(nox, _mm_add_ps(px, _mm_mul_ps(gx, e)));
+		_mm_storeu_ps(noy, _mm_add_ps(py, _mm_mul_ps(gy, e)));
+		_mm_storeu_ps(noz, _mm_add_ps(pz, _mm_mul_ps(gz, e)));
+		/* Russian roulette's probability and its reciprocal */
+#define E_ETA(c) q[c]->pa.eta_scale
+		qq = min4(_mm_mul_ps(max4(nbr, max4(nbg, nbb)), LANES4(E_ETA)),
+		    _mm_set1_ps(0.95f));
+		_mm_storeu_ps(qv, qq);
+		_mm_storeu_ps(iq, _mm_div_ps(one, qq));
+		for (c = 0; c < 4; c++) {
+			struct path_lane *p = q[c];
+			struct pm_rgb cc = pm_rgb(cr[c], cg[c], cb[c]);
+
+			if (!(lm >> c & 1))
+				cc = pm_rgb1(0.0f);
+			if (pend >> c & 1) {
+				p->dl = cc;
+				p->dl_beta = p->pa.beta;
+				srays[ns].o = pm_v3(sox[c], soy[c], soz[c]);
+				srays[ns].d = pm_v3(sdx[c], sdy[c], sdz[c]);
+				srays[ns].tmin = 0.0f;
+				srays[ns].tmax = stm[c];
+				sidx[ns++] = idx[v[c]->k];
+			} else {
+				p->L = pm_rgb_madd(p->L, p->pa.beta, cc);
+			}
+			if (!(alive >> c & 1)) {
+				p->alive = false;
+				continue;
+			}
+			p->pa.beta = pm_rgb(br[c], bg[c], bb[c]);
+			p->pa.prev_p = h[c]->p;
+			p->pa.prev_pdf = pdfv[c];
+			p->pa.prev_delta = false;
+			p->pa.d = pm_v3(ndx[c], ndy[c], ndz[c]);
+			p->pa.o = pm_v3(nox[c], noy[c], noz[c]);
+			p->pa.tmin = 0.0f;
+			p->pa.tmax = INFINITY;
+			if (p->depth >= ctx->rr_depth) {
+				if (!(pm_rng_float(&smp[idx[v[c]->k]].rng) <
+				    qv[c])) {
+					p->alive = false;
+					continue;
+				}
+				p->pa.beta = pm_rgb_scale(p->pa.beta, iq[c]);
+			}
+			p->depth++;
+		}
+	}
+	*pns = ns;
+	return g;
+}
+#else
+static size_t
+diffuse_lanes(const struct pm_render_ctx *ctx, const uint8_t *dj, size_t nd,
+    const struct vertex *vx, struct path_lane *l, const uint8_t *idx,
+    struct pm_path_sample *smp, const struct pm_hit *hits,
+    const struct pm_light_sample *lsmp, const bool *lok, const float *wx,
+    const float *wy, const float *wz, struct pm_ray *srays, uint8_t *sidx,
+    size_t *pns)
+{
+	(void)ctx, (void)dj, (void)nd, (void)vx, (void)l, (void)idx;
+	(void)smp, (void)hits, (void)lsmp, (void)lok, (void)wx, (void)wy;
+	(void)wz, (void)srays, (void)sidx, (void)pns;
+	return 0;
+}
+#endif
+
 static void
 path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
     size_t n)
@@ -295,8 +616,9 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 	struct pm_light_sample lsmp[PATH_BATCH];
 	bool lok[PATH_BATCH];
 	bool hitf[PATH_BATCH], occ[PATH_BATCH];
-	uint8_t idx[PATH_BATCH], sidx[PATH_BATCH];
-	size_t i, j, k, m, nl, na = n, ns;
+	uint8_t idx[PATH_BATCH], sidx[PATH_BATCH], dj[PATH_BATCH];
+	bool lane_done[PATH_BATCH];
+	size_t i, j, k, m, nl, na = n, ns, nd;
 
 	for (i = 0; i < n; i++) {
 		pm_path_start(&l[i].pa, smp[i].o, smp[i].d, smp[i].tmin,
@@ -364,7 +686,18 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 		pm_lights_sample_n(ctx->lights, s, lref, (const float (*)[3])lu,
 		    nl, lsmp, lok);
 		pm_square_to_cosine_hemisphere_n(u2, u3, wx, wy, wz, m);
-		for (j = ns = 0; j < m; j++) {
+		/* the plain diffuse vertices in SIMD lanes first */
+		for (j = nd = 0; j < m; j++) {
+			lane_done[j] = false;
+			if (vx[j].light >= 0 && pm_bsdf_plain_diffuse(vx[j].b))
+				dj[nd++] = (uint8_t)j;
+		}
+		ns = 0;
+		nd = diffuse_lanes(ctx, dj, nd, vx, l, idx, smp, hits, lsmp, lok,
+		    wx, wy, wz, srays, sidx, &ns);
+		for (j = 0; j < nd; j++)
+			lane_done[dj[j]] = true;
+		for (j = 0; j < m; j++) {
 			const struct vertex *v = &vx[j];
 			struct path_lane *q = &l[idx[v->k]];
 			struct pm_rng *rng = &smp[idx[v->k]].rng;
@@ -372,6 +705,8 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 			struct pm_vec3 wv = pm_v3(wx[j], wy[j], wz[j]);
 			struct pm_bsdf_sample bs;
 
+			if (lane_done[j])
+				continue;
 			if (v->light >= 0) {
 				const struct pm_light_sample *ls =
 				    &lsmp[v->light];

@@ -124,10 +124,12 @@ furnace_shape(struct pm_scene *s, float h, bool inward, bool mesh)
 }
 
 /* A diffuse emitter of albedo rho around the camera and, unless
- * inner_albedo < 0, a diffuse object in it: spheres, or (mesh) cubes. */
+ * inner_albedo < 0, a diffuse object in it: spheres, or (mesh) cubes;
+ * with back, a cube whose faces look inwards, so that the camera and the
+ * light see their backs, and diffuse twosided if back is 2. */
 static void
-furnace_make(struct furnace *f, float rho, float inner_albedo, int max_depth,
-    bool mesh)
+furnace_make_back(struct furnace *f, float rho, float inner_albedo,
+    int max_depth, bool mesh, int back)
 {
 	struct pm_scene *s = &f->scene;
 	int b, sh, l;
@@ -147,10 +149,18 @@ furnace_make(struct furnace *f, float rho, float inner_albedo, int max_depth,
 		b = pm_scene_add_bsdf(s);
 		s->bsdfs[b].type = PM_BSDF_DIFFUSE;
 		s->bsdfs[b].diffuse = pm_rgb1(inner_albedo);
-		sh = furnace_shape(s, 1.0f, false, mesh);
+		s->bsdfs[b].twosided = back == 2;
+		sh = furnace_shape(s, 1.0f, back != 0, mesh || back != 0);
 		s->shapes[sh].bsdf = b;
 	}
 	furnace_finish(f, max_depth);
+}
+
+static void
+furnace_make(struct furnace *f, float rho, float inner_albedo, int max_depth,
+    bool mesh)
+{
+	furnace_make_back(f, rho, inner_albedo, max_depth, mesh, 0);
 }
 
 static void
@@ -301,21 +311,26 @@ test_mesh_furnaces(void **state)
 
 /* pm_path_li_batch against pm_path_li on the same rays and random
  * numbers, with packets (triangles) and without (spheres), any depth,
- * emitters shown or hidden, batches of every size up to 70. */
+ * emitters shown or hidden, batches of every size up to 70; and (variants
+ * 6 to 9) with the inner cube seen from behind, one-sided and twosided,
+ * for the diffuse SIMD lanes' flip. */
 static void
 test_path_batch_equals_single(void **state)
 {
 	int variant;
 
 	(void)state;
-	for (variant = 0; variant < 6; variant++) {
+	for (variant = 0; variant < 10; variant++) {
 		struct furnace f;
 		struct pm_path_sample smp[70];
 		struct pm_rng r = pm_rng_seed(5, (uint64_t)variant, 0);
 		int max_depth = variant % 3 == 0 ? -1 : variant % 3 == 1 ? 3 : 1;
 		size_t n, i;
 
-		if (variant < 3)
+		if (variant >= 6)
+			furnace_make_back(&f, 0.5f, 0.7f, max_depth, true,
+			    1 + variant % 2);
+		else if (variant < 3)
 			furnace_build_mesh(&f, 0.5f, 0.7f, max_depth);
 		else
 			furnace_build(&f, 0.5f, 0.7f, max_depth);
