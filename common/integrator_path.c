@@ -279,6 +279,22 @@ struct vertex {
 };
 
 /*
+ * A round's vertices field by field (structure of arrays) for
+ * diffuse_lanes, vertex j at [j]: its frame, wi.z, geometric normal and
+ * scale (the hit point is the light lanes' ref), the path's throughput
+ * and eta_scale, and whether its BSDF is plain diffuse (dm, -1 or 0),
+ * with its albedo and twosided mask.
+ */
+struct round_soa {
+	float fs[3][PATH_BATCH], ft[3][PATH_BATCH], fn[3][PATH_BATCH];
+	float wiz[PATH_BATCH];
+	float ng[3][PATH_BATCH], scale[PATH_BATCH];
+	float beta[3][PATH_BATCH], eta[PATH_BATCH];
+	float alb[3][PATH_BATCH];
+	int32_t tw[PATH_BATCH], dm[PATH_BATCH];
+};
+
+/*
  * diffuse_lanes: loop 2 of path_li_batch (below) for the round's plain
  * diffuse vertices, four at a time in SSE lanes: the light sample's
  * value, MIS weight and shadow ray, the BSDF's sample and the path's next
@@ -288,9 +304,10 @@ struct vertex {
  * gets the bits it got one vertex at a time; what each lane then writes
  * (its light's contribution or shadow ray, its next ray, Russian
  * roulette's number from its own stream) is done in lane order, scalar.
- * In a path-traced Cornell box this loop, one vertex at a time, was a
- * fifth of the time.  Returns how many of the nd vertices listed in dj it
- * did (a multiple of 4); the rest go through the scalar loop.
+ * Its inputs are the round's arrays, read four vertices to a load; in a
+ * path-traced Cornell box this loop, one vertex at a time, was a fifth of
+ * the time.  Marks done[j] for each vertex it shaded, in groups of four
+ * from 0 to m; the rest go through the scalar loop.
  */
 #if (defined(__x86_64__) || defined(__i386__)) && defined(__SSE2__) && \
     (defined(__GNUC__) || defined(__clang__)) && !defined(PM_NO_SIMD)
@@ -300,8 +317,7 @@ struct vertex {
 static inline __m128
 max4(__m128 a, __m128 b)
 {
-	__m128 gt = _mm_cmpgt_ps(a, b), bn = _mm_cmpunord_ps(b, b);
-	__m128 ka = _mm_or_ps(gt, bn);
+	__m128 ka = _mm_or_ps(_mm_cmpgt_ps(a, b), _mm_cmpunord_ps(b, b));
 
 	return _mm_or_ps(_mm_and_ps(ka, a), _mm_andnot_ps(ka, b));
 }
@@ -309,8 +325,7 @@ max4(__m128 a, __m128 b)
 static inline __m128
 min4(__m128 a, __m128 b)
 {
-	__m128 lt = _mm_cmplt_ps(a, b), bn = _mm_cmpunord_ps(b, b);
-	__m128 ka = _mm_or_ps(lt, bn);
+	__m128 ka = _mm_or_ps(_mm_cmplt_ps(a, b), _mm_cmpunord_ps(b, b));
 
 	return _mm_or_ps(_mm_and_ps(ka, a), _mm_andnot_ps(ka, b));
 }
@@ -329,195 +344,147 @@ dot4(__m128 ax, __m128 ay, __m128 az, __m128 bx, __m128 by, __m128 bz)
 	    _mm_mul_ps(az, bz));
 }
 
-#define LANES4(e) _mm_setr_ps(e(0), e(1), e(2), e(3))
-#define MASK4(e) _mm_castsi128_ps(_mm_setr_epi32(-(int)(e(0)), \
-    -(int)(e(1)), -(int)(e(2)), -(int)(e(3))))
+static inline __m128
+mask4(const int32_t *m)
+{
+	return _mm_castsi128_ps(_mm_loadu_si128((const __m128i *)m));
+}
 
-static size_t
-diffuse_lanes(const struct pm_render_ctx *ctx, const uint8_t *dj, size_t nd,
+static void
+diffuse_lanes(const struct pm_render_ctx *ctx, size_t m,
+    const struct round_soa *r, const struct pm_light_lanes *ll,
     const struct vertex *vx, struct path_lane *l, const uint8_t *idx,
-    struct pm_path_sample *smp, const struct pm_hit *hits,
-    const struct pm_light_sample *lsmp, const bool *lok, const float *wx,
-    const float *wy, const float *wz, struct pm_ray *srays, uint8_t *sidx,
-    size_t *pns)
+    struct pm_path_sample *smp, const float *wx, const float *wy,
+    const float *wz, struct pm_ray *srays, uint8_t *sidx, size_t *pns,
+    bool *done)
 {
 	const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f);
 	const __m128 sign = _mm_set1_ps(-0.0f), inv_pi = _mm_set1_ps(PM_INV_PI);
 	const __m128 inf = _mm_set1_ps(INFINITY);
-	size_t g, c, ns = *pns;
+	size_t j, c, ns = *pns;
 
-	for (g = 0; g + 4 <= nd; g += 4) {
-		const struct vertex *v[4];
-		const struct pm_hit *h[4];
-		const struct pm_light_sample *ls[4];
-		struct path_lane *q[4];
-		bool ok[4];
+	for (j = 0; j + 4 <= m; j += 4) {
 		float cr[4], cg[4], cb[4], sox[4], soy[4], soz[4], sdx[4];
 		float sdy[4], sdz[4], stm[4], br[4], bg[4], bb[4], pdfv[4];
 		float ndx[4], ndy[4], ndz[4], nox[4], noy[4], noz[4];
 		float qv[4], iq[4];
-		int lm, pend, alive;
+		int dm, lm, pend, alive;
 		__m128 wiz, flip, lwx, lwy, lwz, woz, val, sc, fr_, fg, fb;
-		__m128 pdfl, a2, b2, ph, w, wl, px, py, pz, gx, gy, gz, mx;
-		__m128 eps, e, ox, oy, oz, dx, dy, dz, d2, tmax, isinf_;
+		__m128 a2, b2, ph, w, wl, px, py, pz, gx, gy, gz, mx, pdfl;
+		__m128 eps, e, ox, oy, oz, dx, dy, dz, d2, isinf_;
 		__m128 ar, ag, ab, vz, pdf, nbr, nbg, nbb, dd, nl, nrm;
-		__m128 qq, sx, sy, sz, tx, ty, tz, nx, ny, nz, wox, woy, woz2;
+		__m128 qq, nx, ny, nz, wox, woy, woz2;
 
-		for (c = 0; c < 4; c++) {
-			v[c] = &vx[dj[g + c]];
-			h[c] = &hits[v[c]->k];
-			q[c] = &l[idx[v[c]->k]];
-			ls[c] = &lsmp[v[c]->light];
-			ok[c] = lok[v[c]->light];
-		}
-#define E_WIZ(c) v[c]->wi.z
-#define E_TW(c) v[c]->b->twosided
-		wiz = LANES4(E_WIZ);
-		flip = _mm_and_ps(MASK4(E_TW), _mm_cmplt_ps(wiz, zero));
+		dm = _mm_movemask_ps(mask4(r->dm + j));
+		if (dm == 0)
+			continue;
+		wiz = _mm_loadu_ps(r->wiz + j);
+		flip = _mm_and_ps(mask4(r->tw + j), _mm_cmplt_ps(wiz, zero));
 		wiz = _mm_xor_ps(wiz, _mm_and_ps(flip, sign));
-#define E_FSX(c) v[c]->fr.s.x
-#define E_FSY(c) v[c]->fr.s.y
-#define E_FSZ(c) v[c]->fr.s.z
-#define E_FTX(c) v[c]->fr.t.x
-#define E_FTY(c) v[c]->fr.t.y
-#define E_FTZ(c) v[c]->fr.t.z
-#define E_FNX(c) v[c]->fr.n.x
-#define E_FNY(c) v[c]->fr.n.y
-#define E_FNZ(c) v[c]->fr.n.z
-		nx = LANES4(E_FNX);
-		ny = LANES4(E_FNY);
-		nz = LANES4(E_FNZ);
-		/* the light sample (none where the lane's is not ok: its
-		 * fields may be unset, so 1s stand in) */
-#define E_LWX(c) (ok[c] ? ls[c]->wi.x : 1.0f)
-#define E_LWY(c) (ok[c] ? ls[c]->wi.y : 1.0f)
-#define E_LWZ(c) (ok[c] ? ls[c]->wi.z : 1.0f)
-		lwx = LANES4(E_LWX);
-		lwy = LANES4(E_LWY);
-		lwz = LANES4(E_LWZ);
+		nx = _mm_loadu_ps(r->fn[0] + j);
+		ny = _mm_loadu_ps(r->fn[1] + j);
+		nz = _mm_loadu_ps(r->fn[2] + j);
+		/* light_eval: the light's direction's z in the frame, and
+		 * pm_diffuse_eval and pm_diffuse_pdf, zero unless both are
+		 * above the surface */
+		lwx = _mm_loadu_ps(ll->wi[0] + j);
+		lwy = _mm_loadu_ps(ll->wi[1] + j);
+		lwz = _mm_loadu_ps(ll->wi[2] + j);
 		woz = dot4(lwx, lwy, lwz, nx, ny, nz);
 		woz = _mm_xor_ps(woz, _mm_and_ps(flip, sign));
-		/* pm_diffuse_eval and pm_diffuse_pdf: zero unless both
-		 * above the surface */
 		val = _mm_andnot_ps(_mm_or_ps(_mm_cmple_ps(wiz, zero),
 		    _mm_cmple_ps(woz, zero)), _mm_cmpeq_ps(zero, zero));
-#define E_AR(c) v[c]->b->diffuse.r
-#define E_AG(c) v[c]->b->diffuse.g
-#define E_AB(c) v[c]->b->diffuse.b
-		ar = LANES4(E_AR);
-		ag = LANES4(E_AG);
-		ab = LANES4(E_AB);
+		ar = _mm_loadu_ps(r->alb[0] + j);
+		ag = _mm_loadu_ps(r->alb[1] + j);
+		ab = _mm_loadu_ps(r->alb[2] + j);
 		sc = _mm_mul_ps(woz, inv_pi);
 		fr_ = _mm_and_ps(val, _mm_mul_ps(ar, sc));
 		fg = _mm_and_ps(val, _mm_mul_ps(ag, sc));
 		fb = _mm_and_ps(val, _mm_mul_ps(ab, sc));
-#define E_OK(c) ok[c]
 		lm = _mm_movemask_ps(_mm_andnot_ps(_mm_and_ps(_mm_and_ps(
 		    _mm_cmpeq_ps(fr_, zero), _mm_cmpeq_ps(fg, zero)),
-		    _mm_cmpeq_ps(fb, zero)), MASK4(E_OK)));
+		    _mm_cmpeq_ps(fb, zero)), mask4(ll->ok + j)));
 		/* light_weighted: the power heuristic against the BSDF's pdf */
-#define E_LPDF(c) (ok[c] ? ls[c]->pdf : 1.0f)
-#define E_LDELTA(c) (ok[c] && ls[c]->delta)
-		pdfl = LANES4(E_LPDF);
+		pdfl = _mm_loadu_ps(ll->pdf + j);
 		a2 = _mm_mul_ps(pdfl, pdfl);
 		b2 = _mm_and_ps(val, sc);
 		b2 = _mm_mul_ps(b2, b2);
 		ph = _mm_add_ps(a2, b2);
 		ph = _mm_and_ps(_mm_cmpgt_ps(ph, zero), _mm_div_ps(a2, ph));
 		ph = sel4(_mm_cmpeq_ps(a2, inf), one, ph);
-		w = sel4(MASK4(E_LDELTA), one, ph);
+		w = sel4(mask4(ll->delta + j), one, ph);
 		wl = _mm_div_ps(w, pdfl);
-#define E_LVR(c) (ok[c] ? ls[c]->value.r : 0.0f)
-#define E_LVG(c) (ok[c] ? ls[c]->value.g : 0.0f)
-#define E_LVB(c) (ok[c] ? ls[c]->value.b : 0.0f)
-		_mm_storeu_ps(cr, _mm_mul_ps(_mm_mul_ps(fr_, LANES4(E_LVR)), wl));
-		_mm_storeu_ps(cg, _mm_mul_ps(_mm_mul_ps(fg, LANES4(E_LVG)), wl));
-		_mm_storeu_ps(cb, _mm_mul_ps(_mm_mul_ps(fb, LANES4(E_LVB)), wl));
+		_mm_storeu_ps(cr, _mm_mul_ps(_mm_mul_ps(fr_,
+		    _mm_loadu_ps(ll->value[0] + j)), wl));
+		_mm_storeu_ps(cg, _mm_mul_ps(_mm_mul_ps(fg,
+		    _mm_loadu_ps(ll->value[1] + j)), wl));
+		_mm_storeu_ps(cb, _mm_mul_ps(_mm_mul_ps(fb,
+		    _mm_loadu_ps(ll->value[2] + j)), wl));
 		/* pm_light_shadow_ray: pm_hit_origin towards the light */
-#define E_PX(c) h[c]->p.x
-#define E_PY(c) h[c]->p.y
-#define E_PZ(c) h[c]->p.z
-#define E_GX(c) h[c]->ng.x
-#define E_GY(c) h[c]->ng.y
-#define E_GZ(c) h[c]->ng.z
-#define E_SCALE(c) h[c]->scale
-		px = LANES4(E_PX);
-		py = LANES4(E_PY);
-		pz = LANES4(E_PZ);
-		gx = LANES4(E_GX);
-		gy = LANES4(E_GY);
-		gz = LANES4(E_GZ);
+		px = _mm_loadu_ps(ll->ref[0] + j);
+		py = _mm_loadu_ps(ll->ref[1] + j);
+		pz = _mm_loadu_ps(ll->ref[2] + j);
+		gx = _mm_loadu_ps(r->ng[0] + j);
+		gy = _mm_loadu_ps(r->ng[1] + j);
+		gz = _mm_loadu_ps(r->ng[2] + j);
 		mx = max4(_mm_andnot_ps(sign, px), max4(_mm_andnot_ps(sign, py),
 		    _mm_andnot_ps(sign, pz)));
-		eps = max4(_mm_mul_ps(max4(mx, LANES4(E_SCALE)),
+		eps = max4(_mm_mul_ps(max4(mx, _mm_loadu_ps(r->scale + j)),
 		    _mm_set1_ps(2e-5f)), _mm_set1_ps(1e-30f));
 		e = sel4(_mm_cmpge_ps(dot4(gx, gy, gz, lwx, lwy, lwz), zero), eps,
 		    _mm_xor_ps(eps, sign));
 		ox = _mm_add_ps(px, _mm_mul_ps(gx, e));
 		oy = _mm_add_ps(py, _mm_mul_ps(gy, e));
 		oz = _mm_add_ps(pz, _mm_mul_ps(gz, e));
-#define E_LDIST(c) (ok[c] ? ls[c]->dist : 1.0f)
-#define E_LPX(c) (ok[c] ? ls[c]->p.x : 0.0f)
-#define E_LPY(c) (ok[c] ? ls[c]->p.y : 0.0f)
-#define E_LPZ(c) (ok[c] ? ls[c]->p.z : 0.0f)
-		isinf_ = _mm_cmpeq_ps(_mm_andnot_ps(sign, LANES4(E_LDIST)), inf);
-		dx = _mm_sub_ps(LANES4(E_LPX), ox);
-		dy = _mm_sub_ps(LANES4(E_LPY), oy);
-		dz = _mm_sub_ps(LANES4(E_LPZ), oz);
+		isinf_ = _mm_cmpeq_ps(_mm_andnot_ps(sign,
+		    _mm_loadu_ps(ll->dist + j)), inf);
+		dx = _mm_sub_ps(_mm_loadu_ps(ll->p[0] + j), ox);
+		dy = _mm_sub_ps(_mm_loadu_ps(ll->p[1] + j), oy);
+		dz = _mm_sub_ps(_mm_loadu_ps(ll->p[2] + j), oz);
 		d2 = dot4(dx, dy, dz, dx, dy, dz);
 		pend = lm & _mm_movemask_ps(_mm_or_ps(isinf_,
 		    _mm_cmpgt_ps(d2, zero)));
-		dx = sel4(isinf_, lwx, dx);
-		dy = sel4(isinf_, lwy, dy);
-		dz = sel4(isinf_, lwz, dz);
-		tmax = sel4(isinf_, inf, _mm_set1_ps(1.0f - 1e-4f));
 		_mm_storeu_ps(sox, ox);
 		_mm_storeu_ps(soy, oy);
 		_mm_storeu_ps(soz, oz);
-		_mm_storeu_ps(sdx, dx);
-		_mm_storeu_ps(sdy, dy);
-		_mm_storeu_ps(sdz, dz);
-		_mm_storeu_ps(stm, tmax);
+		_mm_storeu_ps(sdx, sel4(isinf_, lwx, dx));
+		_mm_storeu_ps(sdy, sel4(isinf_, lwy, dy));
+		_mm_storeu_ps(sdz, sel4(isinf_, lwz, dz));
+		_mm_storeu_ps(stm, sel4(isinf_, inf, _mm_set1_ps(1.0f - 1e-4f)));
 		/* the BSDF's sample (pm_diffuse_sample_warped) */
-#define E_WX(c) wx[dj[g + c]]
-#define E_WY(c) wy[dj[g + c]]
-#define E_WZ(c) wz[dj[g + c]]
-		vz = LANES4(E_WZ);
+		vz = _mm_loadu_ps(wz + j);
 		pdf = _mm_and_ps(_mm_cmpgt_ps(vz, zero), _mm_mul_ps(vz, inv_pi));
 		alive = _mm_movemask_ps(_mm_andnot_ps(_mm_cmple_ps(wiz, zero),
 		    _mm_cmpgt_ps(pdf, zero)));
 		_mm_storeu_ps(pdfv, pdf);
-		wox = LANES4(E_WX);
-		woy = LANES4(E_WY);
+		wox = _mm_loadu_ps(wx + j);
+		woy = _mm_loadu_ps(wy + j);
 		woz2 = _mm_xor_ps(vz, _mm_and_ps(flip, sign));
 		/* path_continue */
-#define E_BR(c) q[c]->pa.beta.r
-#define E_BG(c) q[c]->pa.beta.g
-#define E_BB(c) q[c]->pa.beta.b
-		nbr = _mm_mul_ps(LANES4(E_BR), ar);
-		nbg = _mm_mul_ps(LANES4(E_BG), ag);
-		nbb = _mm_mul_ps(LANES4(E_BB), ab);
+		nbr = _mm_mul_ps(_mm_loadu_ps(r->beta[0] + j), ar);
+		nbg = _mm_mul_ps(_mm_loadu_ps(r->beta[1] + j), ag);
+		nbb = _mm_mul_ps(_mm_loadu_ps(r->beta[2] + j), ab);
 		alive &= ~_mm_movemask_ps(_mm_and_ps(_mm_and_ps(
 		    _mm_cmpeq_ps(nbr, zero), _mm_cmpeq_ps(nbg, zero)),
 		    _mm_cmpeq_ps(nbb, zero)));
 		_mm_storeu_ps(br, nbr);
 		_mm_storeu_ps(bg, nbg);
 		_mm_storeu_ps(bb, nbb);
-		sx = LANES4(E_FSX);
-		sy = LANES4(E_FSY);
-		sz = LANES4(E_FSZ);
-		tx = LANES4(E_FTX);
-		ty = LANES4(E_FTY);
-		tz = LANES4(E_FTZ);
-		dx = _mm_add_ps(_mm_add_ps(_mm_mul_ps(sx, wox),
-		    _mm_mul_ps(tx, woy)), _mm_mul_ps(nx, woz2));
-		dy = _mm_add_ps(_mm_add_ps(_mm_mul_ps(sy, wox),
-		    _mm_mul_ps(ty, woy)), _mm_mul_ps(ny, woz2));
-		dz = _mm_add_ps(_mm_add_ps(_mm_mul_ps(sz, wox),
-		    _mm_mul_ps(tz, woy)), _mm_mul_ps(nz, woz2));
+		dx = _mm_add_ps(_mm_add_ps(
+		    _mm_mul_ps(_mm_loadu_ps(r->fs[0] + j), wox),
+		    _mm_mul_ps(_mm_loadu_ps(r->ft[0] + j), woy)),
+		    _mm_mul_ps(nx, woz2));
+		dy = _mm_add_ps(_mm_add_ps(
+		    _mm_mul_ps(_mm_loadu_ps(r->fs[1] + j), wox),
+		    _mm_mul_ps(_mm_loadu_ps(r->ft[1] + j), woy)),
+		    _mm_mul_ps(ny, woz2));
+		dz = _mm_add_ps(_mm_add_ps(
+		    _mm_mul_ps(_mm_loadu_ps(r->fs[2] + j), wox),
+		    _mm_mul_ps(_mm_loadu_ps(r->ft[2] + j), woy)),
+		    _mm_mul_ps(nz, woz2));
 		dd = dot4(dx, dy, dz, dx, dy, dz);
 		/* normalised only where not unit to rounding (pm_normalize:
-		 * a zero vector stays as it is) */
+		 * a zero vector, or NaN, stays as it is) */
 		nrm = _mm_cmple_ps(_mm_andnot_ps(sign, _mm_sub_ps(dd, one)),
 		    _mm_set1_ps(1e-6f));
 		nl = _mm_sqrt_ps(dd);
@@ -535,67 +502,68 @@ diffuse_lanes(const struct pm_render_ctx *ctx, const uint8_t *dj, size_t nd,
 		_mm_storeu_ps(noy, _mm_add_ps(py, _mm_mul_ps(gy, e)));
 		_mm_storeu_ps(noz, _mm_add_ps(pz, _mm_mul_ps(gz, e)));
 		/* Russian roulette's probability and its reciprocal */
-#define E_ETA(c) q[c]->pa.eta_scale
-		qq = min4(_mm_mul_ps(max4(nbr, max4(nbg, nbb)), LANES4(E_ETA)),
-		    _mm_set1_ps(0.95f));
+		qq = min4(_mm_mul_ps(max4(nbr, max4(nbg, nbb)),
+		    _mm_loadu_ps(r->eta + j)), _mm_set1_ps(0.95f));
 		_mm_storeu_ps(qv, qq);
 		_mm_storeu_ps(iq, _mm_div_ps(one, qq));
 		for (c = 0; c < 4; c++) {
-			struct path_lane *p = q[c];
+			const struct vertex *v = &vx[j + c];
+			struct path_lane *q = &l[idx[v->k]];
 			struct pm_rgb cc = pm_rgb(cr[c], cg[c], cb[c]);
 
+			if (!(dm >> c & 1))
+				continue;
+			done[j + c] = true;
 			if (!(lm >> c & 1))
 				cc = pm_rgb1(0.0f);
 			if (pend >> c & 1) {
-				p->dl = cc;
-				p->dl_beta = p->pa.beta;
+				q->dl = cc;
+				q->dl_beta = q->pa.beta;
 				srays[ns].o = pm_v3(sox[c], soy[c], soz[c]);
 				srays[ns].d = pm_v3(sdx[c], sdy[c], sdz[c]);
 				srays[ns].tmin = 0.0f;
 				srays[ns].tmax = stm[c];
-				sidx[ns++] = idx[v[c]->k];
+				sidx[ns++] = idx[v->k];
 			} else {
-				p->L = pm_rgb_madd(p->L, p->pa.beta, cc);
+				q->L = pm_rgb_madd(q->L, q->pa.beta, cc);
 			}
 			if (!(alive >> c & 1)) {
-				p->alive = false;
+				q->alive = false;
 				continue;
 			}
-			p->pa.beta = pm_rgb(br[c], bg[c], bb[c]);
-			p->pa.prev_p = h[c]->p;
-			p->pa.prev_pdf = pdfv[c];
-			p->pa.prev_delta = false;
-			p->pa.d = pm_v3(ndx[c], ndy[c], ndz[c]);
-			p->pa.o = pm_v3(nox[c], noy[c], noz[c]);
-			p->pa.tmin = 0.0f;
-			p->pa.tmax = INFINITY;
-			if (p->depth >= ctx->rr_depth) {
-				if (!(pm_rng_float(&smp[idx[v[c]->k]].rng) <
-				    qv[c])) {
-					p->alive = false;
+			q->pa.beta = pm_rgb(br[c], bg[c], bb[c]);
+			q->pa.prev_p = pm_v3(ll->ref[0][j + c], ll->ref[1][j + c],
+			    ll->ref[2][j + c]);
+			q->pa.prev_pdf = pdfv[c];
+			q->pa.prev_delta = false;
+			q->pa.d = pm_v3(ndx[c], ndy[c], ndz[c]);
+			q->pa.o = pm_v3(nox[c], noy[c], noz[c]);
+			q->pa.tmin = 0.0f;
+			q->pa.tmax = INFINITY;
+			if (q->depth >= ctx->rr_depth) {
+				if (!(pm_rng_float(&smp[idx[v->k]].rng) < qv[c])) {
+					q->alive = false;
 					continue;
 				}
-				p->pa.beta = pm_rgb_scale(p->pa.beta, iq[c]);
+				q->pa.beta = pm_rgb_scale(q->pa.beta, iq[c]);
 			}
-			p->depth++;
+			q->depth++;
 		}
 	}
 	*pns = ns;
-	return g;
 }
 #else
-static size_t
-diffuse_lanes(const struct pm_render_ctx *ctx, const uint8_t *dj, size_t nd,
+static void
+diffuse_lanes(const struct pm_render_ctx *ctx, size_t m,
+    const struct round_soa *r, const struct pm_light_lanes *ll,
     const struct vertex *vx, struct path_lane *l, const uint8_t *idx,
-    struct pm_path_sample *smp, const struct pm_hit *hits,
-    const struct pm_light_sample *lsmp, const bool *lok, const float *wx,
-    const float *wy, const float *wz, struct pm_ray *srays, uint8_t *sidx,
-    size_t *pns)
+    struct pm_path_sample *smp, const float *wx, const float *wy,
+    const float *wz, struct pm_ray *srays, uint8_t *sidx, size_t *pns,
+    bool *done)
 {
-	(void)ctx, (void)dj, (void)nd, (void)vx, (void)l, (void)idx;
-	(void)smp, (void)hits, (void)lsmp, (void)lok, (void)wx, (void)wy;
-	(void)wz, (void)srays, (void)sidx, (void)pns;
-	return 0;
+	(void)ctx, (void)m, (void)r, (void)ll, (void)vx, (void)l, (void)idx;
+	(void)smp, (void)wx, (void)wy, (void)wz, (void)srays, (void)sidx;
+	(void)pns, (void)done;
 }
 #endif
 
@@ -611,14 +579,13 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 	struct pm_bsdf bt[PATH_BATCH];	/* textured BSDFs looked up */
 	float u2[PATH_BATCH], u3[PATH_BATCH];
 	float wx[PATH_BATCH], wy[PATH_BATCH], wz[PATH_BATCH];
-	struct pm_vec3 lref[PATH_BATCH];
-	float lu[PATH_BATCH][3];
-	struct pm_light_sample lsmp[PATH_BATCH];
-	bool lok[PATH_BATCH];
+	struct pm_light_lanes ll;
+	struct round_soa rs;
 	bool hitf[PATH_BATCH], occ[PATH_BATCH];
-	uint8_t idx[PATH_BATCH], sidx[PATH_BATCH], dj[PATH_BATCH];
-	bool lane_done[PATH_BATCH];
-	size_t i, j, k, m, nl, na = n, ns, nd;
+	uint8_t idx[PATH_BATCH], sidx[PATH_BATCH];
+	bool done[PATH_BATCH];
+	size_t i, j, k, m, na = n, ns;
+	int a;
 
 	for (i = 0; i < n; i++) {
 		pm_path_start(&l[i].pa, smp[i].o, smp[i].d, smp[i].tmin,
@@ -652,7 +619,7 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 		 * together in SIMD lanes (pm_lights_sample_n,
 		 * pm_square_to_cosine_hemisphere_n); then each vertex shades
 		 * as before. */
-		for (k = m = nl = 0; k < na; k++) {
+		for (k = m = 0; k < na; k++) {
 			struct path_lane *q = &l[idx[k]];
 			struct pm_rng *rng = &smp[idx[k]].rng;
 			const struct pm_hit *h = &hits[k];
@@ -670,33 +637,52 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 			v->b = pm_bsdf_frame_at(s, h, q->pa.d, &bt[m], &v->fr);
 			v->wi = pm_to_local(v->fr, pm_neg(q->pa.d));
 			v->light = -1;
-			if (!pm_bsdf_is_delta(v->b)) {
-				lu[nl][0] = pm_rng_float(rng);
-				lu[nl][1] = pm_rng_float(rng);
-				lu[nl][2] = pm_rng_float(rng);
-				lref[nl] = h->p;
-				v->light = (int)nl++;
+			ll.want[m] = !pm_bsdf_is_delta(v->b);
+			if (ll.want[m]) {
+				ll.u[0][m] = pm_rng_float(rng);
+				ll.u[1][m] = pm_rng_float(rng);
+				ll.u[2][m] = pm_rng_float(rng);
+				v->light = (int)m;
+			} else {
+				ll.u[0][m] = ll.u[1][m] = ll.u[2][m] = 0.0f;
 			}
 			v->u1 = pm_rng_float(rng);
 			u2[m] = pm_rng_float(rng);
 			u3[m] = pm_rng_float(rng);
 			v->k = k;
+			/* what diffuse_lanes reads, field by field */
+			for (a = 0; a < 3; a++) {
+				rs.fs[a][m] = (&v->fr.s.x)[a];
+				rs.ft[a][m] = (&v->fr.t.x)[a];
+				rs.fn[a][m] = (&v->fr.n.x)[a];
+				ll.ref[a][m] = (&h->p.x)[a];
+				rs.ng[a][m] = (&h->ng.x)[a];
+			}
+			rs.wiz[m] = v->wi.z;
+			rs.scale[m] = h->scale;
+			rs.beta[0][m] = q->pa.beta.r;
+			rs.beta[1][m] = q->pa.beta.g;
+			rs.beta[2][m] = q->pa.beta.b;
+			rs.eta[m] = q->pa.eta_scale;
+			if (ll.want[m] && pm_bsdf_plain_diffuse(v->b)) {
+				rs.dm[m] = -1;
+				rs.tw[m] = v->b->twosided ? -1 : 0;
+				rs.alb[0][m] = v->b->diffuse.r;
+				rs.alb[1][m] = v->b->diffuse.g;
+				rs.alb[2][m] = v->b->diffuse.b;
+			} else {
+				rs.dm[m] = rs.tw[m] = 0;
+				rs.alb[0][m] = rs.alb[1][m] = rs.alb[2][m] = 0.0f;
+			}
+			done[m] = false;
 			m++;
 		}
-		pm_lights_sample_n(ctx->lights, s, lref, (const float (*)[3])lu,
-		    nl, lsmp, lok);
+		pm_lights_sample_n(ctx->lights, s, &ll, m);
 		pm_square_to_cosine_hemisphere_n(u2, u3, wx, wy, wz, m);
 		/* the plain diffuse vertices in SIMD lanes first */
-		for (j = nd = 0; j < m; j++) {
-			lane_done[j] = false;
-			if (vx[j].light >= 0 && pm_bsdf_plain_diffuse(vx[j].b))
-				dj[nd++] = (uint8_t)j;
-		}
 		ns = 0;
-		nd = diffuse_lanes(ctx, dj, nd, vx, l, idx, smp, hits, lsmp, lok,
-		    wx, wy, wz, srays, sidx, &ns);
-		for (j = 0; j < nd; j++)
-			lane_done[dj[j]] = true;
+		diffuse_lanes(ctx, m, &rs, &ll, vx, l, idx, smp, wx, wy, wz,
+		    srays, sidx, &ns, done);
 		for (j = 0; j < m; j++) {
 			const struct vertex *v = &vx[j];
 			struct path_lane *q = &l[idx[v->k]];
@@ -705,16 +691,17 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 			struct pm_vec3 wv = pm_v3(wx[j], wy[j], wz[j]);
 			struct pm_bsdf_sample bs;
 
-			if (lane_done[j])
+			if (done[j])
 				continue;
 			if (v->light >= 0) {
-				const struct pm_light_sample *ls =
-				    &lsmp[v->light];
+				struct pm_light_sample lsv;
+				const struct pm_light_sample *ls = &lsv;
 				struct pm_vec3 wo_local;
 				struct pm_rgb f, c = pm_rgb1(0.0f);
 				bool pending = false;
 
-				if (lok[v->light] && light_eval(v->b, v->fr,
+				pm_light_lanes_get(&ll, (size_t)v->light, &lsv);
+				if (ll.ok[v->light] && light_eval(v->b, v->fr,
 				    v->wi, ls, &wo_local, &f)) {
 					c = light_weighted(v->b, v->wi, wo_local,
 					    ls, f);

@@ -609,36 +609,28 @@ pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
 
 static size_t
 quad_lanes(const struct pm_lights *ls, const struct pm_scene *s,
-    const struct pm_vec3 *ref, const float (*u)[3], size_t n,
-    struct pm_light_sample *out, bool *ok)
+    struct pm_light_lanes *ll, size_t n)
 {
 	const struct pm_light *l = &s->lights[0];
 	const struct pm_light_quad *q = &ls->quad[0];
 	const float psel = ls->nee_p[0], area = (float)l->area;
 	const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f);
 	const __m128 sign = _mm_set1_ps(-0.0f);
-	size_t i, j;
+	const float *p0 = &q->p0.x, *e1 = &q->e1.x, *e2 = &q->e2.x;
+	const float *rad = &l->radiance.r;
+	size_t i;
+	int a;
 
 	for (i = 0; i + 4 <= n; i += 4) {
-		float w[3][4], pt[3][4], dist[4], pdf[4];
-		int good, front;
-		__m128 u1 = _mm_setr_ps(u[i][1], u[i + 1][1], u[i + 2][1],
-		    u[i + 3][1]);
-		__m128 u2 = _mm_setr_ps(u[i][2], u[i + 1][2], u[i + 2][2],
-		    u[i + 3][2]);
-		__m128 p[3], d[3], d2, r, inv, c, cs;
-		const float *p0 = &q->p0.x, *e1 = &q->e1.x, *e2 = &q->e2.x;
-		int a;
+		__m128 u1 = _mm_loadu_ps(ll->u[1] + i);
+		__m128 u2 = _mm_loadu_ps(ll->u[2] + i);
+		__m128 p[3], d[3], d2, r, inv, c, cs, good, front;
 
 		for (a = 0; a < 3; a++) {
-			__m128 x = _mm_setr_ps((&ref[i].x)[a],
-			    (&ref[i + 1].x)[a], (&ref[i + 2].x)[a],
-			    (&ref[i + 3].x)[a]);
-
 			p[a] = _mm_add_ps(_mm_add_ps(_mm_set1_ps(p0[a]),
 			    _mm_mul_ps(_mm_set1_ps(e1[a]), u1)),
 			    _mm_mul_ps(_mm_set1_ps(e2[a]), u2));
-			d[a] = _mm_sub_ps(p[a], x);
+			d[a] = _mm_sub_ps(p[a], _mm_loadu_ps(ll->ref[a] + i));
 		}
 		d2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(d[0], d[0]),
 		    _mm_mul_ps(d[1], d[1])), _mm_mul_ps(d[2], d[2]));
@@ -657,53 +649,40 @@ quad_lanes(const struct pm_lights *ls, const struct pm_scene *s,
 		    _mm_mul_ps(_mm_set1_ps(q->ns.z), d[2]));
 		/* the scalar tests: d2 > 0, the light's front (ns . wi < 0),
 		 * cos_l > 0; a NaN fails each as it does there */
-		good = _mm_movemask_ps(_mm_and_ps(_mm_and_ps(
-		    _mm_cmpgt_ps(d2, zero), _mm_cmplt_ps(cs, zero)),
-		    _mm_cmpgt_ps(c, zero)));
-		front = _mm_movemask_ps(_mm_cmpgt_ps(d2, zero));
-		_mm_storeu_ps(pdf, _mm_div_ps(_mm_mul_ps(_mm_set1_ps(psel), d2),
-		    _mm_mul_ps(c, _mm_set1_ps(area))));
-		_mm_storeu_ps(dist, r);
+		front = _mm_cmpgt_ps(d2, zero);
+		good = _mm_and_ps(_mm_and_ps(front, _mm_cmplt_ps(cs, zero)),
+		    _mm_cmpgt_ps(c, zero));
+		_mm_storeu_ps(ll->pdf + i, _mm_div_ps(_mm_mul_ps(
+		    _mm_set1_ps(psel), d2), _mm_mul_ps(c, _mm_set1_ps(area))));
+		_mm_storeu_ps(ll->dist + i, r);
 		for (a = 0; a < 3; a++) {
-			_mm_storeu_ps(w[a], d[a]);
-			_mm_storeu_ps(pt[a], p[a]);
+			_mm_storeu_ps(ll->wi[a] + i, d[a]);
+			_mm_storeu_ps(ll->p[a] + i, p[a]);
+			/* the radiance where the light shines this way, zero
+			 * behind it (the scalar value, where d2 > 0) */
+			_mm_storeu_ps(ll->value[a] + i,
+			    _mm_and_ps(good, _mm_set1_ps(rad[a])));
 		}
-		for (j = 0; j < 4; j++) {
-			struct pm_light_sample *o = &out[i + j];
-
-			o->light = 0;
-			o->delta = false;
-			o->p = pm_v3(pt[0][j], pt[1][j], pt[2][j]);
-			o->n = q->n;
-			if (!(front >> j & 1)) {
-				ok[i + j] = false;	/* d2 <= 0 */
-				continue;
-			}
-			o->dist = dist[j];
-			o->wi = pm_v3(w[0][j], w[1][j], w[2][j]);
-			o->value = good >> j & 1 ? l->radiance : pm_rgb1(0.0f);
-			ok[i + j] = (good >> j & 1) != 0;
-			if (ok[i + j])
-				o->pdf = pdf[j];
-		}
+		_mm_storeu_si128((__m128i *)(ll->ok + i), _mm_castps_si128(good));
+		_mm_storeu_si128((__m128i *)(ll->delta + i), _mm_setzero_si128());
+		for (a = 0; a < 4; a++)
+			ll->ok[i + (size_t)a] &= ll->want[i + (size_t)a] ? -1 : 0;
 	}
 	return i;
 }
 #else
 static size_t
 quad_lanes(const struct pm_lights *ls, const struct pm_scene *s,
-    const struct pm_vec3 *ref, const float (*u)[3], size_t n,
-    struct pm_light_sample *out, bool *ok)
+    struct pm_light_lanes *ll, size_t n)
 {
-	(void)ls, (void)s, (void)ref, (void)u, (void)n, (void)out, (void)ok;
+	(void)ls, (void)s, (void)ll, (void)n;
 	return 0;
 }
 #endif
 
 void
 pm_lights_sample_n(const struct pm_lights *ls, const struct pm_scene *s,
-    const struct pm_vec3 *ref, const float (*u)[3], size_t n,
-    struct pm_light_sample *out, bool *ok)
+    struct pm_light_lanes *ll, size_t n)
 {
 	size_t i = 0;
 
@@ -711,10 +690,28 @@ pm_lights_sample_n(const struct pm_lights *ls, const struct pm_scene *s,
 	if (ls->n == 1 && s->lights[0].type == PM_LIGHT_AREA &&
 	    s->shapes[s->lights[0].shape].type != PM_SHAPE_SPHERE &&
 	    ls->quad[0].on && !pm_rgb_is_black(s->lights[0].radiance))
-		i = quad_lanes(ls, s, ref, u, n, out, ok);
-	for (; i < n; i++)
-		ok[i] = pm_lights_sample(ls, s, ref[i], u[i][0], u[i][1],
-		    u[i][2], &out[i]);
+		i = quad_lanes(ls, s, ll, n);
+	for (; i < n; i++) {
+		struct pm_light_sample o;
+		bool ok = ll->want[i] && pm_lights_sample(ls, s,
+		    pm_v3(ll->ref[0][i], ll->ref[1][i], ll->ref[2][i]),
+		    ll->u[0][i], ll->u[1][i], ll->u[2][i], &o);
+		int a;
+
+		if (!ok)
+			memset(&o, 0, sizeof(o));
+		for (a = 0; a < 3; a++) {
+			ll->wi[a][i] = (&o.wi.x)[a];
+			ll->p[a][i] = (&o.p.x)[a];
+		}
+		ll->value[0][i] = o.value.r;
+		ll->value[1][i] = o.value.g;
+		ll->value[2][i] = o.value.b;
+		ll->dist[i] = o.dist;
+		ll->pdf[i] = o.pdf;
+		ll->delta[i] = o.delta ? -1 : 0;
+		ll->ok[i] = ok ? -1 : 0;
+	}
 }
 
 float

@@ -153,13 +153,48 @@ void pm_lights_free(struct pm_lights *ls);
  * (no lights, or the chosen point cannot light ref). */
 bool pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
     struct pm_vec3 ref, float u0, float u1, float u2, struct pm_light_sample *ls_out);
-/* pm_lights_sample at n points at once, ref[i] with u[i][0..3) giving
- * out[i] and ok[i], the same bits: in a scene with one light that is a
- * parallelogram (the common case of a rectangle light), in SIMD lanes,
- * else one by one. */
+/* The most points pm_lights_sample_n takes at once. */
+#define PM_LIGHT_LANES 64
+
+/*
+ * pm_lights_sample_n's input and results field by field (structure of
+ * arrays, for SIMD lanes): point i is (ref[0][i], ref[1][i], ref[2][i])
+ * with numbers u[0..3][i], sampled only where want[i]; its sample's wi,
+ * dist, p, value, pdf and delta are those of struct pm_light_sample, ok[i]
+ * and delta[i] masks (-1 true, 0 false).  A sample not ok, or not wanted,
+ * has ok 0 and every other field defined but meaningless.  The light's
+ * normal and index are not kept: a path's vertex needs neither.
+ */
+struct pm_light_lanes {
+	float ref[3][PM_LIGHT_LANES], u[3][PM_LIGHT_LANES];
+	bool want[PM_LIGHT_LANES];
+	float wi[3][PM_LIGHT_LANES], dist[PM_LIGHT_LANES];
+	float p[3][PM_LIGHT_LANES], value[3][PM_LIGHT_LANES];
+	float pdf[PM_LIGHT_LANES];
+	int32_t delta[PM_LIGHT_LANES], ok[PM_LIGHT_LANES];
+};
+
+/* pm_lights_sample at points 0..n of ll (n <= PM_LIGHT_LANES), the same
+ * bits: in a scene with one light that is a parallelogram (the common
+ * case of a rectangle light), four points at a time in SIMD lanes, else
+ * one by one. */
 void pm_lights_sample_n(const struct pm_lights *ls, const struct pm_scene *s,
-    const struct pm_vec3 *ref, const float (*u)[3], size_t n,
-    struct pm_light_sample *out, bool *ok);
+    struct pm_light_lanes *ll, size_t n);
+
+/* Sample i of ll as a struct pm_light_sample (n and light unset). */
+static inline void
+pm_light_lanes_get(const struct pm_light_lanes *ll, size_t i,
+    struct pm_light_sample *o)
+{
+	o->wi = pm_v3(ll->wi[0][i], ll->wi[1][i], ll->wi[2][i]);
+	o->dist = ll->dist[i];
+	o->p = pm_v3(ll->p[0][i], ll->p[1][i], ll->p[2][i]);
+	o->n = pm_v3(0.0f, 0.0f, 0.0f);
+	o->value = pm_rgb(ll->value[0][i], ll->value[1][i], ll->value[2][i]);
+	o->pdf = ll->pdf[i];
+	o->delta = ll->delta[i] != 0;
+	o->light = -1;
+}
 
 /*
  * True if something lies between the hit and the light sample.  The shadow

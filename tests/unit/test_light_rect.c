@@ -260,9 +260,11 @@ test_photons_leave_the_lit_side(void **state)
  * samples four at a time, against pm_lights_sample one at a time, bit
  * for bit: 100003 points around the turned light, in front of it and
  * behind it (samples refused there), on its plane, and at its corners,
- * where a sample may land on the point itself.  It fails with the
- * distance's reciprocal folded into a division or the light's back
- * accepted.
+ * where a sample may land on the point itself, in batches of
+ * PM_LIGHT_LANES and a last one of fewer (not a multiple of 4); every
+ * seventh point is not wanted, and its sample must not be ok.  It fails
+ * with the distance's reciprocal folded into a division or the light's
+ * back accepted.
  */
 static void
 test_light_samples_in_lanes(void **state)
@@ -272,17 +274,15 @@ test_light_samples_in_lanes(void **state)
 	struct pm_world w;
 	struct pm_vec3 *ref = malloc(N * sizeof(*ref));
 	float (*u)[3] = malloc(N * sizeof(*u));
-	struct pm_light_sample *got = malloc(N * sizeof(*got));
-	bool *ok = malloc(N * sizeof(*ok));
+	struct pm_light_lanes *ll = malloc(sizeof(*ll));
 	struct pm_rng rng = pm_rng_seed(23, 0, 0);
 	const struct pm_light_quad *q;
-	size_t i, lit = 0;
+	size_t i, j, m, lit = 0;
 
 	(void)state;
 	assert_non_null(ref);
 	assert_non_null(u);
-	assert_non_null(got);
-	assert_non_null(ok);
+	assert_non_null(ll);
 	load(RECT, &s, &w);
 	q = &w.lights.quad[0];
 	assert_true(q->on);
@@ -306,34 +306,49 @@ test_light_samples_in_lanes(void **state)
 		u[i][1] = pm_rng_float(&rng);
 		u[i][2] = pm_rng_float(&rng);
 	}
-	pm_lights_sample_n(&w.lights, &s, ref, (const float (*)[3])u, N, got,
-	    ok);
-	for (i = 0; i < N; i++) {
-		struct pm_light_sample want;
-		bool w_ok = pm_lights_sample(&w.lights, &s, ref[i], u[i][0],
-		    u[i][1], u[i][2], &want);
+	for (i = 0; i < N; i += m) {
+		m = N - i < PM_LIGHT_LANES ? N - i : PM_LIGHT_LANES;
+		for (j = 0; j < m; j++) {
+			ll->ref[0][j] = ref[i + j].x;
+			ll->ref[1][j] = ref[i + j].y;
+			ll->ref[2][j] = ref[i + j].z;
+			ll->u[0][j] = u[i + j][0];
+			ll->u[1][j] = u[i + j][1];
+			ll->u[2][j] = u[i + j][2];
+			ll->want[j] = (i + j) % 7 != 3;
+		}
+		pm_lights_sample_n(&w.lights, &s, ll, m);
+		for (j = 0; j < m; j++) {
+			struct pm_light_sample want, got;
+			bool w_ok = pm_lights_sample(&w.lights, &s, ref[i + j],
+			    u[i + j][0], u[i + j][1], u[i + j][2], &want);
 
-		assert_int_equal(ok[i], w_ok);
-		if (!w_ok)
-			continue;
-		lit++;
-		assert_memory_equal(&got[i].wi, &want.wi, sizeof(want.wi));
-		assert_memory_equal(&got[i].dist, &want.dist, sizeof(want.dist));
-		assert_memory_equal(&got[i].p, &want.p, sizeof(want.p));
-		assert_memory_equal(&got[i].n, &want.n, sizeof(want.n));
-		assert_memory_equal(&got[i].value, &want.value,
-		    sizeof(want.value));
-		assert_memory_equal(&got[i].pdf, &want.pdf, sizeof(want.pdf));
-		assert_int_equal(got[i].delta, want.delta);
-		assert_int_equal(got[i].light, want.light);
+			if (!ll->want[j]) {
+				assert_int_equal(ll->ok[j], 0);
+				continue;
+			}
+			assert_int_equal(ll->ok[j], w_ok ? -1 : 0);
+			if (!w_ok)
+				continue;
+			lit++;
+			pm_light_lanes_get(ll, j, &got);
+			assert_memory_equal(&got.wi, &want.wi, sizeof(want.wi));
+			assert_memory_equal(&got.dist, &want.dist,
+			    sizeof(want.dist));
+			assert_memory_equal(&got.p, &want.p, sizeof(want.p));
+			assert_memory_equal(&got.value, &want.value,
+			    sizeof(want.value));
+			assert_memory_equal(&got.pdf, &want.pdf,
+			    sizeof(want.pdf));
+			assert_int_equal(got.delta, want.delta);
+		}
 	}
 	print_message("light samples in lanes: %zu of %d lit, all the "
 	    "scalar ones' bits\n", lit, N);
 	assert_true(lit > N / 4 && lit < N - N / 4);
 	free(ref);
 	free(u);
-	free(got);
-	free(ok);
+	free(ll);
 	pm_world_free(&w);
 	pm_scene_free(&s);
 }
