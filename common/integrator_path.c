@@ -259,6 +259,8 @@ path_continue(struct pm_path *pa, const struct pm_hit *h,
  * anything else changes the path's L.
  */
 #define PATH_BATCH 64
+_Static_assert(PATH_BATCH % 4 == 0 && PATH_BATCH <= PM_LIGHT_LANES,
+    "a round's vertices fill whole groups of four light lanes");
 
 struct path_lane {
 	struct pm_path pa;
@@ -677,11 +679,25 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 			done[m] = false;
 			m++;
 		}
-		pm_lights_sample_n(ctx->lights, s, &ll, m);
-		pm_square_to_cosine_hemisphere_n(u2, u3, wx, wy, wz, m);
+		/* up to a whole group of four with lanes that do nothing
+		 * (PATH_BATCH is a multiple of 4), so that no vertex is left
+		 * to the scalar code for want of three others */
+		for (j = m; j % 4 != 0; j++) {
+			for (a = 0; a < 3; a++) {
+				rs.fs[a][j] = rs.ft[a][j] = rs.fn[a][j] = 0.0f;
+				rs.ng[a][j] = rs.beta[a][j] = rs.alb[a][j] = 0.0f;
+				ll.ref[a][j] = ll.u[a][j] = 0.0f;
+			}
+			rs.wiz[j] = rs.scale[j] = rs.eta[j] = 0.0f;
+			rs.dm[j] = rs.tw[j] = 0;
+			ll.want[j] = false;
+			u2[j] = u3[j] = 0.0f;
+		}
+		pm_lights_sample_n(ctx->lights, s, &ll, j);
+		pm_square_to_cosine_hemisphere_n(u2, u3, wx, wy, wz, j);
 		/* the plain diffuse vertices in SIMD lanes first */
 		ns = 0;
-		diffuse_lanes(ctx, m, &rs, &ll, vx, l, idx, smp, wx, wy, wz,
+		diffuse_lanes(ctx, j, &rs, &ll, vx, l, idx, smp, wx, wy, wz,
 		    srays, sidx, &ns, done);
 		for (j = 0; j < m; j++) {
 			const struct vertex *v = &vx[j];
