@@ -14,6 +14,7 @@
  * obviously right over being fast.
  */
 #include <math.h>
+#include <string.h>
 
 #include "integrator.h"
 #include "frame.h"
@@ -270,26 +271,29 @@ struct path_lane {
 	bool alive;
 };
 
-/* A round's vertex between drawing its numbers and shading. */
+/* A round's vertex between drawing its numbers and shading (its frame
+ * and wi are in the round's arrays, struct round_soa). */
 struct vertex {
 	const struct pm_bsdf *b;
-	struct pm_frame fr;
-	struct pm_vec3 wi;		/* local */
 	float u1;			/* the BSDF's first number */
 	size_t k;			/* its path in the round */
 	int light;			/* its light sample's index, or -1 */
 };
 
 /*
- * A round's vertices field by field (structure of arrays) for
- * diffuse_lanes, vertex j at [j]: its frame, wi.z, geometric normal and
- * scale (the hit point is the light lanes' ref), the path's throughput
- * and eta_scale, and whether its BSDF is plain diffuse (dm, -1 or 0),
- * with its albedo and twosided mask.
+ * A round's vertices field by field (structure of arrays), vertex j at
+ * [j]: the ray's direction, the shading frame (found by frame_lanes
+ * unless tan is -1: a frame that follows the surface, pm_bsdf_frame_at's
+ * other case) and wi in it, the geometric normal and scale (the hit point
+ * is the light lanes' ref), the path's throughput and eta_scale, and
+ * whether its BSDF is plain diffuse (dm, -1 or 0), with its albedo and
+ * twosided mask.
  */
 struct round_soa {
+	float dir[3][PATH_BATCH];
+	int32_t tan[PATH_BATCH];
 	float fs[3][PATH_BATCH], ft[3][PATH_BATCH], fn[3][PATH_BATCH];
-	float wiz[PATH_BATCH];
+	float wix[PATH_BATCH], wiy[PATH_BATCH], wiz[PATH_BATCH];
 	float ng[3][PATH_BATCH], scale[PATH_BATCH];
 	float beta[3][PATH_BATCH], eta[PATH_BATCH];
 	float alb[3][PATH_BATCH];
@@ -350,6 +354,52 @@ static inline __m128
 mask4(const int32_t *m)
 {
 	return _mm_castsi128_ps(_mm_loadu_si128((const __m128i *)m));
+}
+
+/*
+ * frame_lanes: pm_frame_from_normal at the round's vertices 0..m (m a
+ * multiple of 4), four at a time, except where tan keeps the frame loop
+ * 1 found, and wi = pm_to_local(frame, -d) at every one; its operations
+ * in pm_frame_from_normal's and pm_to_local's order, so the same bits.
+ */
+static void
+frame_lanes(struct round_soa *r, size_t m)
+{
+	const __m128 one = _mm_set1_ps(1.0f), sign = _mm_set1_ps(-0.0f);
+	size_t j;
+
+	for (j = 0; j < m; j += 4) {
+		__m128 nx = _mm_loadu_ps(r->fn[0] + j);
+		__m128 ny = _mm_loadu_ps(r->fn[1] + j);
+		__m128 nz = _mm_loadu_ps(r->fn[2] + j);
+		__m128 sg = _mm_or_ps(_mm_and_ps(nz, sign), one);
+		__m128 a = _mm_div_ps(_mm_set1_ps(-1.0f), _mm_add_ps(sg, nz));
+		__m128 b = _mm_mul_ps(_mm_mul_ps(nx, ny), a);
+		__m128 s[3], t[3], v[3], tan = mask4(r->tan + j);
+		int c;
+
+		s[0] = _mm_add_ps(one, _mm_mul_ps(_mm_mul_ps(_mm_mul_ps(sg, nx),
+		    nx), a));
+		s[1] = _mm_mul_ps(sg, b);
+		s[2] = _mm_mul_ps(_mm_xor_ps(sg, sign), nx);
+		t[0] = b;
+		t[1] = _mm_add_ps(sg, _mm_mul_ps(_mm_mul_ps(ny, ny), a));
+		t[2] = _mm_xor_ps(ny, sign);
+		for (c = 0; c < 3; c++) {
+			if (_mm_movemask_ps(tan) != 0) {
+				s[c] = sel4(tan, _mm_loadu_ps(r->fs[c] + j), s[c]);
+				t[c] = sel4(tan, _mm_loadu_ps(r->ft[c] + j), t[c]);
+			}
+			_mm_storeu_ps(r->fs[c] + j, s[c]);
+			_mm_storeu_ps(r->ft[c] + j, t[c]);
+			v[c] = _mm_xor_ps(_mm_loadu_ps(r->dir[c] + j), sign);
+		}
+		_mm_storeu_ps(r->wix + j, dot4(v[0], v[1], v[2], s[0], s[1],
+		    s[2]));
+		_mm_storeu_ps(r->wiy + j, dot4(v[0], v[1], v[2], t[0], t[1],
+		    t[2]));
+		_mm_storeu_ps(r->wiz + j, dot4(v[0], v[1], v[2], nx, ny, nz));
+	}
 }
 
 static void
@@ -556,6 +606,36 @@ diffuse_lanes(const struct pm_render_ctx *ctx, size_t m,
 }
 #else
 static void
+frame_lanes(struct round_soa *r, size_t m)
+{
+	size_t j;
+	int c;
+
+	for (j = 0; j < m; j++) {
+		struct pm_frame fr;
+		struct pm_vec3 d = pm_v3(r->dir[0][j], r->dir[1][j],
+		    r->dir[2][j]), wi;
+
+		if (r->tan[j]) {
+			fr.s = pm_v3(r->fs[0][j], r->fs[1][j], r->fs[2][j]);
+			fr.t = pm_v3(r->ft[0][j], r->ft[1][j], r->ft[2][j]);
+			fr.n = pm_v3(r->fn[0][j], r->fn[1][j], r->fn[2][j]);
+		} else {
+			fr = pm_frame_from_normal(pm_v3(r->fn[0][j],
+			    r->fn[1][j], r->fn[2][j]));
+		}
+		wi = pm_to_local(fr, pm_neg(d));
+		for (c = 0; c < 3; c++) {
+			r->fs[c][j] = (&fr.s.x)[c];
+			r->ft[c][j] = (&fr.t.x)[c];
+		}
+		r->wix[j] = wi.x;
+		r->wiy[j] = wi.y;
+		r->wiz[j] = wi.z;
+	}
+}
+
+static void
 diffuse_lanes(const struct pm_render_ctx *ctx, size_t m,
     const struct round_soa *r, const struct pm_light_lanes *ll,
     const struct vertex *vx, struct path_lane *l, const uint8_t *idx,
@@ -589,6 +669,10 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 	size_t i, j, k, m, na = n, ns;
 	int a;
 
+	/* frame_lanes reads a group's loop-1 frames where any of its
+	 * vertices has one: never memory left unset */
+	memset(rs.fs, 0, sizeof(rs.fs));
+	memset(rs.ft, 0, sizeof(rs.ft));
 	for (i = 0; i < n; i++) {
 		pm_path_start(&l[i].pa, smp[i].o, smp[i].d, smp[i].tmin,
 		    smp[i].tmax);
@@ -635,9 +719,27 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 				q->alive = false;
 				continue;
 			}
-			/* bt[m] holds a textured BSDF through the round */
-			v->b = pm_bsdf_frame_at(s, h, q->pa.d, &bt[m], &v->fr);
-			v->wi = pm_to_local(v->fr, pm_neg(q->pa.d));
+			/* pm_bsdf_frame_at, its frame from the normal alone
+			 * left to frame_lanes; bt[m] holds a textured BSDF
+			 * through the round */
+			v->b = &s->bsdfs[s->shapes[h->shape].bsdf];
+			if (pm_bsdf_textured(v->b))
+				v->b = pm_bsdf_at(s, h, &bt[m]);
+			rs.tan[m] = pm_bsdf_needs_tangent(v->b) ? -1 : 0;
+			if (rs.tan[m]) {
+				struct pm_frame fr;
+
+				v->b = pm_bsdf_frame_tangent(s, h, q->pa.d, v->b,
+				    &bt[m], &fr);
+				for (a = 0; a < 3; a++) {
+					rs.fs[a][m] = (&fr.s.x)[a];
+					rs.ft[a][m] = (&fr.t.x)[a];
+					rs.fn[a][m] = (&fr.n.x)[a];
+				}
+			} else {
+				for (a = 0; a < 3; a++)
+					rs.fn[a][m] = (&h->ns.x)[a];
+			}
 			v->light = -1;
 			ll.want[m] = !pm_bsdf_is_delta(v->b);
 			if (ll.want[m]) {
@@ -654,13 +756,10 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 			v->k = k;
 			/* what diffuse_lanes reads, field by field */
 			for (a = 0; a < 3; a++) {
-				rs.fs[a][m] = (&v->fr.s.x)[a];
-				rs.ft[a][m] = (&v->fr.t.x)[a];
-				rs.fn[a][m] = (&v->fr.n.x)[a];
+				rs.dir[a][m] = (&q->pa.d.x)[a];
 				ll.ref[a][m] = (&h->p.x)[a];
 				rs.ng[a][m] = (&h->ng.x)[a];
 			}
-			rs.wiz[m] = v->wi.z;
 			rs.scale[m] = h->scale;
 			rs.beta[0][m] = q->pa.beta.r;
 			rs.beta[1][m] = q->pa.beta.g;
@@ -684,15 +783,16 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 		 * to the scalar code for want of three others */
 		for (j = m; j % 4 != 0; j++) {
 			for (a = 0; a < 3; a++) {
-				rs.fs[a][j] = rs.ft[a][j] = rs.fn[a][j] = 0.0f;
+				rs.fn[a][j] = rs.dir[a][j] = 0.0f;
 				rs.ng[a][j] = rs.beta[a][j] = rs.alb[a][j] = 0.0f;
 				ll.ref[a][j] = ll.u[a][j] = 0.0f;
 			}
-			rs.wiz[j] = rs.scale[j] = rs.eta[j] = 0.0f;
-			rs.dm[j] = rs.tw[j] = 0;
+			rs.scale[j] = rs.eta[j] = 0.0f;
+			rs.dm[j] = rs.tw[j] = rs.tan[j] = 0;
 			ll.want[j] = false;
 			u2[j] = u3[j] = 0.0f;
 		}
+		frame_lanes(&rs, j);
 		pm_lights_sample_n(ctx->lights, s, &ll, j);
 		pm_square_to_cosine_hemisphere_n(u2, u3, wx, wy, wz, j);
 		/* the plain diffuse vertices in SIMD lanes first */
@@ -706,9 +806,15 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 			const struct pm_hit *h = &hits[v->k];
 			struct pm_vec3 wv = pm_v3(wx[j], wy[j], wz[j]);
 			struct pm_bsdf_sample bs;
+			struct pm_frame fr;
+			struct pm_vec3 wi;
 
 			if (done[j])
 				continue;
+			fr.s = pm_v3(rs.fs[0][j], rs.fs[1][j], rs.fs[2][j]);
+			fr.t = pm_v3(rs.ft[0][j], rs.ft[1][j], rs.ft[2][j]);
+			fr.n = pm_v3(rs.fn[0][j], rs.fn[1][j], rs.fn[2][j]);
+			wi = pm_v3(rs.wix[j], rs.wiy[j], rs.wiz[j]);
 			if (v->light >= 0) {
 				struct pm_light_sample lsv;
 				const struct pm_light_sample *ls = &lsv;
@@ -717,9 +823,9 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 				bool pending = false;
 
 				pm_light_lanes_get(&ll, (size_t)v->light, &lsv);
-				if (ll.ok[v->light] && light_eval(v->b, v->fr,
-				    v->wi, ls, &wo_local, &f)) {
-					c = light_weighted(v->b, v->wi, wo_local,
+				if (ll.ok[v->light] && light_eval(v->b, fr, wi, ls,
+				    &wo_local, &f)) {
+					c = light_weighted(v->b, wi, wo_local,
 					    ls, f);
 					pending = pm_light_shadow_ray(h, ls,
 					    &srays[ns]);
@@ -732,9 +838,9 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 					q->L = pm_rgb_madd(q->L, q->pa.beta, c);
 				}
 			}
-			if (!bsdf_sample_v(v->b, v->wi, v->u1, u2[j], u3[j], &wv,
+			if (!bsdf_sample_v(v->b, wi, v->u1, u2[j], u3[j], &wv,
 			    &bs) ||
-			    !path_continue(&q->pa, h, &v->fr, &bs, q->depth,
+			    !path_continue(&q->pa, h, &fr, &bs, q->depth,
 			    ctx->rr_depth, rng)) {
 				q->alive = false;
 				continue;
