@@ -133,13 +133,13 @@ pixel_cells(const struct job *j, uint64_t pix, struct strata *st)
 	}
 }
 
-/* The camera ray of sample i of pixel (x, y), with its random numbers
- * (*rng, to go on with along the path) and what the photon render needs
- * of it (*cs). */
+/* Where sample i of pixel (x, y) falls: its film position (cs->fx, fy),
+ * its lens numbers (*lu, *lv), its random numbers (*rng, to go on with
+ * along the path) and what else the photon render needs of it (*cs). */
 static void
-camera_sample(const struct job *j, const struct strata *st, int x, int y,
-    int i, struct pm_vec3 *o, struct pm_vec3 *d, float *tmin, float *tmax,
-    struct pm_camera_sample *cs, struct pm_rng *rng)
+camera_film(const struct job *j, const struct strata *st, int x, int y,
+    int i, float *plu, float *plv, struct pm_camera_sample *cs,
+    struct pm_rng *rng)
 {
 	const struct pm_camera *cam = j->cam;
 	uint64_t pix = (uint64_t)y * (uint64_t)cam->width + (uint64_t)x;
@@ -176,9 +176,22 @@ camera_sample(const struct job *j, const struct strata *st, int x, int y,
 		lu = pm_rng_float(rng);
 		lv = pm_rng_float(rng);
 	}
-	*d = pm_camera_ray(&j->rays, fx, fy, lu, lv, o, tmin, tmax);
 	cs->fx = fx;
 	cs->fy = fy;
+	*plu = lu;
+	*plv = lv;
+}
+
+/* The camera ray of sample i of pixel (x, y), and what camera_film gives. */
+static void
+camera_sample(const struct job *j, const struct strata *st, int x, int y,
+    int i, struct pm_vec3 *o, struct pm_vec3 *d, float *tmin, float *tmax,
+    struct pm_camera_sample *cs, struct pm_rng *rng)
+{
+	float lu, lv;
+
+	camera_film(j, st, x, y, i, &lu, &lv, cs, rng);
+	*d = pm_camera_ray(&j->rays, cs->fx, cs->fy, lu, lv, o, tmin, tmax);
 }
 
 /* Samples path-traced together (pm_path_li_batch): enough that their
@@ -253,6 +266,9 @@ render_tile_paths(struct job *j, struct strata *st, int x0, int y0, int x1,
 {
 	struct pm_path_sample smp[PATH_CHUNK];
 	uint16_t slot[PATH_CHUNK];
+	float fx[PATH_CHUNK], fy[PATH_CHUNK], lu[PATH_CHUNK], lv[PATH_CHUNK];
+	float tmin[PATH_CHUNK], tmax[PATH_CHUNK];
+	struct pm_vec3 o[PATH_CHUNK], d[PATH_CHUNK];
 	struct tile_acc t;
 	int spp = j->opts->spp, x, y, i, n = 0, k;
 
@@ -262,12 +278,23 @@ render_tile_paths(struct job *j, struct strata *st, int x0, int y0, int x1,
 			for (i = 0; i < spp; i++) {
 				struct pm_camera_sample cs;
 
-				camera_sample(j, st, x, y, i, &smp[n].o, &smp[n].d,
-				    &smp[n].tmin, &smp[n].tmax, &cs, &smp[n].rng);
+				camera_film(j, st, x, y, i, &lu[n], &lv[n], &cs,
+				    &smp[n].rng);
+				fx[n] = cs.fx;
+				fy[n] = cs.fy;
 				slot[n] = (uint16_t)((y - y0) * TILE + (x - x0));
 				if (++n < PATH_CHUNK &&
 				    !(y == y1 - 1 && x == x1 - 1 && i == spp - 1))
 					continue;
+				/* the chunk's rays together (SIMD lanes) */
+				pm_camera_rays_n(&j->rays, fx, fy, lu, lv,
+				    (size_t)n, o, d, tmin, tmax);
+				for (k = 0; k < n; k++) {
+					smp[k].o = o[k];
+					smp[k].d = d[k];
+					smp[k].tmin = tmin[k];
+					smp[k].tmax = tmax[k];
+				}
 				pm_path_li_batch(j->ctx, smp, (size_t)n);
 				for (k = 0; k < n; k++)
 					tile_acc_add(j, &t, slot[k], smp[k].L);

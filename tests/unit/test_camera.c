@@ -218,6 +218,50 @@ test_thinlens_aperture_uniform(void **state)
 	    "thinlens aperture") > 1e-3);
 }
 
+/* pm_camera_rays_n against pm_camera_ray one at a time, bit for bit, for
+ * each sensor (the perspective one in SIMD lanes), at 1003 film positions
+ * (not a multiple of 4) over the film and on its edges. */
+static void
+test_rays_n_equal_one_at_a_time(void **state)
+{
+	enum { N = 1003 };
+	static const enum pm_sensor_type types[] = {
+		PM_SENSOR_PERSPECTIVE, PM_SENSOR_ORTHOGRAPHIC,
+		PM_SENSOR_THINLENS,
+	};
+	static float fx[N], fy[N], lu[N], lv[N], tmin[N], tmax[N];
+	static struct pm_vec3 o[N], d[N];
+	struct pm_rng rng = pm_rng_seed(4, 5, 6);
+	size_t t, i;
+
+	(void)state;
+	for (i = 0; i < N; i++) {
+		fx[i] = i % 7 == 0 ? 0.0f : i % 7 == 1 ? (float)W :
+		    W * pm_rng_float(&rng);
+		fy[i] = i % 5 == 0 ? (float)H : H * pm_rng_float(&rng);
+		lu[i] = pm_rng_float(&rng);
+		lv[i] = pm_rng_float(&rng);
+	}
+	for (t = 0; t < sizeof(types) / sizeof(types[0]); t++) {
+		struct pm_camera c = camera(types[t], look());
+		struct pm_camera_rays r;
+
+		pm_camera_setup(&r, &c);
+		pm_camera_rays_n(&r, fx, fy, lu, lv, N, o, d, tmin, tmax);
+		for (i = 0; i < N; i++) {
+			struct pm_vec3 wo, wd;
+			float wmin, wmax;
+
+			wd = pm_camera_ray(&r, fx[i], fy[i], lu[i], lv[i], &wo,
+			    &wmin, &wmax);
+			assert_memory_equal(&o[i], &wo, sizeof(wo));
+			assert_memory_equal(&d[i], &wd, sizeof(wd));
+			assert_memory_equal(&tmin[i], &wmin, sizeof(wmin));
+			assert_memory_equal(&tmax[i], &wmax, sizeof(wmax));
+		}
+	}
+}
+
 static void
 test_pinhole_needs_no_lens(void **state)
 {
@@ -241,6 +285,7 @@ main(void)
 		cmocka_unit_test(test_thinlens_focus),
 		cmocka_unit_test(test_thinlens_aperture_uniform),
 		cmocka_unit_test(test_pinhole_needs_no_lens),
+		cmocka_unit_test(test_rays_n_equal_one_at_a_time),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);
