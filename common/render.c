@@ -325,6 +325,9 @@ render_tile_photon(struct job *j, struct strata *st, int x0, int y0, int x1,
 	struct pm_hit hit[PATH_CHUNK];
 	bool hitf[PATH_CHUNK];
 	uint16_t slot[PATH_CHUNK];
+	float fx[PATH_CHUNK], fy[PATH_CHUNK], lu[PATH_CHUNK], lv[PATH_CHUNK];
+	float tmin[PATH_CHUNK], tmax[PATH_CHUNK];
+	struct pm_vec3 o[PATH_CHUNK], d[PATH_CHUNK];
 	struct tile_acc t;
 	int spp = j->opts->spp, x, y, i, n = 0, k;
 
@@ -334,12 +337,23 @@ render_tile_photon(struct job *j, struct strata *st, int x0, int y0, int x1,
 			pixel_cells(j, (uint64_t)y * (uint64_t)cam->width +
 			    (uint64_t)x, st);
 			for (i = 0; i < spp; i++) {
-				camera_sample(j, st, x, y, i, &ray[n].o, &ray[n].d,
-				    &ray[n].tmin, &ray[n].tmax, &cs[n], &rng[n]);
+				camera_film(j, st, x, y, i, &lu[n], &lv[n], &cs[n],
+				    &rng[n]);
+				fx[n] = cs[n].fx;
+				fy[n] = cs[n].fy;
 				slot[n] = (uint16_t)((y - y0) * TILE + (x - x0));
 				if (++n < PATH_CHUNK &&
 				    !(y == y1 - 1 && x == x1 - 1 && i == spp - 1))
 					continue;
+				/* the chunk's rays together (SIMD lanes) */
+				pm_camera_rays_n(&j->rays, fx, fy, lu, lv,
+				    (size_t)n, o, d, tmin, tmax);
+				for (k = 0; k < n; k++) {
+					ray[k].o = o[k];
+					ray[k].d = d[k];
+					ray[k].tmin = tmin[k];
+					ray[k].tmax = tmax[k];
+				}
 				pm_accel_intersect_n(j->ctx->accel, ray, (size_t)n,
 				    hit, hitf);
 				for (k = 0; k < n; k++)
