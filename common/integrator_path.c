@@ -255,9 +255,9 @@ path_continue(struct pm_path *pa, const struct pm_hit *h,
  * advance together one bounce per round, and each round's closest-hit
  * rays, then its shadow rays, go to the accelerator as one batch (Embree
  * packets).  Every path does exactly what pm_path_li does, in the same
- * order and with the same random numbers; a light sample's contribution
- * only waits for its shadow ray until the end of the round, before
- * anything else changes the path's L.
+ * order and with the same random numbers, to the bit; a light sample's
+ * contribution only waits for its shadow ray until the end of the round,
+ * before anything else changes the path's L.
  */
 #define PATH_BATCH 64
 _Static_assert(PATH_BATCH % 4 == 0 && PATH_BATCH <= PM_LIGHT_LANES,
@@ -699,12 +699,14 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 		if (na == 0)
 			break;
 		pm_accel_intersect_n(ctx->accel, rays, na, hits, hitf);
-		/* The vertices' random numbers drawn first, in each path's
-		 * order (the light sample's three, then the BSDF's), so that
-		 * the round's light samples and BSDF directions are taken
-		 * together in SIMD lanes (pm_lights_sample_n,
-		 * pm_square_to_cosine_hemisphere_n); then each vertex shades
-		 * as before. */
+		/* Loop 1: the vertices' random numbers drawn first, in each
+		 * path's order (the light sample's three, then the BSDF's),
+		 * and what the lanes read stored field by field, so that the
+		 * round's frames, light samples and BSDF directions are taken
+		 * together in SIMD lanes (frame_lanes, pm_lights_sample_n,
+		 * pm_square_to_cosine_hemisphere_n); then the plain diffuse
+		 * vertices shade in lanes (diffuse_lanes) and the others one
+		 * at a time, as before (loop 2). */
 		for (k = m = 0; k < na; k++) {
 			struct path_lane *q = &l[idx[k]];
 			struct pm_rng *rng = &smp[idx[k]].rng;

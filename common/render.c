@@ -198,6 +198,26 @@ camera_sample(const struct job *j, const struct strata *st, int x, int y,
  * rays fill Embree's packets, few enough to stay in the L1 cache. */
 #define PATH_CHUNK 64
 
+/* The camera rays of a chunk's n film positions and lens numbers, in
+ * SIMD lanes (pm_camera_rays_n). */
+static void
+chunk_rays(const struct job *j, const float *fx, const float *fy,
+    const float *lu, const float *lv, int n, struct pm_ray *ray)
+{
+	struct pm_vec3 o[PATH_CHUNK], d[PATH_CHUNK];
+	float tmin[PATH_CHUNK], tmax[PATH_CHUNK];
+	int k;
+
+	pm_camera_rays_n(&j->rays, fx, fy, lu, lv, (size_t)n, o, d, tmin,
+	    tmax);
+	for (k = 0; k < n; k++) {
+		ray[k].o = o[k];
+		ray[k].d = d[k];
+		ray[k].tmin = tmin[k];
+		ray[k].tmax = tmax[k];
+	}
+}
+
 /* A chunked tile's sums: per pixel of the tile, the radiance and (with
  * moments) its moments, and the samples dropped as non-finite. */
 struct tile_acc {
@@ -267,8 +287,7 @@ render_tile_paths(struct job *j, struct strata *st, int x0, int y0, int x1,
 	struct pm_path_sample smp[PATH_CHUNK];
 	uint16_t slot[PATH_CHUNK];
 	float fx[PATH_CHUNK], fy[PATH_CHUNK], lu[PATH_CHUNK], lv[PATH_CHUNK];
-	float tmin[PATH_CHUNK], tmax[PATH_CHUNK];
-	struct pm_vec3 o[PATH_CHUNK], d[PATH_CHUNK];
+	struct pm_ray ray[PATH_CHUNK];
 	struct tile_acc t;
 	int spp = j->opts->spp, x, y, i, n = 0, k;
 
@@ -286,14 +305,12 @@ render_tile_paths(struct job *j, struct strata *st, int x0, int y0, int x1,
 				if (++n < PATH_CHUNK &&
 				    !(y == y1 - 1 && x == x1 - 1 && i == spp - 1))
 					continue;
-				/* the chunk's rays together (SIMD lanes) */
-				pm_camera_rays_n(&j->rays, fx, fy, lu, lv,
-				    (size_t)n, o, d, tmin, tmax);
+				chunk_rays(j, fx, fy, lu, lv, n, ray);
 				for (k = 0; k < n; k++) {
-					smp[k].o = o[k];
-					smp[k].d = d[k];
-					smp[k].tmin = tmin[k];
-					smp[k].tmax = tmax[k];
+					smp[k].o = ray[k].o;
+					smp[k].d = ray[k].d;
+					smp[k].tmin = ray[k].tmin;
+					smp[k].tmax = ray[k].tmax;
 				}
 				pm_path_li_batch(j->ctx, smp, (size_t)n);
 				for (k = 0; k < n; k++)
@@ -326,8 +343,6 @@ render_tile_photon(struct job *j, struct strata *st, int x0, int y0, int x1,
 	bool hitf[PATH_CHUNK];
 	uint16_t slot[PATH_CHUNK];
 	float fx[PATH_CHUNK], fy[PATH_CHUNK], lu[PATH_CHUNK], lv[PATH_CHUNK];
-	float tmin[PATH_CHUNK], tmax[PATH_CHUNK];
-	struct pm_vec3 o[PATH_CHUNK], d[PATH_CHUNK];
 	struct tile_acc t;
 	int spp = j->opts->spp, x, y, i, n = 0, k;
 
@@ -345,15 +360,7 @@ render_tile_photon(struct job *j, struct strata *st, int x0, int y0, int x1,
 				if (++n < PATH_CHUNK &&
 				    !(y == y1 - 1 && x == x1 - 1 && i == spp - 1))
 					continue;
-				/* the chunk's rays together (SIMD lanes) */
-				pm_camera_rays_n(&j->rays, fx, fy, lu, lv,
-				    (size_t)n, o, d, tmin, tmax);
-				for (k = 0; k < n; k++) {
-					ray[k].o = o[k];
-					ray[k].d = d[k];
-					ray[k].tmin = tmin[k];
-					ray[k].tmax = tmax[k];
-				}
+				chunk_rays(j, fx, fy, lu, lv, n, ray);
 				pm_accel_intersect_n(j->ctx->accel, ray, (size_t)n,
 				    hit, hitf);
 				for (k = 0; k < n; k++)
