@@ -163,6 +163,68 @@ furnace_make(struct furnace *f, float rho, float inner_albedo, int max_depth,
 	furnace_make_back(f, rho, inner_albedo, max_depth, mesh, 0);
 }
 
+/* A square of half size h at height y facing down, centred on (0, y, z),
+ * two triangles: a rectangle light as Mitsuba's rectangle is made. */
+static int
+add_square(struct pm_scene *s, float y, float z, float h)
+{
+	static const float corner[4][2] = {
+		{-1, -1}, {1, -1}, {1, 1}, {-1, 1},
+	};
+	static const uint32_t tri[6] = { 0, 1, 2, 0, 2, 3 };
+	int sh = pm_scene_add_shape(s), i;
+	struct pm_mesh *m;
+
+	assert_true(sh >= 0);
+	s->shapes[sh].type = PM_SHAPE_MESH;
+	s->shapes[sh].light = -1;
+	m = &s->shapes[sh].mesh;
+	m->nverts = 4;
+	m->ntris = 2;
+	m->pos = malloc(sizeof(float) * 3 * 4);
+	m->idx = malloc(sizeof(tri));
+	assert_non_null(m->pos);
+	assert_non_null(m->idx);
+	for (i = 0; i < 4; i++) {
+		m->pos[3 * i] = h * corner[i][0];
+		m->pos[3 * i + 1] = y;
+		m->pos[3 * i + 2] = z + h * corner[i][1];
+	}
+	memcpy(m->idx, tri, sizeof(tri));
+	return sh;
+}
+
+/* A diffuse cube of albedo 0.7 lit by a constant environment (sky) or
+ * by a rectangle light above it and in front of the face the camera
+ * sees (rect). */
+static void
+furnace_make_lit(struct furnace *f, bool rect, int max_depth)
+{
+	struct pm_scene *s = &f->scene;
+	int b, sh, l;
+
+	pm_scene_init(s);
+	b = pm_scene_add_bsdf(s);
+	s->bsdfs[b].type = PM_BSDF_DIFFUSE;
+	s->bsdfs[b].diffuse = pm_rgb1(0.7f);
+	sh = add_cube(s, 1.0f, false);
+	s->shapes[sh].bsdf = b;
+	l = pm_scene_add_light(s);
+	if (rect) {
+		s->lights[l].type = PM_LIGHT_AREA;
+		s->lights[l].radiance = pm_rgb(4.0f, 8.0f, 2.0f);
+		sh = add_square(s, 3.0f, 3.0f, 0.5f);
+		s->shapes[sh].bsdf = b;
+		s->shapes[sh].light = l;
+		s->lights[l].shape = sh;
+	} else {
+		s->lights[l].type = PM_LIGHT_CONSTANT;
+		s->lights[l].radiance = pm_rgb(1.0f, 2.0f, 0.5f);
+		s->env_light = l;
+	}
+	furnace_finish(f, max_depth);
+}
+
 static void
 furnace_build(struct furnace *f, float rho, float inner_albedo, int max_depth)
 {
@@ -311,23 +373,29 @@ test_mesh_furnaces(void **state)
 
 /* pm_path_li_batch against pm_path_li on the same rays and random
  * numbers, with packets (triangles) and without (spheres), any depth,
- * emitters shown or hidden, batches of every size up to 70; and (variants
- * 6 to 9) with the inner cube seen from behind, one-sided and twosided,
- * for the diffuse SIMD lanes' flip. */
+ * emitters shown or hidden, batches of every size up to 70; with the
+ * inner cube seen from behind, one-sided and twosided, for the diffuse
+ * SIMD lanes' flip (variants 6 to 9); and a cube under the sky, whose
+ * shadow rays have no end, and under a rectangle light, which
+ * pm_lights_sample_n samples in lanes (10 to 13). */
 static void
 test_path_batch_equals_single(void **state)
 {
 	int variant;
 
 	(void)state;
-	for (variant = 0; variant < 10; variant++) {
+	for (variant = 0; variant < 14; variant++) {
 		struct furnace f;
 		struct pm_path_sample smp[70];
 		struct pm_rng r = pm_rng_seed(5, (uint64_t)variant, 0);
 		int max_depth = variant % 3 == 0 ? -1 : variant % 3 == 1 ? 3 : 1;
-		size_t n, i;
+		size_t n, i, lit = 0;
 
-		if (variant >= 6)
+		if (variant >= 10) {
+			furnace_make_lit(&f, variant >= 12, max_depth);
+			assert_int_equal(f.world.lights.quad[0].on,
+			    variant >= 12);
+		} else if (variant >= 6)
 			furnace_make_back(&f, 0.5f, 0.7f, max_depth, true,
 			    1 + variant % 2);
 		else if (variant < 3)
@@ -354,14 +422,23 @@ test_path_batch_equals_single(void **state)
 			{
 				struct pm_rgb want[70];
 
-				for (i = 0; i < n; i++)
+				for (i = 0; i < n; i++) {
 					want[i] = smp[i].L;
+					lit += want[i].g > 0.0f;
+				}
 				pm_path_li_batch(&f.ctx, smp, n);
 				for (i = 0; i < n; i++)
 					assert_memory_equal(&smp[i].L, &want[i],
 					    sizeof(want[i]));
 			}
 		}
+		/* light reached the camera on most paths: the paths
+		 * compared carried something */
+		/* light reached the camera, so the paths compared carried
+		 * something: everywhere but where max_depth 1 shows only the
+		 * cube, which fills the view, and the one-sided cube's backs */
+		if (max_depth != 1 && variant != 6 && variant != 8)
+			assert_true(lit > 0);
 		furnace_free(&f);
 	}
 }
