@@ -50,7 +50,7 @@ TEST_BIN = $(TEST_SRC:tests/unit/%.c=$(BUILD)/tests/%)
 MANS     = $(sort $(wildcard man/*.[1-9]))
 
 .PHONY: all demo test deps install clean check-unit check-cli check-man check-mitsuba \
-	check-sanitize check-tsan turntable deps-cluster check-cluster
+	check-sanitize check-tsan check-nosimd turntable deps-cluster check-cluster
 .PHONY: fuzz fuzz-build check-fuzz mitsuba-references
 
 # Data files written by a program rather than stored: the .vol grids of
@@ -156,6 +156,7 @@ test: deps deps-cluster
 	$(PHASE) unit+cli+man $(MAKE) check-unit check-cli check-man
 	$(PHASE) cluster $(MAKE) check-cluster
 	$(PHASE) sanitize $(MAKE) check-sanitize
+	$(PHASE) nosimd $(MAKE) check-nosimd
 	$(PHASE) fuzz $(MAKE) check-fuzz
 	$(PHASE) mitsuba $(MAKE) check-mitsuba
 	@echo "make test: passed; seconds per part:" $$(cat $(PHASES))
@@ -206,6 +207,19 @@ check-tsan:
 		$(MAKE) BUILD=build/tsan BIN=build/tsan/bin CFLAGS="$(TSAN_FLAGS)" \
 		TEST_BIN="$(TSAN_UNIT:%=build/tsan/tests/%)" CLI_TESTS="$(TSAN_CLI)" \
 		check-unit check-cli
+
+# The SIMD lanes' plain C (PM_NO_SIMD: what a compiler without SSE2
+# builds), through the unit tests that hold lanes to one-at-a-time code:
+# path mode's batches, light samples, camera rays, warps, the irradiance
+# cache, photon emission.
+NOSIMD_FLAGS = $(OPT) -g -DPM_NO_SIMD
+NOSIMD_UNIT  = test_render test_light_rect test_camera test_sampling \
+	       test_irradiance test_shoot
+check-nosimd:
+	$(MAKE) -j$(NPROC) BUILD=build/nosimd BIN=build/nosimd/bin \
+		CFLAGS="$(NOSIMD_FLAGS)" $(NOSIMD_UNIT:%=build/nosimd/tests/%)
+	$(MAKE) BUILD=build/nosimd BIN=build/nosimd/bin CFLAGS="$(NOSIMD_FLAGS)" \
+		TEST_BIN="$(NOSIMD_UNIT:%=build/nosimd/tests/%)" check-unit
 
 # libFuzzer targets (tests/fuzz/fuzz_*.c), built with clang, ASan and UBSan
 # over their own copy of the library.  `make fuzz` fuzzes each for
