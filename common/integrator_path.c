@@ -559,12 +559,15 @@ diffuse_lanes(const struct pm_render_ctx *ctx, size_t m,
 		_mm_storeu_ps(qv, qq);
 		_mm_storeu_ps(iq, _mm_div_ps(one, qq));
 		for (c = 0; c < 4; c++) {
-			const struct vertex *v = &vx[j + c];
-			struct path_lane *q = &l[idx[v->k]];
+			const struct vertex *v;
+			struct path_lane *q;
 			struct pm_rgb cc = pm_rgb(cr[c], cg[c], cb[c]);
 
+			/* (a padding lane has no vertex: nothing of it read) */
 			if (!(dm >> c & 1))
 				continue;
+			v = &vx[j + c];
+			q = &l[idx[v->k]];
 			done[j + c] = true;
 			if (!(lm >> c & 1))
 				cc = pm_rgb1(0.0f);
