@@ -181,7 +181,8 @@ struct pm_light_lanes {
 void pm_lights_sample_n(const struct pm_lights *ls, const struct pm_scene *s,
     struct pm_light_lanes *ll, size_t n);
 
-/* Sample i of ll as a struct pm_light_sample (n and light unset). */
+/* Sample i of ll as a struct pm_light_sample (n zero and light -1: the
+ * lanes keep neither). */
 static inline void
 pm_light_lanes_get(const struct pm_light_lanes *ll, size_t i,
     struct pm_light_sample *o)
