@@ -10,7 +10,7 @@
 $(BUILD)/tests/bench: tests/bench/bench.c $(LIB)
 	@mkdir -p $(dir $@)
 	$(CC) $(PM_CFLAGS) $(CFLAGS) -o $@ tests/bench/bench.c $(LIB) $(PM_LIBS) \
-	    -Wl,--wrap=pm_accel_intersect
+	    -Wl,--wrap=pm_accel_intersect -Wl,--wrap=pm_accel_intersect_n
 
 bench: deps
 	$(MAKE) all $(BUILD)/tests/bench

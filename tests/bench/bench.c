@@ -29,11 +29,12 @@
  *	photon paths (pm_shoot in memory, one thread, seed 0, the scene's
  *	max_depth as pm-shoot turns it) with every ray it casts recorded,
  *	then, in turns, best of 3 each, the same pass again unrecorded and
- *	the recorded rays alone cast in the same order through the same
- *	pm_accel_intersect (the hit filled in too); prints one JSON object
- *	with both times, the rays and the photons stored.  The bench links
- *	with --wrap=pm_accel_intersect (pipelines/bench.mk), so the rays
- *	are the library's very own, taken without a hook in it.
+ *	the recorded rays alone cast in the same order and the same calls
+ *	(pm_accel_intersect, or pm_accel_intersect_n's packets, the hits
+ *	filled in too); prints one JSON object with both times, the rays and
+ *	the photons stored.  The bench links with --wrap for both functions
+ *	(pipelines/bench.mk), so the rays are the library's very own, taken
+ *	without a hook in it.
  *   bench crc
  *	pm_crc32's throughput on every path this CPU has (zlib, PCLMULQDQ,
  *	VPCLMULQDQ), on a 256 KiB buffer in cache and a 64 MiB one from
@@ -259,9 +260,12 @@ out:
 	return rc;
 }
 
-/* The library's pm_accel_intersect, unwrapped (bench casts, below). */
+/* The library's pm_accel_intersect and pm_accel_intersect_n, unwrapped
+ * (bench casts, below). */
 bool __real_pm_accel_intersect(const struct pm_accel *a, struct pm_vec3 o,
     struct pm_vec3 d, float tmin, float tmax, struct pm_hit *h);
+void __real_pm_accel_intersect_n(const struct pm_accel *a,
+    const struct pm_ray *r, size_t n, struct pm_hit *h, bool *hit);
 
 /* A point on one of the scene's emitting shapes: a ray cast from the
  * scene's centre towards a random direction finds the surfaces, and we
@@ -381,40 +385,70 @@ bench_crc(void)
 }
 
 /*
- * pm_accel_intersect as the library's callers reach it (the link's
- * --wrap): while rec_on is set, each ray is appended to rec before it is
- * cast.  One thread only (bench casts shoots on one).
+ * pm_accel_intersect and pm_accel_intersect_n as the library's callers
+ * reach them (the link's --wrap): while rec_on is set, each call's rays
+ * are appended to rec, and the call to calls (a batch's size, or 0 for
+ * one ray), before they are cast.  One thread only (bench casts shoots on
+ * one).
  */
 bool __wrap_pm_accel_intersect(const struct pm_accel *a, struct pm_vec3 o,
     struct pm_vec3 d, float tmin, float tmax, struct pm_hit *h);
+void __wrap_pm_accel_intersect_n(const struct pm_accel *a,
+    const struct pm_ray *r, size_t n, struct pm_hit *h, bool *hit);
 
 static bool rec_on;
 static struct pm_ray *rec;
 static size_t nrec, caprec;
+static uint32_t *calls;
+static size_t ncalls, capcalls;
+
+static void *
+grow(void *p, size_t *cap, size_t need, size_t size)
+{
+	size_t c = *cap ? *cap : 1 << 20;
+
+	while (c < need)
+		c *= 2;
+	if (c != *cap) {
+		p = realloc(p, c * size);
+		if (p == NULL) {
+			fprintf(stderr, "bench: no memory to record rays\n");
+			exit(1);
+		}
+		*cap = c;
+	}
+	return p;
+}
+
+static void
+record(const struct pm_ray *r, size_t n, bool batch)
+{
+	rec = grow(rec, &caprec, nrec + n, sizeof(*rec));
+	calls = grow(calls, &capcalls, ncalls + 1, sizeof(*calls));
+	memcpy(rec + nrec, r, n * sizeof(*r));
+	nrec += n;
+	calls[ncalls++] = batch ? (uint32_t)n : 0;
+}
 
 bool
 __wrap_pm_accel_intersect(const struct pm_accel *a, struct pm_vec3 o,
     struct pm_vec3 d, float tmin, float tmax, struct pm_hit *h)
 {
 	if (rec_on) {
-		if (nrec == caprec) {
-			size_t cap = caprec ? 2 * caprec : 1 << 20;
-			struct pm_ray *r = realloc(rec, cap * sizeof(*r));
+		struct pm_ray r = { o, d, tmin, tmax };
 
-			if (r == NULL) {
-				fprintf(stderr, "bench: no memory for %zu rays\n",
-				    cap);
-				exit(1);
-			}
-			rec = r;
-			caprec = cap;
-		}
-		rec[nrec].o = o;
-		rec[nrec].d = d;
-		rec[nrec].tmin = tmin;
-		rec[nrec++].tmax = tmax;
+		record(&r, 1, false);
 	}
 	return __real_pm_accel_intersect(a, o, d, tmin, tmax, h);
+}
+
+void
+__wrap_pm_accel_intersect_n(const struct pm_accel *a, const struct pm_ray *r,
+    size_t n, struct pm_hit *h, bool *hit)
+{
+	if (rec_on && n > 0)
+		record(r, n, true);
+	__real_pm_accel_intersect_n(a, r, n, h, hit);
 }
 
 static int
@@ -430,7 +464,7 @@ bench_casts(const char *path, uint64_t paths)
 	double shoot_s = INFINITY, casts_s = INFINITY, t;
 	uint64_t hits = 0, stored;
 	int turn;
-	size_t i;
+	size_t i, k;
 
 	if (pm_scene_load(path, NULL, 0, &scene, &err) != PM_OK)
 		goto fail_scene;
@@ -464,11 +498,25 @@ bench_casts(const char *path, uint64_t paths)
 		}
 		hits = 0;
 		t = now();
-		for (i = 0; i < nrec; i++) {
-			struct pm_hit h;
+		for (i = k = 0; i < ncalls; i++) {
+			struct pm_hit h[256];
+			bool f[256];
+			size_t n = calls[i] ? calls[i] : 1, q;
 
-			hits += __real_pm_accel_intersect(world.accel, rec[i].o,
-			    rec[i].d, rec[i].tmin, rec[i].tmax, &h);
+			if (n > 256) {
+				fprintf(stderr, "bench: a batch of %zu rays\n", n);
+				return 1;
+			}
+			if (calls[i] == 0)
+				f[0] = __real_pm_accel_intersect(world.accel,
+				    rec[k].o, rec[k].d, rec[k].tmin, rec[k].tmax,
+				    h);
+			else
+				__real_pm_accel_intersect_n(world.accel, rec + k,
+				    n, h, f);
+			for (q = 0; q < n; q++)
+				hits += f[q];
+			k += n;
 		}
 		t = now() - t;
 		casts_s = t < casts_s ? t : casts_s;
@@ -480,6 +528,7 @@ bench_casts(const char *path, uint64_t paths)
 	    casts_s);
 	pm_photon_buf_free(&buf);
 	free(rec);
+	free(calls);
 	pm_shooter_free(&sh);
 	pm_world_free(&world);
 	pm_scene_free(&scene);
