@@ -13,8 +13,9 @@
 #   - photon paths and stored photons per second per core (pm-shoot -t 1)
 #     against a plain loop of Embree closest-hit ray casts from the lights
 #     of the same scene on one core (the ceiling for photon tracing); and
-#     the photon pass's own rays cast alone (bench casts), which says how
-#     much of photon tracing is Embree's and bounds the ratio above;
+#     the photon pass's own rays cast alone, in its own packets (bench
+#     casts), which says how much of photon tracing is Embree's and bounds
+#     the ratio above;
 #   - the parallel speed-up from 1 thread to every core of pm-shoot,
 #     pm-balance and pm-render (the render twice: 128x128 at 16 spp, where
 #     the serial start is a tenth of the run, and 256x256 at 64 spp; each
@@ -78,8 +79,9 @@ for s in cornell-box bunny; do
 	pps=$(sed -n 's/.*global map: .* (\([0-9.]*\) paths\/s), \([0-9]*\) photons stored.*/\1/p' "$OUT/shoot.log")
 	stored=$(key "$OUT/s1.pmap" global.photons)
 	rays=$($X rays data/$s.xml 2)
-	# The same pass's own rays cast alone: how much of it is Embree's,
-	# and what the row above would read if pm's own work cost nothing.
+	# The same pass's own rays cast alone, in the same calls (packets of
+	# a round's rays): how much of it is Embree's, and what the row
+	# above would read if pm's own work cost nothing.
 	casts=$($X casts data/$s.xml 1000000)
 	emit "{\"what\": \"shoot-vs-rays\", \"scene\": \"$s\", \"paths_per_s\": $pps, \"photons_per_path\": $(awk -v a="$stored" 'BEGIN { print a / 1000000 }'), \"rays\": $rays, \"casts\": $casts}"
 done
