@@ -19,6 +19,7 @@
 #include "integrator.h"
 #include "frame.h"
 #include "texture.h"
+#include "lanes.h"
 
 /*
  * A plain diffuse BSDF (pm_bsdf_plain_diffuse), the commonest at a
@@ -315,47 +316,7 @@ struct round_soa {
  * the time.  Marks done[j] for each vertex it shaded, in groups of four
  * from 0 to m; the rest go through the scalar loop.
  */
-#if (defined(__x86_64__) || defined(__i386__)) && defined(__SSE2__) && \
-    (defined(__GNUC__) || defined(__clang__)) && !defined(PM_NO_SIMD)
-#include <immintrin.h>
-
-/* pm_fmaxf's and pm_fminf's select, lane by lane: a NaN b loses */
-static inline __m128
-max4(__m128 a, __m128 b)
-{
-	__m128 ka = _mm_or_ps(_mm_cmpgt_ps(a, b), _mm_cmpunord_ps(b, b));
-
-	return _mm_or_ps(_mm_and_ps(ka, a), _mm_andnot_ps(ka, b));
-}
-
-static inline __m128
-min4(__m128 a, __m128 b)
-{
-	__m128 ka = _mm_or_ps(_mm_cmplt_ps(a, b), _mm_cmpunord_ps(b, b));
-
-	return _mm_or_ps(_mm_and_ps(ka, a), _mm_andnot_ps(ka, b));
-}
-
-static inline __m128
-sel4(__m128 m, __m128 a, __m128 b)
-{
-	return _mm_or_ps(_mm_and_ps(m, a), _mm_andnot_ps(m, b));
-}
-
-/* a.x * b.x + a.y * b.y + a.z * b.z, left to right */
-static inline __m128
-dot4(__m128 ax, __m128 ay, __m128 az, __m128 bx, __m128 by, __m128 bz)
-{
-	return _mm_add_ps(_mm_add_ps(_mm_mul_ps(ax, bx), _mm_mul_ps(ay, by)),
-	    _mm_mul_ps(az, bz));
-}
-
-static inline __m128
-mask4(const int32_t *m)
-{
-	return _mm_castsi128_ps(_mm_loadu_si128((const __m128i *)m));
-}
-
+#if PM_LANES
 /*
  * frame_lanes: pm_frame_from_normal at the round's vertices 0..m (m a
  * multiple of 4), four at a time, except where tan keeps the frame loop
@@ -375,7 +336,7 @@ frame_lanes(struct round_soa *r, size_t m)
 		__m128 sg = _mm_or_ps(_mm_and_ps(nz, sign), one);
 		__m128 a = _mm_div_ps(_mm_set1_ps(-1.0f), _mm_add_ps(sg, nz));
 		__m128 b = _mm_mul_ps(_mm_mul_ps(nx, ny), a);
-		__m128 s[3], t[3], v[3], tan = mask4(r->tan + j);
+		__m128 s[3], t[3], v[3], tan = pm_mask4(r->tan + j);
 		int c;
 
 		s[0] = _mm_add_ps(one, _mm_mul_ps(_mm_mul_ps(_mm_mul_ps(sg, nx),
@@ -387,18 +348,18 @@ frame_lanes(struct round_soa *r, size_t m)
 		t[2] = _mm_xor_ps(ny, sign);
 		for (c = 0; c < 3; c++) {
 			if (_mm_movemask_ps(tan) != 0) {
-				s[c] = sel4(tan, _mm_loadu_ps(r->fs[c] + j), s[c]);
-				t[c] = sel4(tan, _mm_loadu_ps(r->ft[c] + j), t[c]);
+				s[c] = pm_sel4(tan, _mm_loadu_ps(r->fs[c] + j), s[c]);
+				t[c] = pm_sel4(tan, _mm_loadu_ps(r->ft[c] + j), t[c]);
 			}
 			_mm_storeu_ps(r->fs[c] + j, s[c]);
 			_mm_storeu_ps(r->ft[c] + j, t[c]);
 			v[c] = _mm_xor_ps(_mm_loadu_ps(r->dir[c] + j), sign);
 		}
-		_mm_storeu_ps(r->wix + j, dot4(v[0], v[1], v[2], s[0], s[1],
+		_mm_storeu_ps(r->wix + j, pm_dot4(v[0], v[1], v[2], s[0], s[1],
 		    s[2]));
-		_mm_storeu_ps(r->wiy + j, dot4(v[0], v[1], v[2], t[0], t[1],
+		_mm_storeu_ps(r->wiy + j, pm_dot4(v[0], v[1], v[2], t[0], t[1],
 		    t[2]));
-		_mm_storeu_ps(r->wiz + j, dot4(v[0], v[1], v[2], nx, ny, nz));
+		_mm_storeu_ps(r->wiz + j, pm_dot4(v[0], v[1], v[2], nx, ny, nz));
 	}
 }
 
@@ -427,11 +388,11 @@ diffuse_lanes(const struct pm_render_ctx *ctx, size_t m,
 		__m128 ar, ag, ab, vz, pdf, nbr, nbg, nbb, dd, nl, nrm;
 		__m128 qq, nx, ny, nz, wox, woy, woz2;
 
-		dm = _mm_movemask_ps(mask4(r->dm + j));
+		dm = _mm_movemask_ps(pm_mask4(r->dm + j));
 		if (dm == 0)
 			continue;
 		wiz = _mm_loadu_ps(r->wiz + j);
-		flip = _mm_and_ps(mask4(r->tw + j), _mm_cmplt_ps(wiz, zero));
+		flip = _mm_and_ps(pm_mask4(r->tw + j), _mm_cmplt_ps(wiz, zero));
 		wiz = _mm_xor_ps(wiz, _mm_and_ps(flip, sign));
 		nx = _mm_loadu_ps(r->fn[0] + j);
 		ny = _mm_loadu_ps(r->fn[1] + j);
@@ -442,7 +403,7 @@ diffuse_lanes(const struct pm_render_ctx *ctx, size_t m,
 		lwx = _mm_loadu_ps(ll->wi[0] + j);
 		lwy = _mm_loadu_ps(ll->wi[1] + j);
 		lwz = _mm_loadu_ps(ll->wi[2] + j);
-		woz = dot4(lwx, lwy, lwz, nx, ny, nz);
+		woz = pm_dot4(lwx, lwy, lwz, nx, ny, nz);
 		woz = _mm_xor_ps(woz, _mm_and_ps(flip, sign));
 		val = _mm_andnot_ps(_mm_or_ps(_mm_cmple_ps(wiz, zero),
 		    _mm_cmple_ps(woz, zero)), _mm_cmpeq_ps(zero, zero));
@@ -455,7 +416,7 @@ diffuse_lanes(const struct pm_render_ctx *ctx, size_t m,
 		fb = _mm_and_ps(val, _mm_mul_ps(ab, sc));
 		lm = _mm_movemask_ps(_mm_andnot_ps(_mm_and_ps(_mm_and_ps(
 		    _mm_cmpeq_ps(fr_, zero), _mm_cmpeq_ps(fg, zero)),
-		    _mm_cmpeq_ps(fb, zero)), mask4(ll->ok + j)));
+		    _mm_cmpeq_ps(fb, zero)), pm_mask4(ll->ok + j)));
 		/* light_weighted: the power heuristic against the BSDF's pdf */
 		pdfl = _mm_loadu_ps(ll->pdf + j);
 		a2 = _mm_mul_ps(pdfl, pdfl);
@@ -463,8 +424,8 @@ diffuse_lanes(const struct pm_render_ctx *ctx, size_t m,
 		b2 = _mm_mul_ps(b2, b2);
 		ph = _mm_add_ps(a2, b2);
 		ph = _mm_and_ps(_mm_cmpgt_ps(ph, zero), _mm_div_ps(a2, ph));
-		ph = sel4(_mm_cmpeq_ps(a2, inf), one, ph);
-		w = sel4(mask4(ll->delta + j), one, ph);
+		ph = pm_sel4(_mm_cmpeq_ps(a2, inf), one, ph);
+		w = pm_sel4(pm_mask4(ll->delta + j), one, ph);
 		wl = _mm_div_ps(w, pdfl);
 		_mm_storeu_ps(cr, _mm_mul_ps(_mm_mul_ps(fr_,
 		    _mm_loadu_ps(ll->value[0] + j)), wl));
@@ -479,11 +440,11 @@ diffuse_lanes(const struct pm_render_ctx *ctx, size_t m,
 		gx = _mm_loadu_ps(r->ng[0] + j);
 		gy = _mm_loadu_ps(r->ng[1] + j);
 		gz = _mm_loadu_ps(r->ng[2] + j);
-		mx = max4(_mm_andnot_ps(sign, px), max4(_mm_andnot_ps(sign, py),
+		mx = pm_max4(_mm_andnot_ps(sign, px), pm_max4(_mm_andnot_ps(sign, py),
 		    _mm_andnot_ps(sign, pz)));
-		eps = max4(_mm_mul_ps(max4(mx, _mm_loadu_ps(r->scale + j)),
+		eps = pm_max4(_mm_mul_ps(pm_max4(mx, _mm_loadu_ps(r->scale + j)),
 		    _mm_set1_ps(2e-5f)), _mm_set1_ps(1e-30f));
-		e = sel4(_mm_cmpge_ps(dot4(gx, gy, gz, lwx, lwy, lwz), zero), eps,
+		e = pm_sel4(_mm_cmpge_ps(pm_dot4(gx, gy, gz, lwx, lwy, lwz), zero), eps,
 		    _mm_xor_ps(eps, sign));
 		ox = _mm_add_ps(px, _mm_mul_ps(gx, e));
 		oy = _mm_add_ps(py, _mm_mul_ps(gy, e));
@@ -493,16 +454,16 @@ diffuse_lanes(const struct pm_render_ctx *ctx, size_t m,
 		dx = _mm_sub_ps(_mm_loadu_ps(ll->p[0] + j), ox);
 		dy = _mm_sub_ps(_mm_loadu_ps(ll->p[1] + j), oy);
 		dz = _mm_sub_ps(_mm_loadu_ps(ll->p[2] + j), oz);
-		d2 = dot4(dx, dy, dz, dx, dy, dz);
+		d2 = pm_dot4(dx, dy, dz, dx, dy, dz);
 		pend = lm & _mm_movemask_ps(_mm_or_ps(isinf_,
 		    _mm_cmpgt_ps(d2, zero)));
 		_mm_storeu_ps(sox, ox);
 		_mm_storeu_ps(soy, oy);
 		_mm_storeu_ps(soz, oz);
-		_mm_storeu_ps(sdx, sel4(isinf_, lwx, dx));
-		_mm_storeu_ps(sdy, sel4(isinf_, lwy, dy));
-		_mm_storeu_ps(sdz, sel4(isinf_, lwz, dz));
-		_mm_storeu_ps(stm, sel4(isinf_, inf, _mm_set1_ps(1.0f - 1e-4f)));
+		_mm_storeu_ps(sdx, pm_sel4(isinf_, lwx, dx));
+		_mm_storeu_ps(sdy, pm_sel4(isinf_, lwy, dy));
+		_mm_storeu_ps(sdz, pm_sel4(isinf_, lwz, dz));
+		_mm_storeu_ps(stm, pm_sel4(isinf_, inf, _mm_set1_ps(1.0f - 1e-4f)));
 		/* the BSDF's sample (pm_diffuse_sample_warped) */
 		vz = _mm_loadu_ps(wz + j);
 		pdf = _mm_and_ps(_mm_cmpgt_ps(vz, zero), _mm_mul_ps(vz, inv_pi));
@@ -534,7 +495,7 @@ diffuse_lanes(const struct pm_render_ctx *ctx, size_t m,
 		    _mm_mul_ps(_mm_loadu_ps(r->fs[2] + j), wox),
 		    _mm_mul_ps(_mm_loadu_ps(r->ft[2] + j), woy)),
 		    _mm_mul_ps(nz, woz2));
-		dd = dot4(dx, dy, dz, dx, dy, dz);
+		dd = pm_dot4(dx, dy, dz, dx, dy, dz);
 		/* normalised only where not unit to rounding (pm_normalize:
 		 * a zero vector, or NaN, stays as it is) */
 		nrm = _mm_cmple_ps(_mm_andnot_ps(sign, _mm_sub_ps(dd, one)),
@@ -542,19 +503,19 @@ diffuse_lanes(const struct pm_render_ctx *ctx, size_t m,
 		nl = _mm_sqrt_ps(dd);
 		nrm = _mm_or_ps(nrm, _mm_cmpngt_ps(nl, zero));
 		nl = _mm_div_ps(one, nl);
-		dx = sel4(nrm, dx, _mm_mul_ps(dx, nl));
-		dy = sel4(nrm, dy, _mm_mul_ps(dy, nl));
-		dz = sel4(nrm, dz, _mm_mul_ps(dz, nl));
+		dx = pm_sel4(nrm, dx, _mm_mul_ps(dx, nl));
+		dy = pm_sel4(nrm, dy, _mm_mul_ps(dy, nl));
+		dz = pm_sel4(nrm, dz, _mm_mul_ps(dz, nl));
 		_mm_storeu_ps(ndx, dx);
 		_mm_storeu_ps(ndy, dy);
 		_mm_storeu_ps(ndz, dz);
-		e = sel4(_mm_cmpge_ps(dot4(gx, gy, gz, dx, dy, dz), zero), eps,
+		e = pm_sel4(_mm_cmpge_ps(pm_dot4(gx, gy, gz, dx, dy, dz), zero), eps,
 		    _mm_xor_ps(eps, sign));
 		_mm_storeu_ps(nox, _mm_add_ps(px, _mm_mul_ps(gx, e)));
 		_mm_storeu_ps(noy, _mm_add_ps(py, _mm_mul_ps(gy, e)));
 		_mm_storeu_ps(noz, _mm_add_ps(pz, _mm_mul_ps(gz, e)));
 		/* Russian roulette's probability and its reciprocal */
-		qq = min4(_mm_mul_ps(max4(nbr, max4(nbg, nbb)),
+		qq = pm_min4(_mm_mul_ps(pm_max4(nbr, pm_max4(nbg, nbb)),
 		    _mm_loadu_ps(r->eta + j)), _mm_set1_ps(0.95f));
 		_mm_storeu_ps(qv, qq);
 		_mm_storeu_ps(iq, _mm_div_ps(one, qq));

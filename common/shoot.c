@@ -54,6 +54,7 @@
 #include "shoot.h"
 #include "frame.h"
 #include "texture.h"
+#include "lanes.h"
 
 /* A photon stuck between mirrors, or inside glass by total internal
  * reflection, stops here even when the depth is unlimited. */
@@ -1032,6 +1033,320 @@ trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 }
 
 /*
+ * A round's bounces at plain diffuse surfaces, field by field, for
+ * diffuse_lanes: the hit (p, ng, ns, scale), the photon's direction d and
+ * flux, the numbers drawn for it in its path's order (the photon's
+ * dither; (u2, u3) already warped to v), the reflectance and twosided
+ * mask; and what the lanes give back: the photon's packed power,
+ * direction and normal, whether the BSDF's sample succeeds, and the
+ * path's next flux, direction and origin.
+ */
+#define DIFFUSE_LANES 64
+
+struct diffuse_round {
+	float p[3][DIFFUSE_LANES], ng[3][DIFFUSE_LANES], ns[3][DIFFUSE_LANES];
+	float d[3][DIFFUSE_LANES], flux[3][DIFFUSE_LANES];
+	float alb[3][DIFFUSE_LANES], v[3][DIFFUSE_LANES];
+	float dither[DIFFUSE_LANES], scale[DIFFUSE_LANES];
+	int32_t tw[DIFFUSE_LANES];
+	uint8_t path[DIFFUSE_LANES];
+	/* results */
+	int32_t power[4][DIFFUSE_LANES], dir[2][DIFFUSE_LANES];
+	int32_t normal[2][DIFFUSE_LANES], ok[DIFFUSE_LANES];
+	float nflux[3][DIFFUSE_LANES], nd[3][DIFFUSE_LANES];
+	float no[3][DIFFUSE_LANES], q[DIFFUSE_LANES];
+};
+
+#if PM_LANES
+/*
+ * diffuse_lanes: bounce's arithmetic at a plain diffuse surface, four
+ * bounces at a time in SSE lanes, its operations in its order (IEEE
+ * division and square root are exact in SIMD as in scalar code,
+ * -ffp-contract=off fuses nothing): the frame, the photon's packing
+ * (pm_rgbe_pack, pm_dir_pack), the BSDF's sample, the roulette's
+ * probability, the next flux, direction and origin.  m is a multiple of
+ * 4, the lanes past the round's bounces set but unused.
+ */
+static void
+diffuse_lanes(struct diffuse_round *r, size_t m)
+{
+	const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f);
+	const __m128 sign = _mm_set1_ps(-0.0f), inv_pi = _mm_set1_ps(PM_INV_PI);
+	size_t j;
+	int c;
+
+	for (j = 0; j < m; j += 4) {
+		__m128 p[3], g[3], n[3], d[3], f[3], a[3], v[3], s[3], t[3];
+		__m128 sg, aa, bb, wiz, flip, pdf, ok, q, iq, w[3], dd, l, keep;
+		__m128 mx, eps, e, gd;
+
+		for (c = 0; c < 3; c++) {
+			p[c] = _mm_loadu_ps(r->p[c] + j);
+			g[c] = _mm_loadu_ps(r->ng[c] + j);
+			n[c] = _mm_loadu_ps(r->ns[c] + j);
+			d[c] = _mm_loadu_ps(r->d[c] + j);
+			f[c] = _mm_loadu_ps(r->flux[c] + j);
+			a[c] = _mm_loadu_ps(r->alb[c] + j);
+			v[c] = _mm_loadu_ps(r->v[c] + j);
+		}
+		/* the photon: pm_rgbe_pack(flux, dither), pm_dir_pack */
+		pm_rgbe_pack4(f[0], f[1], f[2], _mm_loadu_ps(r->dither + j),
+		    r->power[0] + j, r->power[1] + j, r->power[2] + j,
+		    r->power[3] + j);
+		pm_dir_pack4(_mm_xor_ps(d[0], sign), _mm_xor_ps(d[1], sign),
+		    _mm_xor_ps(d[2], sign), r->dir[0] + j, r->dir[1] + j);
+		gd = _mm_cmplt_ps(pm_dot4(g[0], g[1], g[2], d[0], d[1], d[2]),
+		    zero);
+		pm_dir_pack4(pm_sel4(gd, n[0], _mm_xor_ps(n[0], sign)),
+		    pm_sel4(gd, n[1], _mm_xor_ps(n[1], sign)),
+		    pm_sel4(gd, n[2], _mm_xor_ps(n[2], sign)),
+		    r->normal[0] + j, r->normal[1] + j);
+		/* pm_frame_from_normal(ns) and wi's z in it */
+		sg = _mm_or_ps(_mm_and_ps(n[2], sign), one);
+		aa = _mm_div_ps(_mm_set1_ps(-1.0f), _mm_add_ps(sg, n[2]));
+		bb = _mm_mul_ps(_mm_mul_ps(n[0], n[1]), aa);
+		s[0] = _mm_add_ps(one, _mm_mul_ps(_mm_mul_ps(_mm_mul_ps(sg,
+		    n[0]), n[0]), aa));
+		s[1] = _mm_mul_ps(sg, bb);
+		s[2] = _mm_mul_ps(_mm_xor_ps(sg, sign), n[0]);
+		t[0] = bb;
+		t[1] = _mm_add_ps(sg, _mm_mul_ps(_mm_mul_ps(n[1], n[1]), aa));
+		t[2] = _mm_xor_ps(n[1], sign);
+		wiz = pm_dot4(_mm_xor_ps(d[0], sign), _mm_xor_ps(d[1], sign),
+		    _mm_xor_ps(d[2], sign), n[0], n[1], n[2]);
+		/* the BSDF's sample (pm_bsdf_sample_v, plain diffuse) */
+		flip = _mm_and_ps(pm_mask4(r->tw + j), _mm_cmplt_ps(wiz, zero));
+		wiz = _mm_xor_ps(wiz, _mm_and_ps(flip, sign));
+		pdf = _mm_and_ps(_mm_cmpgt_ps(v[2], zero), _mm_mul_ps(v[2],
+		    inv_pi));
+		ok = _mm_andnot_ps(_mm_cmple_ps(wiz, zero), _mm_cmpgt_ps(pdf,
+		    zero));
+		_mm_storeu_si128((__m128i *)(r->ok + j), _mm_castps_si128(ok));
+		v[2] = _mm_xor_ps(v[2], _mm_and_ps(flip, sign));
+		/* the roulette's probability and the next flux */
+		q = pm_min4(pm_max4(a[0], pm_max4(a[1], a[2])), one);
+		_mm_storeu_ps(r->q + j, q);
+		iq = _mm_div_ps(one, q);
+		for (c = 0; c < 3; c++)
+			_mm_storeu_ps(r->nflux[c] + j, _mm_mul_ps(_mm_mul_ps(f[c],
+			    a[c]), iq));
+		/* pm_normalize(pm_to_world(frame, wo)) */
+		for (c = 0; c < 3; c++)
+			w[c] = _mm_add_ps(_mm_add_ps(_mm_mul_ps(s[c], v[0]),
+			    _mm_mul_ps(t[c], v[1])), _mm_mul_ps(n[c], v[2]));
+		dd = pm_dot4(w[0], w[1], w[2], w[0], w[1], w[2]);
+		l = _mm_sqrt_ps(dd);
+		keep = _mm_cmpngt_ps(l, zero);
+		l = _mm_div_ps(one, l);
+		for (c = 0; c < 3; c++) {
+			w[c] = pm_sel4(keep, w[c], _mm_mul_ps(w[c], l));
+			_mm_storeu_ps(r->nd[c] + j, w[c]);
+		}
+		/* pm_hit_origin(h, d) */
+		mx = pm_max4(_mm_andnot_ps(sign, p[0]), pm_max4(_mm_andnot_ps(sign,
+		    p[1]), _mm_andnot_ps(sign, p[2])));
+		eps = pm_max4(_mm_mul_ps(pm_max4(mx, _mm_loadu_ps(r->scale + j)),
+		    _mm_set1_ps(2e-5f)), _mm_set1_ps(1e-30f));
+		e = pm_sel4(_mm_cmpge_ps(pm_dot4(g[0], g[1], g[2], w[0], w[1],
+		    w[2]), zero), eps, _mm_xor_ps(eps, sign));
+		for (c = 0; c < 3; c++)
+			_mm_storeu_ps(r->no[c] + j, _mm_add_ps(p[c],
+			    _mm_mul_ps(g[c], e)));
+	}
+}
+#endif
+
+/* A photon path's bounce at the diffuse surface h as diffuse_lanes can
+ * take it (bounce's result the same): the global pass, an untextured
+ * isotropic plain diffuse BSDF, a finite flux, bounces left. */
+static inline bool
+diffuse_bounce(const struct pm_scene *s, const struct pm_shoot_opts *opts,
+    const struct pm_hit *h, const struct photon_state *st, int max_depth)
+{
+	const struct pm_bsdf *b = &s->bsdfs[s->shapes[h->shape].bsdf];
+
+	return opts->pass == PM_PASS_GLOBAL &&
+	    st->depth < max_depth && pm_bsdf_plain_diffuse(b) &&
+	    !pm_bsdf_textured(b) && !pm_bsdf_needs_tangent(b) &&
+	    bsdf_has_nonspecular(b) && !bsdf_has_specular(b) &&
+	    pm_rgb_is_finite(st->flux);
+}
+
+/* The path of photon tmp->n - 1 in *tag; false without memory. */
+static bool
+tag_photon(uint8_t **tag, size_t *tag_cap, size_t i, uint8_t path)
+{
+	if (i >= *tag_cap) {
+		size_t cap = 2 * (i + 1);
+		uint8_t *t = realloc(*tag, cap);
+
+		if (t == NULL)
+			return false;
+		*tag = t;
+		*tag_cap = cap;
+	}
+	(*tag)[i] = path;
+	return true;
+}
+
+/* Bounce k of the round's diffuse ones: what diffuse_lanes reads, and
+ * its random numbers drawn in bounce's order (the photon's dither, u1,
+ * which a diffuse sample does not use, u2 and u3, the direction warped
+ * ahead if the path's numbers are the guessed ones). */
+static void
+diffuse_take(struct diffuse_round *r, int k, const struct pm_scene *s,
+    const struct pm_hit *h, const struct path_start *ps,
+    struct photon_state *st, uint8_t path)
+{
+	const struct pm_bsdf *b = &s->bsdfs[s->shapes[h->shape].bsdf];
+	const struct pm_vec3 *pre = NULL;
+	struct pm_vec3 v;
+	float u2, u3;
+	int i, c;
+
+	r->dither[k] = pm_rng_float(&st->rng);
+	(void)pm_rng_float(&st->rng);		/* u1 */
+	for (i = 0; i < ps->npre; i++)
+		if (st->rng.state == ps->pre_state[i])
+			pre = &ps->pre_v[i];
+	u2 = pm_rng_float(&st->rng);
+	u3 = pm_rng_float(&st->rng);
+	v = pre != NULL ? *pre : pm_square_to_cosine_hemisphere(u2, u3);
+	for (c = 0; c < 3; c++) {
+		r->p[c][k] = (&h->p.x)[c];
+		r->ng[c][k] = (&h->ng.x)[c];
+		r->ns[c][k] = (&h->ns.x)[c];
+		r->d[c][k] = (&st->d.x)[c];
+		r->v[c][k] = (&v.x)[c];
+	}
+	r->flux[0][k] = st->flux.r;
+	r->flux[1][k] = st->flux.g;
+	r->flux[2][k] = st->flux.b;
+	r->alb[0][k] = b->diffuse.r;
+	r->alb[1][k] = b->diffuse.g;
+	r->alb[2][k] = b->diffuse.b;
+	r->scale[k] = h->scale;
+	r->tw[k] = b->twosided ? -1 : 0;
+	r->path[k] = path;
+}
+
+/* Lanes nd.. up to a multiple of 4 set, so that they compute on numbers */
+static void
+diffuse_pad(struct diffuse_round *r, int nd)
+{
+	int k, c;
+
+	for (k = nd; k % 4 != 0; k++) {
+		for (c = 0; c < 3; c++) {
+			r->p[c][k] = r->ng[c][k] = r->d[c][k] = 0.0f;
+			r->flux[c][k] = r->alb[c][k] = r->v[c][k] = 0.0f;
+			r->ns[c][k] = c == 2 ? 1.0f : 0.0f;
+		}
+		r->dither[k] = r->scale[k] = 0.0f;
+		r->tw[k] = 0;
+	}
+}
+
+#if !PM_LANES
+/* diffuse_lanes where the compiler has no SSE2: bounce's own calls */
+static void
+diffuse_lanes(struct diffuse_round *r, size_t m)
+{
+	size_t k;
+
+	for (k = 0; k < m; k++) {
+		struct pm_vec3 p = pm_v3(r->p[0][k], r->p[1][k], r->p[2][k]);
+		struct pm_vec3 ng = pm_v3(r->ng[0][k], r->ng[1][k], r->ng[2][k]);
+		struct pm_vec3 ns = pm_v3(r->ns[0][k], r->ns[1][k], r->ns[2][k]);
+		struct pm_vec3 d = pm_v3(r->d[0][k], r->d[1][k], r->d[2][k]);
+		struct pm_vec3 v = pm_v3(r->v[0][k], r->v[1][k], r->v[2][k]);
+		struct pm_rgb f = pm_rgb(r->flux[0][k], r->flux[1][k],
+		    r->flux[2][k]);
+		struct pm_rgb a = pm_rgb(r->alb[0][k], r->alb[1][k],
+		    r->alb[2][k]);
+		struct pm_frame fr = pm_frame_from_normal(ns);
+		struct pm_vec3 wi = pm_to_local(fr, pm_neg(d)), w, o;
+		struct pm_hit h;
+		uint8_t pw[4], dir[2], nrm[2];
+		bool flip = r->tw[k] && wi.z < 0.0f;
+		float pdf, q;
+		int c;
+
+		pm_rgbe_pack(f, r->dither[k], pw);
+		pm_dir_pack(pm_neg(d), dir);
+		pm_dir_pack(pm_dot(ng, d) < 0.0f ? ns : pm_neg(ns), nrm);
+		for (c = 0; c < 4; c++)
+			r->power[c][k] = pw[c];
+		for (c = 0; c < 2; c++) {
+			r->dir[c][k] = dir[c];
+			r->normal[c][k] = nrm[c];
+		}
+		if (flip)
+			wi.z = -wi.z;
+		pdf = pm_cosine_hemisphere_pdf(v);
+		r->ok[k] = !(wi.z <= 0.0f) && pdf > 0.0f ? -1 : 0;
+		if (flip)
+			v.z = -v.z;
+		q = pm_fminf(pm_rgb_max(a), 1.0f);
+		r->q[k] = q;
+		f = pm_rgb_scale(pm_rgb_mul(f, a), 1.0f / q);
+		w = pm_normalize(pm_to_world(fr, v));
+		h.p = p;
+		h.ng = ng;
+		h.scale = r->scale[k];
+		o = pm_hit_origin(&h, w);
+		for (c = 0; c < 3; c++) {
+			r->nflux[c][k] = (&f.r)[c];
+			r->nd[c][k] = (&w.x)[c];
+			r->no[c][k] = (&o.x)[c];
+		}
+	}
+}
+#endif
+
+/* Bounce k's photon into out, and its path moved on if the sample and
+ * the roulette let it: bounce's result for it (1 on, 0 ended, -1 out of
+ * memory). */
+static int
+diffuse_give(const struct diffuse_round *r, int k, struct photon_state *st,
+    struct pm_photon_buf *out)
+{
+	struct pm_photon ph;
+	float q;
+	int c;
+
+	for (c = 0; c < 3; c++)
+		ph.pos[c] = r->p[c][k];
+	for (c = 0; c < 4; c++)
+		ph.power[c] = (uint8_t)r->power[c][k];
+	for (c = 0; c < 2; c++) {
+		ph.dir[c] = (uint8_t)r->dir[c][k];
+		ph.normal[c] = (uint8_t)r->normal[c][k];
+	}
+	ph.reserved[0] = ph.reserved[1] = 0;
+	ph.flags = PM_KD_LEAF;
+	if (st->via_diffuse)
+		ph.flags |= PM_PHOTON_VIA_DIFFUSE;
+	if (st->specular_only && st->depth > 0)
+		ph.flags |= PM_PHOTON_CAUSTIC;
+	ph.depth = (uint8_t)(st->depth < 255 ? st->depth : 255);
+	if (!buf_push(out, &ph))
+		return -1;
+	if (!r->ok[k])
+		return 0;
+	q = r->q[k];
+	if (!(q > 0.0f) || pm_rng_float(&st->rng) >= q)
+		return 0;
+	st->flux = pm_rgb(r->nflux[0][k], r->nflux[1][k], r->nflux[2][k]);
+	st->specular_only = false;
+	st->via_diffuse = true;
+	st->d = pm_v3(r->nd[0][k], r->nd[1][k], r->nd[2][k]);
+	st->o = pm_v3(r->no[0][k], r->no[1][k], r->no[2][k]);
+	st->depth++;
+	return 1;
+}
+
+/*
  * Paths first .. first + n - 1 (n <= PHOTON_LANES) traced together,
  * without media: a bounce of every live path a round, the round's rays
  * cast as Embree packets (pm_accel_intersect_n), each path's bounce as
@@ -1050,14 +1365,16 @@ trace_paths(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
     uint64_t first, int n, struct chunk_out *co, struct pm_photon_buf *tmp,
     uint8_t **tag, size_t *tag_cap)
 {
+	const struct pm_scene *s = sh->scene;
 	struct path_start ps[PHOTON_LANES];
 	struct photon_state st[PHOTON_LANES];
 	struct pm_ray rays[PHOTON_LANES];
 	struct pm_hit hits[PHOTON_LANES];
+	struct diffuse_round dr;
 	bool hitf[PHOTON_LANES];
 	uint8_t idx[PHOTON_LANES];
 	size_t cnt[PHOTON_LANES + 1], i;
-	int max_depth = path_max_depth(opts), k, na, m, b;
+	int max_depth = path_max_depth(opts), k, na, m, b, nd, c;
 
 	for (b = 0; b < n; b += EMIT_LANES)
 		emit_batch(sh, opts, first + (uint64_t)b,
@@ -1078,27 +1395,39 @@ trace_paths(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 			rays[k].tmax = INFINITY;
 		}
 		pm_accel_intersect_n(sh->accel, rays, (size_t)na, hits, hitf);
-		for (k = m = 0; k < na; k++) {
+		for (k = m = nd = 0; k < na; k++) {
+			struct photon_state *p = &st[idx[k]];
 			size_t before = tmp->n;
-			int r = hitf[k] ? bounce(sh, opts, &ps[idx[k]], max_depth,
-			    &hits[k], &st[idx[k]], co, tmp) : 0;
+			int r;
 
+			if (hitf[k] && diffuse_bounce(s, opts, &hits[k], p,
+			    max_depth)) {
+				diffuse_take(&dr, nd++, s, &hits[k], &ps[idx[k]],
+				    p, idx[k]);
+				continue;
+			}
+			r = hitf[k] ? bounce(sh, opts, &ps[idx[k]], max_depth,
+			    &hits[k], p, co, tmp) : 0;
 			if (r < 0)
 				return false;
-			if (tmp->n > before) {
-				if (tmp->n > *tag_cap) {
-					size_t cap = 2 * tmp->n;
-					uint8_t *t = realloc(*tag, cap);
-
-					if (t == NULL)
-						return false;
-					*tag = t;
-					*tag_cap = cap;
-				}
-				(*tag)[before] = idx[k];
-			}
+			if (tmp->n > before &&
+			    !tag_photon(tag, tag_cap, before, idx[k]))
+				return false;
 			if (r > 0)
 				idx[m++] = idx[k];
+		}
+		if (nd > 0) {
+			diffuse_pad(&dr, nd);
+			diffuse_lanes(&dr, (size_t)(nd + 3) / 4 * 4);
+			for (c = 0; c < nd; c++) {
+				int r = diffuse_give(&dr, c, &st[dr.path[c]], tmp);
+
+				if (r < 0 || !tag_photon(tag, tag_cap, tmp->n - 1,
+				    dr.path[c]))
+					return false;
+				if (r > 0)
+					idx[m++] = dr.path[c];
+			}
 		}
 		na = m;
 	}
