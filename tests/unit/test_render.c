@@ -64,6 +64,29 @@ furnace_finish(struct furnace *f, int max_depth)
 	f->ctx.maps = NULL;
 }
 
+/* A mesh shape of nverts vertices and ntris triangles, neither set yet,
+ * that is no light. */
+static int
+add_mesh(struct pm_scene *s, uint32_t nverts, uint32_t ntris,
+    struct pm_mesh **out)
+{
+	int sh = pm_scene_add_shape(s);
+	struct pm_mesh *m;
+
+	assert_true(sh >= 0);
+	s->shapes[sh].type = PM_SHAPE_MESH;
+	s->shapes[sh].light = -1;
+	m = &s->shapes[sh].mesh;
+	m->nverts = nverts;
+	m->ntris = ntris;
+	m->pos = malloc(sizeof(float) * 3 * nverts);
+	m->idx = malloc(sizeof(uint32_t) * 3 * ntris);
+	assert_non_null(m->pos);
+	assert_non_null(m->idx);
+	*out = m;
+	return sh;
+}
+
 /* A cube of half size h about the origin as a 12-triangle mesh, facing
  * out (or in). */
 static int
@@ -73,19 +96,9 @@ add_cube(struct pm_scene *s, float h, bool inward)
 		{0, 4, 6, 2}, {1, 3, 7, 5}, {0, 1, 5, 4},
 		{2, 6, 7, 3}, {0, 2, 3, 1}, {4, 5, 7, 6},
 	};
-	int sh = pm_scene_add_shape(s), i;
 	struct pm_mesh *m;
+	int sh = add_mesh(s, 8, 12, &m), i;
 
-	assert_true(sh >= 0);
-	s->shapes[sh].type = PM_SHAPE_MESH;
-	s->shapes[sh].light = -1;
-	m = &s->shapes[sh].mesh;
-	m->nverts = 8;
-	m->ntris = 12;
-	m->pos = malloc(sizeof(float) * 3 * 8);
-	m->idx = malloc(sizeof(uint32_t) * 3 * 12);
-	assert_non_null(m->pos);
-	assert_non_null(m->idx);
 	for (i = 0; i < 8; i++) {
 		m->pos[3 * i] = (i & 1) ? h : -h;
 		m->pos[3 * i + 1] = (i & 2) ? h : -h;
@@ -172,19 +185,9 @@ add_square(struct pm_scene *s, float y, float z, float h)
 		{-1, -1}, {1, -1}, {1, 1}, {-1, 1},
 	};
 	static const uint32_t tri[6] = { 0, 1, 2, 0, 2, 3 };
-	int sh = pm_scene_add_shape(s), i;
 	struct pm_mesh *m;
+	int sh = add_mesh(s, 4, 2, &m), i;
 
-	assert_true(sh >= 0);
-	s->shapes[sh].type = PM_SHAPE_MESH;
-	s->shapes[sh].light = -1;
-	m = &s->shapes[sh].mesh;
-	m->nverts = 4;
-	m->ntris = 2;
-	m->pos = malloc(sizeof(float) * 3 * 4);
-	m->idx = malloc(sizeof(tri));
-	assert_non_null(m->pos);
-	assert_non_null(m->idx);
 	for (i = 0; i < 4; i++) {
 		m->pos[3 * i] = h * corner[i][0];
 		m->pos[3 * i + 1] = y;
