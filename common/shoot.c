@@ -719,8 +719,8 @@ struct path_start {
  * non-specular surface draws five numbers (the photon's dither, u1, u2,
  * u3, the roulette's), so in a path of such bounces bounce i's (u2, u3)
  * come from the state after 5 i + 2 draws.  The guess is checked where
- * it is used (trace_path compares states), so a path that went otherwise
- * (a mirror, a medium, a lobe choice) warps its own.
+ * it is used (bounce and diffuse_take compare states), so a path that
+ * went otherwise (a mirror, a medium, a lobe choice) warps its own.
  */
 static void
 emit_batch(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
@@ -1349,16 +1349,20 @@ diffuse_give(const struct diffuse_round *r, int k, struct photon_state *st,
 /*
  * Paths first .. first + n - 1 (n <= PHOTON_LANES) traced together,
  * without media: a bounce of every live path a round, the round's rays
- * cast as Embree packets (pm_accel_intersect_n), each path's bounce as
- * trace_path's.  Their photons go to tmp tagged with their path (*tag)
- * and are put back in path order at the end, so the chunk's photons are
- * trace_path's, in its order, to the bit.  The packets cast a round's
- * rays 1.23x faster than one at a time (bench casts, cornell-box), more
- * than the bookkeeping costs: the global pass 1.04-1.07x faster on this
+ * cast as Embree packets (pm_accel_intersect_n), the bounces at plain
+ * diffuse surfaces four at a time (diffuse_lanes, 1.05-1.14x more), the
+ * others as trace_path's.  Their photons go to tmp tagged with their path
+ * (*tag) and are put back in path order at the end, so the chunk's
+ * photons are trace_path's, in its order, to the bit.  The packets cast
+ * a round's rays 1.23x faster than one at a time (bench casts,
+ * cornell-box), more than the bookkeeping costs: the global pass
+ * 1.04-1.07x faster on this
  * workplace's AVX-512 Xeon (docs/accuracy.md, stop 34), where stop 25
  * measured rounds like these at 1.00-1.02x on the machine of its day.
  */
 #define PHOTON_LANES 64
+_Static_assert(PHOTON_LANES % 4 == 0 && PHOTON_LANES <= DIFFUSE_LANES,
+    "a round's diffuse bounces fill whole groups of four lanes");
 
 static bool
 trace_paths(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
