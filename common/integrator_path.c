@@ -326,26 +326,17 @@ struct round_soa {
 static void
 frame_lanes(struct round_soa *r, size_t m)
 {
-	const __m128 one = _mm_set1_ps(1.0f), sign = _mm_set1_ps(-0.0f);
+	const __m128 sign = _mm_set1_ps(-0.0f);
 	size_t j;
 
 	for (j = 0; j < m; j += 4) {
 		__m128 nx = _mm_loadu_ps(r->fn[0] + j);
 		__m128 ny = _mm_loadu_ps(r->fn[1] + j);
 		__m128 nz = _mm_loadu_ps(r->fn[2] + j);
-		__m128 sg = _mm_or_ps(_mm_and_ps(nz, sign), one);
-		__m128 a = _mm_div_ps(_mm_set1_ps(-1.0f), _mm_add_ps(sg, nz));
-		__m128 b = _mm_mul_ps(_mm_mul_ps(nx, ny), a);
 		__m128 s[3], t[3], v[3], tan = pm_mask4(r->tan + j);
 		int c;
 
-		s[0] = _mm_add_ps(one, _mm_mul_ps(_mm_mul_ps(_mm_mul_ps(sg, nx),
-		    nx), a));
-		s[1] = _mm_mul_ps(sg, b);
-		s[2] = _mm_mul_ps(_mm_xor_ps(sg, sign), nx);
-		t[0] = b;
-		t[1] = _mm_add_ps(sg, _mm_mul_ps(_mm_mul_ps(ny, ny), a));
-		t[2] = _mm_xor_ps(ny, sign);
+		pm_frame4(nx, ny, nz, s, t);
 		for (c = 0; c < 3; c++) {
 			if (_mm_movemask_ps(tan) != 0) {
 				s[c] = pm_sel4(tan, _mm_loadu_ps(r->fs[c] + j), s[c]);
@@ -383,8 +374,8 @@ diffuse_lanes(const struct pm_render_ctx *ctx, size_t m,
 		float qv[4], iq[4];
 		int dm, lm, pend, alive;
 		__m128 wiz, flip, lwx, lwy, lwz, woz, val, sc, fr_, fg, fb;
-		__m128 a2, b2, ph, w, wl, px, py, pz, gx, gy, gz, mx, pdfl;
-		__m128 eps, e, ox, oy, oz, dx, dy, dz, d2, isinf_;
+		__m128 a2, b2, ph, w, wl, p[3], g[3], lw[3], o[3], pdfl;
+		__m128 eps, ox, oy, oz, dx, dy, dz, d2, isinf_;
 		__m128 ar, ag, ab, vz, pdf, nbr, nbg, nbb, dd, nl, nrm;
 		__m128 qq, nx, ny, nz, wox, woy, woz2;
 
@@ -434,21 +425,18 @@ diffuse_lanes(const struct pm_render_ctx *ctx, size_t m,
 		_mm_storeu_ps(cb, _mm_mul_ps(_mm_mul_ps(fb,
 		    _mm_loadu_ps(ll->value[2] + j)), wl));
 		/* pm_light_shadow_ray: pm_hit_origin towards the light */
-		px = _mm_loadu_ps(ll->ref[0] + j);
-		py = _mm_loadu_ps(ll->ref[1] + j);
-		pz = _mm_loadu_ps(ll->ref[2] + j);
-		gx = _mm_loadu_ps(r->ng[0] + j);
-		gy = _mm_loadu_ps(r->ng[1] + j);
-		gz = _mm_loadu_ps(r->ng[2] + j);
-		mx = pm_max4(_mm_andnot_ps(sign, px), pm_max4(_mm_andnot_ps(sign, py),
-		    _mm_andnot_ps(sign, pz)));
-		eps = pm_max4(_mm_mul_ps(pm_max4(mx, _mm_loadu_ps(r->scale + j)),
-		    _mm_set1_ps(2e-5f)), _mm_set1_ps(1e-30f));
-		e = pm_sel4(_mm_cmpge_ps(pm_dot4(gx, gy, gz, lwx, lwy, lwz), zero), eps,
-		    _mm_xor_ps(eps, sign));
-		ox = _mm_add_ps(px, _mm_mul_ps(gx, e));
-		oy = _mm_add_ps(py, _mm_mul_ps(gy, e));
-		oz = _mm_add_ps(pz, _mm_mul_ps(gz, e));
+		for (c = 0; c < 3; c++) {
+			p[c] = _mm_loadu_ps(ll->ref[c] + j);
+			g[c] = _mm_loadu_ps(r->ng[c] + j);
+		}
+		lw[0] = lwx;
+		lw[1] = lwy;
+		lw[2] = lwz;
+		eps = pm_offset_eps4(p, _mm_loadu_ps(r->scale + j));
+		pm_offset4(p, g, eps, lw, o);
+		ox = o[0];
+		oy = o[1];
+		oz = o[2];
 		isinf_ = _mm_cmpeq_ps(_mm_andnot_ps(sign,
 		    _mm_loadu_ps(ll->dist + j)), inf);
 		dx = _mm_sub_ps(_mm_loadu_ps(ll->p[0] + j), ox);
@@ -509,11 +497,13 @@ diffuse_lanes(const struct pm_render_ctx *ctx, size_t m,
 		_mm_storeu_ps(ndx, dx);
 		_mm_storeu_ps(ndy, dy);
 		_mm_storeu_ps(ndz, dz);
-		e = pm_sel4(_mm_cmpge_ps(pm_dot4(gx, gy, gz, dx, dy, dz), zero), eps,
-		    _mm_xor_ps(eps, sign));
-		_mm_storeu_ps(nox, _mm_add_ps(px, _mm_mul_ps(gx, e)));
-		_mm_storeu_ps(noy, _mm_add_ps(py, _mm_mul_ps(gy, e)));
-		_mm_storeu_ps(noz, _mm_add_ps(pz, _mm_mul_ps(gz, e)));
+		lw[0] = dx;
+		lw[1] = dy;
+		lw[2] = dz;
+		pm_offset4(p, g, eps, lw, o);
+		_mm_storeu_ps(nox, o[0]);
+		_mm_storeu_ps(noy, o[1]);
+		_mm_storeu_ps(noz, o[2]);
 		/* Russian roulette's probability and its reciprocal */
 		qq = pm_min4(_mm_mul_ps(pm_max4(nbr, pm_max4(nbg, nbb)),
 		    _mm_loadu_ps(r->eta + j)), _mm_set1_ps(0.95f));

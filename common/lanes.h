@@ -54,6 +54,51 @@ pm_mask4(const int32_t *m)
 	return _mm_castsi128_ps(_mm_loadu_si128((const __m128i *)m));
 }
 
+/* pm_frame_from_normal of (nx, ny, nz) lane by lane: its s and t */
+static inline void
+pm_frame4(__m128 nx, __m128 ny, __m128 nz, __m128 s[3], __m128 t[3])
+{
+	const __m128 one = _mm_set1_ps(1.0f), sign = _mm_set1_ps(-0.0f);
+	__m128 sg = _mm_or_ps(_mm_and_ps(nz, sign), one);
+	__m128 a = _mm_div_ps(_mm_set1_ps(-1.0f), _mm_add_ps(sg, nz));
+	__m128 b = _mm_mul_ps(_mm_mul_ps(nx, ny), a);
+
+	s[0] = _mm_add_ps(one, _mm_mul_ps(_mm_mul_ps(_mm_mul_ps(sg, nx), nx),
+	    a));
+	s[1] = _mm_mul_ps(sg, b);
+	s[2] = _mm_mul_ps(_mm_xor_ps(sg, sign), nx);
+	t[0] = b;
+	t[1] = _mm_add_ps(sg, _mm_mul_ps(_mm_mul_ps(ny, ny), a));
+	t[2] = _mm_xor_ps(ny, sign);
+}
+
+/* pm_offset_origin_scaled's distance for hit points p with scale */
+static inline __m128
+pm_offset_eps4(const __m128 p[3], __m128 scale)
+{
+	const __m128 sign = _mm_set1_ps(-0.0f);
+	__m128 m = pm_max4(_mm_andnot_ps(sign, p[0]), pm_max4(
+	    _mm_andnot_ps(sign, p[1]), _mm_andnot_ps(sign, p[2])));
+
+	return pm_max4(_mm_mul_ps(pm_max4(m, scale), _mm_set1_ps(2e-5f)),
+	    _mm_set1_ps(1e-30f));
+}
+
+/* pm_offset_origin_scaled: p moved by eps along ng, to the side that dir
+ * leaves on, into o */
+static inline void
+pm_offset4(const __m128 p[3], const __m128 ng[3], __m128 eps,
+    const __m128 dir[3], __m128 o[3])
+{
+	__m128 e = pm_sel4(_mm_cmpge_ps(pm_dot4(ng[0], ng[1], ng[2], dir[0],
+	    dir[1], dir[2]), _mm_setzero_ps()), eps, _mm_xor_ps(eps,
+	    _mm_set1_ps(-0.0f)));
+	int c;
+
+	for (c = 0; c < 3; c++)
+		o[c] = _mm_add_ps(p[c], _mm_mul_ps(ng[c], e));
+}
+
 /* pm_dir_pack of (x, y, z), four at a time, its operations in its order:
  * the two bytes of each lane in o0 and o1 */
 static inline void

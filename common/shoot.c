@@ -1077,8 +1077,8 @@ diffuse_lanes(struct diffuse_round *r, size_t m)
 
 	for (j = 0; j < m; j += 4) {
 		__m128 p[3], g[3], n[3], d[3], f[3], a[3], v[3], s[3], t[3];
-		__m128 sg, aa, bb, wiz, flip, pdf, ok, q, iq, w[3], dd, l, keep;
-		__m128 mx, eps, e, gd;
+		__m128 wiz, flip, pdf, ok, q, iq, w[3], dd, l, keep;
+		__m128 gd, o[3];
 
 		for (c = 0; c < 3; c++) {
 			p[c] = _mm_loadu_ps(r->p[c] + j);
@@ -1102,16 +1102,7 @@ diffuse_lanes(struct diffuse_round *r, size_t m)
 		    pm_sel4(gd, n[2], _mm_xor_ps(n[2], sign)),
 		    r->normal[0] + j, r->normal[1] + j);
 		/* pm_frame_from_normal(ns) and wi's z in it */
-		sg = _mm_or_ps(_mm_and_ps(n[2], sign), one);
-		aa = _mm_div_ps(_mm_set1_ps(-1.0f), _mm_add_ps(sg, n[2]));
-		bb = _mm_mul_ps(_mm_mul_ps(n[0], n[1]), aa);
-		s[0] = _mm_add_ps(one, _mm_mul_ps(_mm_mul_ps(_mm_mul_ps(sg,
-		    n[0]), n[0]), aa));
-		s[1] = _mm_mul_ps(sg, bb);
-		s[2] = _mm_mul_ps(_mm_xor_ps(sg, sign), n[0]);
-		t[0] = bb;
-		t[1] = _mm_add_ps(sg, _mm_mul_ps(_mm_mul_ps(n[1], n[1]), aa));
-		t[2] = _mm_xor_ps(n[1], sign);
+		pm_frame4(n[0], n[1], n[2], s, t);
 		wiz = pm_dot4(_mm_xor_ps(d[0], sign), _mm_xor_ps(d[1], sign),
 		    _mm_xor_ps(d[2], sign), n[0], n[1], n[2]);
 		/* the BSDF's sample (pm_bsdf_sample_v, plain diffuse) */
@@ -1143,15 +1134,10 @@ diffuse_lanes(struct diffuse_round *r, size_t m)
 			_mm_storeu_ps(r->nd[c] + j, w[c]);
 		}
 		/* pm_hit_origin(h, d) */
-		mx = pm_max4(_mm_andnot_ps(sign, p[0]), pm_max4(_mm_andnot_ps(sign,
-		    p[1]), _mm_andnot_ps(sign, p[2])));
-		eps = pm_max4(_mm_mul_ps(pm_max4(mx, _mm_loadu_ps(r->scale + j)),
-		    _mm_set1_ps(2e-5f)), _mm_set1_ps(1e-30f));
-		e = pm_sel4(_mm_cmpge_ps(pm_dot4(g[0], g[1], g[2], w[0], w[1],
-		    w[2]), zero), eps, _mm_xor_ps(eps, sign));
+		pm_offset4(p, g, pm_offset_eps4(p, _mm_loadu_ps(r->scale + j)),
+		    w, o);
 		for (c = 0; c < 3; c++)
-			_mm_storeu_ps(r->no[c] + j, _mm_add_ps(p[c],
-			    _mm_mul_ps(g[c], e)));
+			_mm_storeu_ps(r->no[c] + j, o[c]);
 	}
 }
 #endif
