@@ -728,33 +728,42 @@ emit_batch(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 {
 	enum { W = EMIT_LANES * (1 + PRE_BOUNCES) };
 	float u[EMIT_LANES][6], ua[W], ub[W];
+	struct pm_rng rs[EMIT_LANES];
 	float x[W], y[W], z[W];
 	int k, j, m, npre = opts->pass == PM_PASS_GLOBAL ? PRE_BOUNCES : 0;
 
 	if (n <= 0)
 		return;
-	for (k = 0; k < n; k++) {
+	/* Each number in turn for every path (the inner loop over paths):
+	 * a path's numbers are one chain of dependent multiplications, and
+	 * a path at a time left the core waiting on each link (the loads
+	 * of u, path by path, were this function's hottest lines). */
+	for (k = 0; k < n; k++)
 		ps[k].rng = pm_rng_seed(opts->seed, first + (uint64_t)k,
 		    (uint64_t)opts->pass);
-		for (j = 0; j < 6; j++)
+	for (j = 0; j < 6; j++)
+		for (k = 0; k < n; k++)
 			u[k][j] = pm_rng_float(&ps[k].rng);
+	for (k = 0; k < n; k++) {
 		ua[k] = u[k][3];
 		ub[k] = u[k][4];
-	}
-	for (k = 0, m = n; k < n; k++) {
-		struct pm_rng r = ps[k].rng;
-
 		ps[k].npre = npre;
-		for (j = 0; j < npre; j++, m++) {
-			pm_rng_skip(&r);	/* the dither */
-			pm_rng_skip(&r);	/* u1 */
-			ps[k].pre_state[j] = r.state;
-			ua[m] = pm_rng_float(&r);
-			ub[m] = pm_rng_float(&r);
-			pm_rng_skip(&r);	/* the roulette */
-		}
+		rs[k] = ps[k].rng;
 	}
-	pm_square_to_cosine_hemisphere_n(ua, ub, x, y, z, (size_t)m);
+	for (j = 0; j < npre; j++)
+		for (k = 0; k < n; k++) {
+			struct pm_rng *r = &rs[k];
+
+			m = n + k * npre + j;
+			pm_rng_skip(r);	/* the dither */
+			pm_rng_skip(r);	/* u1 */
+			ps[k].pre_state[j] = r->state;
+			ua[m] = pm_rng_float(r);
+			ub[m] = pm_rng_float(r);
+			pm_rng_skip(r);	/* the roulette */
+		}
+	pm_square_to_cosine_hemisphere_n(ua, ub, x, y, z,
+	    (size_t)(n + n * npre));
 	for (k = 0, m = n; k < n; k++) {
 		ps[k].ok = emit_u(sh, opts->pass, u[k], pm_v3(x[k], y[k], z[k]),
 		    &ps[k].o, &ps[k].d, &ps[k].flux, &ps[k].medium);
