@@ -189,19 +189,41 @@ pm_photon_buf_free(struct pm_photon_buf *b)
 	b->n = b->cap = 0;
 }
 
-static bool
+/* Doubles b's room; false without memory. */
+static __attribute__((noinline)) bool
+buf_grow(struct pm_photon_buf *b)
+{
+	size_t cap = b->cap ? 2 * b->cap : 256;
+	struct pm_photon *np = realloc(b->p, cap * sizeof(*np));
+
+	if (np == NULL)
+		return false;
+	b->p = np;
+	b->cap = cap;
+	return true;
+}
+
+/* A new last photon of b, for the caller to fill in place; NULL without
+ * memory.  Filled in place, not built and copied: a photon built field
+ * by field (bytes among them) and then copied whole is read back before
+ * its small stores can be forwarded, a stall a photon (the old push was
+ * a thirtieth of the Cornell box's photon pass). */
+static inline struct pm_photon *
+buf_slot(struct pm_photon_buf *b)
+{
+	if (b->n == b->cap && !buf_grow(b))
+		return NULL;
+	return &b->p[b->n++];
+}
+
+static inline bool
 buf_push(struct pm_photon_buf *b, const struct pm_photon *p)
 {
-	if (b->n == b->cap) {
-		size_t cap = b->cap ? 2 * b->cap : 256;
-		struct pm_photon *np = realloc(b->p, cap * sizeof(*np));
+	struct pm_photon *q = buf_slot(b);
 
-		if (np == NULL)
-			return false;
-		b->p = np;
-		b->cap = cap;
-	}
-	b->p[b->n++] = *p;
+	if (q == NULL)
+		return false;
+	*q = *p;
 	return true;
 }
 
@@ -1167,19 +1189,26 @@ diffuse_bounce(const struct pm_scene *s, const struct pm_shoot_opts *opts,
 	    pm_rgb_is_finite(st->flux);
 }
 
-/* The path of photon tmp->n - 1 in *tag; false without memory. */
-static bool
+/* Room in *tag for index i; false without memory. */
+static __attribute__((noinline)) bool
+tag_grow(uint8_t **tag, size_t *tag_cap, size_t i)
+{
+	size_t cap = 2 * (i + 1);
+	uint8_t *t = realloc(*tag, cap);
+
+	if (t == NULL)
+		return false;
+	*tag = t;
+	*tag_cap = cap;
+	return true;
+}
+
+/* The path of photon i in *tag; false without memory. */
+static inline bool
 tag_photon(uint8_t **tag, size_t *tag_cap, size_t i, uint8_t path)
 {
-	if (i >= *tag_cap) {
-		size_t cap = 2 * (i + 1);
-		uint8_t *t = realloc(*tag, cap);
-
-		if (t == NULL)
-			return false;
-		*tag = t;
-		*tag_cap = cap;
-	}
+	if (i >= *tag_cap && !tag_grow(tag, tag_cap, i))
+		return false;
 	(*tag)[i] = path;
 	return true;
 }
@@ -1306,27 +1335,25 @@ static int
 diffuse_give(const struct diffuse_round *r, int k, struct photon_state *st,
     struct pm_photon_buf *out)
 {
-	struct pm_photon ph;
+	struct pm_photon *ph = buf_slot(out);
 	float q;
 	int c;
 
-	for (c = 0; c < 3; c++)
-		ph.pos[c] = r->p[c][k];
-	for (c = 0; c < 4; c++)
-		ph.power[c] = (uint8_t)r->power[c][k];
-	for (c = 0; c < 2; c++) {
-		ph.dir[c] = (uint8_t)r->dir[c][k];
-		ph.normal[c] = (uint8_t)r->normal[c][k];
-	}
-	ph.reserved[0] = ph.reserved[1] = 0;
-	ph.flags = PM_KD_LEAF;
-	if (st->via_diffuse)
-		ph.flags |= PM_PHOTON_VIA_DIFFUSE;
-	if (st->specular_only && st->depth > 0)
-		ph.flags |= PM_PHOTON_CAUSTIC;
-	ph.depth = (uint8_t)(st->depth < 255 ? st->depth : 255);
-	if (!buf_push(out, &ph))
+	if (ph == NULL)
 		return -1;
+	for (c = 0; c < 3; c++)
+		ph->pos[c] = r->p[c][k];
+	for (c = 0; c < 4; c++)
+		ph->power[c] = (uint8_t)r->power[c][k];
+	for (c = 0; c < 2; c++) {
+		ph->dir[c] = (uint8_t)r->dir[c][k];
+		ph->normal[c] = (uint8_t)r->normal[c][k];
+	}
+	ph->reserved[0] = ph->reserved[1] = 0;
+	ph->flags = (uint8_t)(PM_KD_LEAF |
+	    (st->via_diffuse ? PM_PHOTON_VIA_DIFFUSE : 0) |
+	    (st->specular_only && st->depth > 0 ? PM_PHOTON_CAUSTIC : 0));
+	ph->depth = (uint8_t)(st->depth < 255 ? st->depth : 255);
 	if (!r->ok[k])
 		return 0;
 	q = r->q[k];
