@@ -539,6 +539,18 @@ projector_direction(const struct pm_shooter *sh, size_t li, float u,
 	return pm_to_world(l->frame, pm_scale(d, c));
 }
 
+/* Whether light li emits as a parallelogram (light.h) shooting
+ * cosine-distributed photons: emit_u's common case, emit_quad4's. */
+static inline bool
+emits_quad(const struct pm_shooter *sh, size_t li)
+{
+	const struct pm_scene *s = sh->scene;
+	const struct pm_light *l = &s->lights[li];
+
+	return l->type == PM_LIGHT_AREA && sh->lights->quad[li].on &&
+	    s->shapes[l->shape].type != PM_SHAPE_SPHERE;
+}
+
 /*
  * Emits a photon path from its first six random numbers u: origin,
  * direction, flux and the medium it starts in.  cosine is (u[3], u[4])
@@ -563,8 +575,7 @@ emit_u(const struct pm_shooter *sh, enum pm_map_pass pass, const float u[6],
 	float pdf_dir;
 
 	*medium = sh->light_medium != NULL ? sh->light_medium[li] : -1;
-	if (l->type == PM_LIGHT_AREA && !aim && ls->quad[li].on &&
-	    s->shapes[l->shape].type != PM_SHAPE_SPHERE) {
+	if (!aim && emits_quad(sh, li)) {
 		/* The common case, a parallelogram (light.h) shooting
 		 * cosine-distributed photons: what the general case below
 		 * computes, in its order, with the frame found once and
@@ -723,6 +734,75 @@ struct path_start {
 	struct pm_vec3 pre_v[PRE_BOUNCES];
 };
 
+#if PM_LANES
+/*
+ * emit_u's parallelogram case for four paths that picked the same light
+ * li, in SSE lanes: its operations in its order, its tests as masks, so
+ * each lane is the bits emit_u gives (ok false where emit_u returns
+ * false; the rest is then unused, as emit_u's is).  u holds the paths'
+ * numbers, (cx, cy, cz) their cosine directions.  One light is the
+ * common scene, and a light's data broadcast is all the lanes load.
+ */
+static void
+emit_quad4(const struct pm_shooter *sh, size_t li, const float (*u)[6],
+    const float *cx, const float *cy, const float *cz, struct path_start *ps)
+{
+	const struct pm_light_quad *q = &sh->lights->quad[li];
+	const struct pm_light *l = &sh->scene->lights[li];
+	const float psel = (float)pm_distrib_prob(&sh->lights->pick, li);
+	const __m128 zero = _mm_setzero_ps();
+	const float *p0 = &q->p0.x, *e1 = &q->e1.x, *e2 = &q->e2.x;
+	const float *fs = &q->f.s.x, *ft = &q->f.t.x, *fn = &q->f.n.x;
+	const float *rad = &l->radiance.r;
+	__m128 u1 = _mm_setr_ps(u[0][1], u[1][1], u[2][1], u[3][1]);
+	__m128 u2 = _mm_setr_ps(u[0][2], u[1][2], u[2][2], u[3][2]);
+	__m128 vx = _mm_loadu_ps(cx), vy = _mm_loadu_ps(cy);
+	__m128 vz = _mm_loadu_ps(cz), p[3], w[3], n[3], o[3], f[3];
+	__m128 c, pdf, ok, sc, top;
+	_Alignas(16) float out[10][4];
+	_Alignas(16) int32_t okv[4];
+	int a, k;
+
+	for (a = 0; a < 3; a++) {
+		p[a] = _mm_add_ps(_mm_add_ps(_mm_set1_ps(p0[a]),
+		    _mm_mul_ps(_mm_set1_ps(e1[a]), u1)),
+		    _mm_mul_ps(_mm_set1_ps(e2[a]), u2));
+		w[a] = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_set1_ps(fs[a]), vx),
+		    _mm_mul_ps(_mm_set1_ps(ft[a]), vy)),
+		    _mm_mul_ps(_mm_set1_ps(fn[a]), vz));
+		n[a] = _mm_set1_ps((&q->n.x)[a]);
+	}
+	c = pm_dot4(w[0], w[1], w[2], n[0], n[1], n[2]);
+	pdf = _mm_mul_ps(pm_max4(c, zero), _mm_set1_ps(PM_INV_PI));
+	/* !(c <= 0) && !(w . ns <= 0) && !(pdf <= 0), as emit_u tests */
+	ok = _mm_and_ps(_mm_and_ps(_mm_cmpnle_ps(c, zero),
+	    _mm_cmpnle_ps(pm_dot4(w[0], w[1], w[2], _mm_set1_ps(q->ns.x),
+	    _mm_set1_ps(q->ns.y), _mm_set1_ps(q->ns.z)), zero)),
+	    _mm_cmpnle_ps(pdf, zero));
+	sc = _mm_div_ps(_mm_mul_ps(c, _mm_set1_ps((float)l->area)),
+	    _mm_mul_ps(_mm_set1_ps(psel), pdf));
+	for (a = 0; a < 3; a++)
+		f[a] = _mm_mul_ps(_mm_set1_ps(rad[a]), sc);
+	top = pm_max4(f[0], pm_max4(f[1], f[2]));
+	ok = _mm_and_ps(ok, _mm_cmpgt_ps(top, zero));
+	pm_offset4(p, n, pm_offset_eps4(p, zero), w, o);
+	for (a = 0; a < 3; a++) {
+		_mm_store_ps(out[a], o[a]);
+		_mm_store_ps(out[3 + a], w[a]);
+		_mm_store_ps(out[6 + a], f[a]);
+	}
+	_mm_store_si128((__m128i *)okv, _mm_castps_si128(ok));
+	for (k = 0; k < 4; k++) {
+		ps[k].o = pm_v3(out[0][k], out[1][k], out[2][k]);
+		ps[k].d = pm_v3(out[3][k], out[4][k], out[5][k]);
+		ps[k].flux = pm_rgb(out[6][k], out[7][k], out[8][k]);
+		ps[k].medium = sh->light_medium != NULL ?
+		    sh->light_medium[li] : -1;
+		ps[k].ok = okv[k] != 0;
+	}
+}
+#endif
+
 /* Paths emitted together (emit_batch). */
 #define EMIT_LANES 8
 
@@ -756,6 +836,10 @@ emit_batch(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 	float x[W], y[W], z[W];
 	int k, j, m;
 	int npre = guess && opts->pass == PM_PASS_GLOBAL ? PRE_BOUNCES : 0;
+#if PM_LANES
+	const struct pm_lights *ls = sh->lights;
+	bool aim = opts->pass == PM_PASS_CAUSTIC && sh->naim > 0;
+#endif
 
 	if (n <= 0)
 		return;
@@ -789,12 +873,30 @@ emit_batch(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 		}
 	pm_square_to_cosine_hemisphere_n(ua, ub, x, y, z,
 	    (size_t)(n + n * npre));
-	for (k = 0, m = n; k < n; k++) {
+	for (k = 0; k < n; k++) {
+#if PM_LANES
+		/* four paths from one parallelogram light: in lanes */
+		if (k % 4 == 0 && k + 4 <= n && !aim) {
+			size_t li = pm_distrib_sample(&ls->pick, u[k][0], NULL);
+
+			for (j = 1; j < 4; j++)
+				if (pm_distrib_sample(&ls->pick, u[k + j][0],
+				    NULL) != li)
+					break;
+			if (j == 4 && emits_quad(sh, li)) {
+				emit_quad4(sh, li, u + k, x + k, y + k, z + k,
+				    ps + k);
+				k += 3;
+				continue;
+			}
+		}
+#endif
 		ps[k].ok = emit_u(sh, opts->pass, u[k], pm_v3(x[k], y[k], z[k]),
 		    &ps[k].o, &ps[k].d, &ps[k].flux, &ps[k].medium);
+	}
+	for (k = 0, m = n; k < n; k++)
 		for (j = 0; j < npre; j++, m++)
 			ps[k].pre_v[j] = pm_v3(x[m], y[m], z[m]);
-	}
 }
 
 bool

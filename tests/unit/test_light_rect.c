@@ -353,21 +353,35 @@ test_light_samples_in_lanes(void **state)
 	pm_scene_free(&s);
 }
 
+/* A second rectangle, brighter and elsewhere, for a scene of two lights. */
+#define RECT2 "<shape type=\"rectangle\"><transform name=\"to_world\">" \
+	"<scale x=\"0.5\" y=\"0.8\"/><rotate y=\"1\" angle=\"70\"/>" \
+	"<translate x=\"-0.7\" z=\"-0.5\"/></transform>" \
+	"<emitter type=\"area\"><rgb name=\"radiance\" value=\"3, 2, 1\"/>" \
+	"</emitter></shape>\n"
+/* A black box around them. */
+#define BLACK_BOX "<shape type=\"cube\"><transform name=\"to_world\">" \
+	"<scale value=\"2\"/></transform><bsdf type=\"diffuse\"><rgb name=" \
+	"\"reflectance\" value=\"0\"/></bsdf></shape>\n"
+
 /*
  * pm_shoot emits photons eight paths at a time, their cosine directions
- * warped in SIMD lanes (common/shoot.c, emit_batch), and pm_shooter_emit
- * one at a time:
- * both must be emission as defined, the shape's point, the cosine
- * direction in pm_frame_from_normal's frame, the flux and the offset
- * origin, computed here from the general functions: pm_shooter_emit's
- * results bit for bit, pm_shoot's photons byte for byte (position, and
- * power as RGBE stores it).  A turned light in a black box stores each
- * path's first hit only, so the k-th photon is the k-th path that
- * carries flux; 1003 paths from path 5 leave a batch of three, whose
- * warps take the scalar tail.  (test_sampling checks the lanes' warp.)
+ * warped in SIMD lanes (common/shoot.c, emit_batch), four paths that
+ * picked the same parallelogram in lanes too (emit_quad4), and
+ * pm_shooter_emit one at a time:
+ * both must be emission as defined, the light's pick, the shape's point,
+ * the cosine direction in pm_frame_from_normal's frame, the flux and the
+ * offset origin, computed here from the general functions:
+ * pm_shooter_emit's results bit for bit, pm_shoot's photons byte for
+ * byte (position, and power as RGBE stores it).  Turned lights in a
+ * black box store each path's first hit only, so the k-th photon is the
+ * k-th path that carries flux; 1003 paths from path 5 leave a batch of
+ * three, whose warps take the scalar tail.  Of two lights, the groups of
+ * four paths that picked both go one at a time.  (test_sampling checks
+ * the lanes' warp.)  Returns how many paths picked each light.
  */
 static void
-test_batched_emission_is_the_definition(void **state)
+batched_emission(const char *xml, size_t picked[2])
 {
 	const uint64_t first = 5, n = 1003, seed = 7;
 	struct pm_scene s;
@@ -378,18 +392,15 @@ test_batched_emission_is_the_definition(void **state)
 	    NULL, NULL, NULL};
 	struct pm_shoot_stats st;
 	struct pm_error err;
-	const struct pm_light *l;
-	size_t k = 0;
+	size_t k = 0, li;
 	uint64_t i;
-	float psel;
 
-	(void)state;
-	load("<shape type=\"cube\"><transform name=\"to_world\"><scale "
-	    "value=\"2\"/></transform><bsdf type=\"diffuse\"><rgb name="
-	    "\"reflectance\" value=\"0\"/></bsdf></shape>\n" RECT, &s, &w);
-	assert_true(w.lights.quad[0].on);
-	l = &s.lights[0];
-	psel = (float)pm_distrib_prob(&w.lights.pick, 0);
+	load(xml, &s, &w);
+	assert_true(s.nlights <= 2);
+	for (li = 0; li < s.nlights; li++) {
+		assert_true(w.lights.quad[li].on);
+		picked[li] = 0;
+	}
 	memset(&err, 0, sizeof(err));
 	assert_int_equal(pm_shooter_init(&sh, &s, w.accel, &w.lights, &err),
 	    PM_OK);
@@ -400,14 +411,20 @@ test_batched_emission_is_the_definition(void **state)
 		struct pm_vec3 p, ng, ns, d, org, eo, ed;
 		struct pm_rgb flux, ef;
 		struct pm_hit lh, h;
-		float u[6], c, pdf;
+		const struct pm_light *l;
+		float u[6], c, pdf, psel;
 		uint8_t power[4];
 		int j;
 		bool ok;
 
 		for (j = 0; j < 6; j++)
 			u[j] = pm_rng_float(&rng);
-		pm_shooter_shape_point(&sh, 0, u[1], u[2], &p, &ng, &ns, &lh);
+		li = pm_distrib_sample(&w.lights.pick, u[0], NULL);
+		l = &s.lights[li];
+		psel = (float)pm_distrib_prob(&w.lights.pick, li);
+		picked[li]++;
+		pm_shooter_shape_point(&sh, (int)li, u[1], u[2], &p, &ng, &ns,
+		    &lh);
 		d = pm_to_world(pm_frame_from_normal(ng),
 		    pm_square_to_cosine_hemisphere(u[3], u[4]));
 		c = pm_dot(d, ng);
@@ -441,6 +458,18 @@ test_batched_emission_is_the_definition(void **state)
 	pm_shooter_free(&sh);
 	pm_world_free(&w);
 	pm_scene_free(&s);
+}
+
+static void
+test_batched_emission_is_the_definition(void **state)
+{
+	size_t picked[2];
+
+	(void)state;
+	batched_emission(BLACK_BOX RECT, picked);
+	batched_emission(BLACK_BOX RECT RECT2, picked);
+	/* both lights emit, the brighter one more */
+	assert_true(picked[1] > picked[0] && picked[0] > 100);
 }
 
 int
