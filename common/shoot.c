@@ -65,7 +65,7 @@
 
 /* Surfaces that hold photons.  Not a rough dielectric: light crosses it as
  * it crosses glass, and it passes photons on as glass does (below). */
-static bool
+static inline bool
 bsdf_has_nonspecular(const struct pm_bsdf *b)
 {
 	return b->type != PM_BSDF_NULL && !pm_bsdf_passes_photons(b) &&
@@ -92,7 +92,7 @@ bsdf_reflects(const struct pm_bsdf *b)
  * focuses light less sharply than clear glass, but the camera pass can
  * only see light through it in the caustic map: it traces the glass and
  * estimates the diffuse surface behind). */
-static bool
+static inline bool
 bsdf_has_specular(const struct pm_bsdf *b)
 {
 	return b->type != PM_BSDF_NULL && ((b->lobes & PM_LOBE_DELTA) ||
