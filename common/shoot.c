@@ -1177,7 +1177,7 @@ trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
  * direction and normal, whether the BSDF's sample succeeds, and the
  * path's next flux, direction and origin.
  */
-#define DIFFUSE_LANES 64
+#define DIFFUSE_LANES 256
 
 struct diffuse_round {
 	float p[3][DIFFUSE_LANES], ng[3][DIFFUSE_LANES], ns[3][DIFFUSE_LANES];
@@ -1471,25 +1471,28 @@ diffuse_give(const struct diffuse_round *r, int k, struct photon_state *st,
  * cast as Embree packets (pm_accel_intersect_n), the bounces at plain
  * diffuse surfaces four at a time (diffuse_lanes, 1.05-1.14x more; their
  * directions warped together, not guessed ahead at the emission, another
- * 1.03-1.07x, stop 35), the others as trace_path's.  Their photons go to tmp tagged with their path
- * (*tag) and are put back in path order at the end, so the chunk's
- * photons are trace_path's, in its order, to the bit.  The packets cast
- * a round's rays 1.23x faster than one at a time (bench casts,
- * cornell-box), more than the bookkeeping costs: the global pass
- * 1.04-1.07x faster on this
- * workplace's AVX-512 Xeon (docs/accuracy.md, stop 34), where stop 25
- * measured rounds like these at 1.00-1.02x on the machine of its day.
+ * 1.03-1.07x, stop 35), the others as trace_path's.  Their photons go to
+ * rd->tmp tagged with their path (rd->tag) and are put back in path order
+ * at the end, so the chunk's photons are trace_path's, in its order, to
+ * the bit.  The packets cast a round's rays 1.23x faster than one at a
+ * time (bench casts, cornell-box), more than the bookkeeping costs: the
+ * global pass 1.04-1.07x faster on this workplace's AVX-512 Xeon
+ * (docs/accuracy.md, stop 34), where stop 25 measured rounds like these
+ * at 1.00-1.02x on the machine of its day.  256 paths a round rather
+ * than 64: the later bounces, when few paths are left, still fill whole
+ * packets, and a round's fixed costs are paid a quarter as often
+ * (cornell-box 1.04-1.06x, bunny 1.02-1.03x, stop 35).
  */
-#define PHOTON_LANES 64
-_Static_assert(PHOTON_LANES % 4 == 0 && PHOTON_LANES <= DIFFUSE_LANES,
-    "a round's diffuse bounces fill whole groups of four lanes");
+#define PHOTON_LANES 256
+_Static_assert(PHOTON_LANES % 4 == 0 && PHOTON_LANES <= DIFFUSE_LANES &&
+    PHOTON_LANES <= 256, "a round's diffuse bounces fill whole groups of "
+    "four lanes, and a byte tags a photon with its path");
 
-static bool
-trace_paths(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
-    uint64_t first, int n, struct chunk_out *co, struct pm_photon_buf *tmp,
-    uint8_t **tag, size_t *tag_cap)
-{
-	const struct pm_scene *s = sh->scene;
+/* A thread's working memory for trace_paths, on the heap: a round's
+ * paths, rays, hits and diffuse lanes are about 120 KB, more than a
+ * stack a caller made small can hold; and the round's photons, tagged
+ * with their paths. */
+struct round {
 	struct path_start ps[PHOTON_LANES];
 	struct photon_state st[PHOTON_LANES];
 	struct pm_ray rays[PHOTON_LANES];
@@ -1497,6 +1500,26 @@ trace_paths(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 	struct diffuse_round dr;
 	bool hitf[PHOTON_LANES];
 	uint8_t idx[PHOTON_LANES];
+	struct pm_photon_buf tmp;
+	uint8_t *tag;
+	size_t tag_cap;
+};
+
+static bool
+trace_paths(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
+    uint64_t first, int n, struct chunk_out *co, struct round *rd)
+{
+	const struct pm_scene *s = sh->scene;
+	struct path_start *ps = rd->ps;
+	struct photon_state *st = rd->st;
+	struct pm_ray *rays = rd->rays;
+	struct pm_hit *hits = rd->hits;
+	struct diffuse_round *dr = &rd->dr;
+	struct pm_photon_buf *tmp = &rd->tmp;
+	uint8_t **tag = &rd->tag;
+	size_t *tag_cap = &rd->tag_cap;
+	bool *hitf = rd->hitf;
+	uint8_t *idx = rd->idx;
 	size_t cnt[PHOTON_LANES + 1], i;
 	int max_depth = path_max_depth(opts), k, na, m, b, nd, c;
 
@@ -1526,7 +1549,7 @@ trace_paths(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 
 			if (hitf[k] && diffuse_bounce(s, opts, &hits[k], p,
 			    max_depth)) {
-				diffuse_take(&dr, nd++, s, &hits[k], p, idx[k]);
+				diffuse_take(dr, nd++, s, &hits[k], p, idx[k]);
 				continue;
 			}
 			r = hitf[k] ? bounce(sh, opts, &ps[idx[k]], max_depth,
@@ -1540,21 +1563,21 @@ trace_paths(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 				idx[m++] = idx[k];
 		}
 		if (nd > 0) {
-			diffuse_pad(&dr, nd);
+			diffuse_pad(dr, nd);
 			/* The round's directions warped together: a bounce's
 			 * warp alone is one long chain of dependent arithmetic
 			 * (emit_batch), side by side in SIMD a short one. */
-			pm_square_to_cosine_hemisphere_n(dr.u2, dr.u3, dr.v[0],
-			    dr.v[1], dr.v[2], (size_t)(nd + 3) / 4 * 4);
-			diffuse_lanes(&dr, (size_t)(nd + 3) / 4 * 4);
+			pm_square_to_cosine_hemisphere_n(dr->u2, dr->u3, dr->v[0],
+			    dr->v[1], dr->v[2], (size_t)(nd + 3) / 4 * 4);
+			diffuse_lanes(dr, (size_t)(nd + 3) / 4 * 4);
 			for (c = 0; c < nd; c++) {
-				int r = diffuse_give(&dr, c, &st[dr.path[c]], tmp);
+				int r = diffuse_give(dr, c, &st[dr->path[c]], tmp);
 
 				if (r < 0 || !tag_photon(tag, tag_cap, tmp->n - 1,
-				    dr.path[c]))
+				    dr->path[c]))
 					return false;
 				if (r > 0)
-					idx[m++] = dr.path[c];
+					idx[m++] = dr->path[c];
 			}
 		}
 		na = m;
@@ -1662,6 +1685,7 @@ static void *
 worker(void *arg)
 {
 	struct job *j = arg;
+	struct round *rd = NULL;
 	size_t c;
 
 	while ((c = atomic_fetch_add(&j->next, 1)) < j->nchunks) {
@@ -1677,17 +1701,12 @@ worker(void *arg)
 		if (first + CHUNK < end)
 			end = first + CHUNK;
 		if (j->sh->scene->nmedia == 0) {
-			/* the round's photons, tagged with their paths */
-			struct pm_photon_buf tmp = {0};
-			uint8_t *tag = NULL;
-			size_t tag_cap = 0;
-
+			if (rd == NULL && (rd = calloc(1, sizeof(*rd))) == NULL)
+				ok = false;
 			for (i = first; i < end && ok; i += PHOTON_LANES)
 				ok = trace_paths(j->sh, j->opts, i,
 				    end - i < PHOTON_LANES ? (int)(end - i) :
-				    PHOTON_LANES, &co, &tmp, &tag, &tag_cap);
-			pm_photon_buf_free(&tmp);
-			free(tag);
+				    PHOTON_LANES, &co, rd);
 		} else {
 			/* media: one path at a time */
 			for (i = first; i < end && ok; i += EMIT_LANES) {
@@ -1709,13 +1728,18 @@ worker(void *arg)
 		if (!ok) {
 			pthread_mutex_unlock(&j->lock);
 			atomic_store(&j->failed, 1);
-			return NULL;
+			break;
 		}
 		j->chunks[c].done = true;
 		commit_chunks(j);
 		pthread_mutex_unlock(&j->lock);
 		if (atomic_load(&j->failed))
-			return NULL;
+			break;
+	}
+	if (rd != NULL) {
+		pm_photon_buf_free(&rd->tmp);
+		free(rd->tag);
+		free(rd);
 	}
 	return NULL;
 }
