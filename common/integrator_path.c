@@ -260,9 +260,10 @@ path_continue(struct pm_path *pa, const struct pm_hit *h,
  * contribution only waits for its shadow ray until the end of the round,
  * before anything else changes the path's L.
  */
-#define PATH_BATCH 64
-_Static_assert(PATH_BATCH % 4 == 0 && PATH_BATCH <= PM_LIGHT_LANES,
-    "a round's vertices fill whole groups of four light lanes");
+#define PATH_BATCH 256
+_Static_assert(PATH_BATCH % 4 == 0 && PATH_BATCH <= PM_LIGHT_LANES &&
+    PATH_BATCH <= 256, "a round's vertices fill whole groups of four "
+    "light lanes, and a byte indexes a path");
 
 struct path_lane {
 	struct pm_path pa;
@@ -603,11 +604,10 @@ diffuse_lanes(const struct pm_render_ctx *ctx, size_t m,
 }
 #endif
 
-static void
-path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
-    size_t n)
-{
-	const struct pm_scene *s = ctx->scene;
+/* A batch's working memory, on the heap (pm_path_li_batch): with
+ * PATH_BATCH paths it is about 220 KB, more than a stack a caller made
+ * small can hold. */
+struct batch_mem {
 	struct path_lane l[PATH_BATCH];
 	struct pm_ray rays[PATH_BATCH], srays[PATH_BATCH];
 	struct pm_hit hits[PATH_BATCH];
@@ -620,13 +620,32 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 	bool hitf[PATH_BATCH], occ[PATH_BATCH];
 	uint8_t idx[PATH_BATCH], sidx[PATH_BATCH];
 	bool done[PATH_BATCH];
+};
+
+static void
+path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
+    size_t n, struct batch_mem *bm)
+{
+	const struct pm_scene *s = ctx->scene;
+	struct path_lane *l = bm->l;
+	struct pm_ray *rays = bm->rays, *srays = bm->srays;
+	struct pm_hit *hits = bm->hits;
+	struct vertex *vx = bm->vx;
+	struct pm_bsdf *bt = bm->bt;
+	float *u2 = bm->u2, *u3 = bm->u3;
+	float *wx = bm->wx, *wy = bm->wy, *wz = bm->wz;
+	struct pm_light_lanes *ll = &bm->ll;
+	struct round_soa *rs = &bm->rs;
+	bool *hitf = bm->hitf, *occ = bm->occ;
+	uint8_t *idx = bm->idx, *sidx = bm->sidx;
+	bool *done = bm->done;
 	size_t i, j, k, m, na = n, ns;
 	int a;
 
 	/* frame_lanes reads a group's loop-1 frames where any of its
 	 * vertices has one: never memory left unset */
-	memset(rs.fs, 0, sizeof(rs.fs));
-	memset(rs.ft, 0, sizeof(rs.ft));
+	memset(rs->fs, 0, sizeof(rs->fs));
+	memset(rs->ft, 0, sizeof(rs->ft));
 	for (i = 0; i < n; i++) {
 		pm_path_start(&l[i].pa, smp[i].o, smp[i].d, smp[i].tmin,
 		    smp[i].tmax);
@@ -681,30 +700,30 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 			v->b = &s->bsdfs[s->shapes[h->shape].bsdf];
 			if (pm_bsdf_textured(v->b))
 				v->b = pm_bsdf_at(s, h, &bt[m]);
-			rs.tan[m] = pm_bsdf_needs_tangent(v->b) ? -1 : 0;
-			if (rs.tan[m]) {
+			rs->tan[m] = pm_bsdf_needs_tangent(v->b) ? -1 : 0;
+			if (rs->tan[m]) {
 				struct pm_frame fr;
 
 				v->b = pm_bsdf_frame_tangent(s, h, q->pa.d, v->b,
 				    &bt[m], &fr);
 				for (a = 0; a < 3; a++) {
-					rs.fs[a][m] = (&fr.s.x)[a];
-					rs.ft[a][m] = (&fr.t.x)[a];
-					rs.fn[a][m] = (&fr.n.x)[a];
+					rs->fs[a][m] = (&fr.s.x)[a];
+					rs->ft[a][m] = (&fr.t.x)[a];
+					rs->fn[a][m] = (&fr.n.x)[a];
 				}
 			} else {
 				for (a = 0; a < 3; a++)
-					rs.fn[a][m] = (&h->ns.x)[a];
+					rs->fn[a][m] = (&h->ns.x)[a];
 			}
 			v->light = -1;
-			ll.want[m] = !pm_bsdf_is_delta(v->b);
-			if (ll.want[m]) {
-				ll.u[0][m] = pm_rng_float(rng);
-				ll.u[1][m] = pm_rng_float(rng);
-				ll.u[2][m] = pm_rng_float(rng);
+			ll->want[m] = !pm_bsdf_is_delta(v->b);
+			if (ll->want[m]) {
+				ll->u[0][m] = pm_rng_float(rng);
+				ll->u[1][m] = pm_rng_float(rng);
+				ll->u[2][m] = pm_rng_float(rng);
 				v->light = (int)m;
 			} else {
-				ll.u[0][m] = ll.u[1][m] = ll.u[2][m] = 0.0f;
+				ll->u[0][m] = ll->u[1][m] = ll->u[2][m] = 0.0f;
 			}
 			v->u1 = pm_rng_float(rng);
 			u2[m] = pm_rng_float(rng);
@@ -712,24 +731,24 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 			v->k = k;
 			/* what diffuse_lanes reads, field by field */
 			for (a = 0; a < 3; a++) {
-				rs.dir[a][m] = (&q->pa.d.x)[a];
-				ll.ref[a][m] = (&h->p.x)[a];
-				rs.ng[a][m] = (&h->ng.x)[a];
+				rs->dir[a][m] = (&q->pa.d.x)[a];
+				ll->ref[a][m] = (&h->p.x)[a];
+				rs->ng[a][m] = (&h->ng.x)[a];
 			}
-			rs.scale[m] = h->scale;
-			rs.beta[0][m] = q->pa.beta.r;
-			rs.beta[1][m] = q->pa.beta.g;
-			rs.beta[2][m] = q->pa.beta.b;
-			rs.eta[m] = q->pa.eta_scale;
-			if (ll.want[m] && pm_bsdf_plain_diffuse(v->b)) {
-				rs.dm[m] = -1;
-				rs.tw[m] = v->b->twosided ? -1 : 0;
-				rs.alb[0][m] = v->b->diffuse.r;
-				rs.alb[1][m] = v->b->diffuse.g;
-				rs.alb[2][m] = v->b->diffuse.b;
+			rs->scale[m] = h->scale;
+			rs->beta[0][m] = q->pa.beta.r;
+			rs->beta[1][m] = q->pa.beta.g;
+			rs->beta[2][m] = q->pa.beta.b;
+			rs->eta[m] = q->pa.eta_scale;
+			if (ll->want[m] && pm_bsdf_plain_diffuse(v->b)) {
+				rs->dm[m] = -1;
+				rs->tw[m] = v->b->twosided ? -1 : 0;
+				rs->alb[0][m] = v->b->diffuse.r;
+				rs->alb[1][m] = v->b->diffuse.g;
+				rs->alb[2][m] = v->b->diffuse.b;
 			} else {
-				rs.dm[m] = rs.tw[m] = 0;
-				rs.alb[0][m] = rs.alb[1][m] = rs.alb[2][m] = 0.0f;
+				rs->dm[m] = rs->tw[m] = 0;
+				rs->alb[0][m] = rs->alb[1][m] = rs->alb[2][m] = 0.0f;
 			}
 			done[m] = false;
 			m++;
@@ -739,21 +758,21 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 		 * to the scalar code for want of three others */
 		for (j = m; j % 4 != 0; j++) {
 			for (a = 0; a < 3; a++) {
-				rs.fn[a][j] = rs.dir[a][j] = 0.0f;
-				rs.ng[a][j] = rs.beta[a][j] = rs.alb[a][j] = 0.0f;
-				ll.ref[a][j] = ll.u[a][j] = 0.0f;
+				rs->fn[a][j] = rs->dir[a][j] = 0.0f;
+				rs->ng[a][j] = rs->beta[a][j] = rs->alb[a][j] = 0.0f;
+				ll->ref[a][j] = ll->u[a][j] = 0.0f;
 			}
-			rs.scale[j] = rs.eta[j] = 0.0f;
-			rs.dm[j] = rs.tw[j] = rs.tan[j] = 0;
-			ll.want[j] = false;
+			rs->scale[j] = rs->eta[j] = 0.0f;
+			rs->dm[j] = rs->tw[j] = rs->tan[j] = 0;
+			ll->want[j] = false;
 			u2[j] = u3[j] = 0.0f;
 		}
-		frame_lanes(&rs, j);
-		pm_lights_sample_n(ctx->lights, s, &ll, j);
+		frame_lanes(rs, j);
+		pm_lights_sample_n(ctx->lights, s, ll, j);
 		pm_square_to_cosine_hemisphere_n(u2, u3, wx, wy, wz, j);
 		/* the plain diffuse vertices in SIMD lanes first */
 		ns = 0;
-		diffuse_lanes(ctx, j, &rs, &ll, vx, l, idx, smp, wx, wy, wz,
+		diffuse_lanes(ctx, j, rs, ll, vx, l, idx, smp, wx, wy, wz,
 		    srays, sidx, &ns, done);
 		for (j = 0; j < m; j++) {
 			const struct vertex *v = &vx[j];
@@ -767,10 +786,10 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 
 			if (done[j])
 				continue;
-			fr.s = pm_v3(rs.fs[0][j], rs.fs[1][j], rs.fs[2][j]);
-			fr.t = pm_v3(rs.ft[0][j], rs.ft[1][j], rs.ft[2][j]);
-			fr.n = pm_v3(rs.fn[0][j], rs.fn[1][j], rs.fn[2][j]);
-			wi = pm_v3(rs.wix[j], rs.wiy[j], rs.wiz[j]);
+			fr.s = pm_v3(rs->fs[0][j], rs->fs[1][j], rs->fs[2][j]);
+			fr.t = pm_v3(rs->ft[0][j], rs->ft[1][j], rs->ft[2][j]);
+			fr.n = pm_v3(rs->fn[0][j], rs->fn[1][j], rs->fn[2][j]);
+			wi = pm_v3(rs->wix[j], rs->wiy[j], rs->wiz[j]);
 			if (v->light >= 0) {
 				struct pm_light_sample lsv;
 				const struct pm_light_sample *ls = &lsv;
@@ -778,8 +797,8 @@ path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 				struct pm_rgb f, c = pm_rgb1(0.0f);
 				bool pending = false;
 
-				pm_light_lanes_get(&ll, (size_t)v->light, &lsv);
-				if (ll.ok[v->light] && light_eval(v->b, fr, wi, ls,
+				pm_light_lanes_get(ll, (size_t)v->light, &lsv);
+				if (ll->ok[v->light] && light_eval(v->b, fr, wi, ls,
 				    &wo_local, &f)) {
 					c = light_weighted(v->b, wi, wo_local,
 					    ls, f);
@@ -819,6 +838,7 @@ void
 pm_path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
     size_t n)
 {
+	struct batch_mem *bm;
 	size_t i, m;
 
 	if (ctx->scene->nmedia > 0) {
@@ -828,10 +848,19 @@ pm_path_li_batch(const struct pm_render_ctx *ctx, struct pm_path_sample *smp,
 			    smp[i].tmin, smp[i].tmax, &smp[i].rng);
 		return;
 	}
+	/* Without memory for a batch, one path at a time: the same
+	 * results, only slower. */
+	if ((bm = malloc(sizeof(*bm))) == NULL) {
+		for (i = 0; i < n; i++)
+			smp[i].L = pm_path_li(ctx, smp[i].o, smp[i].d,
+			    smp[i].tmin, smp[i].tmax, &smp[i].rng);
+		return;
+	}
 	for (i = 0; i < n; i += m) {
 		m = n - i < PATH_BATCH ? n - i : PATH_BATCH;
-		path_li_batch(ctx, smp + i, m);
+		path_li_batch(ctx, smp + i, m, bm);
 	}
+	free(bm);
 }
 
 void

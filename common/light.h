@@ -154,7 +154,7 @@ void pm_lights_free(struct pm_lights *ls);
 bool pm_lights_sample(const struct pm_lights *ls, const struct pm_scene *s,
     struct pm_vec3 ref, float u0, float u1, float u2, struct pm_light_sample *ls_out);
 /* The most points pm_lights_sample_n takes at once. */
-#define PM_LIGHT_LANES 64
+#define PM_LIGHT_LANES 256
 
 /*
  * pm_lights_sample_n's input and results field by field (structure of

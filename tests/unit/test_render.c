@@ -376,7 +376,8 @@ test_mesh_furnaces(void **state)
 
 /* pm_path_li_batch against pm_path_li on the same rays and random
  * numbers, with packets (triangles) and without (spheres), any depth,
- * emitters shown or hidden, batches of every size up to 70; with the
+ * emitters shown or hidden, batches of sizes from 1 to 300 (more than
+ * one round of PATH_BATCH = 256 paths at the end); with the
  * inner cube seen from behind, one-sided and twosided, for the diffuse
  * SIMD lanes' flip (variants 6 to 9); and a cube under the sky, whose
  * shadow rays have no end, and under a rectangle light, which
@@ -389,7 +390,7 @@ test_path_batch_equals_single(void **state)
 	(void)state;
 	for (variant = 0; variant < 14; variant++) {
 		struct furnace f;
-		struct pm_path_sample smp[70];
+		struct pm_path_sample smp[300];
 		struct pm_rng r = pm_rng_seed(5, (uint64_t)variant, 0);
 		int max_depth = variant % 3 == 0 ? -1 : variant % 3 == 1 ? 3 : 1;
 		size_t n, i, lit = 0;
@@ -406,7 +407,7 @@ test_path_batch_equals_single(void **state)
 		else
 			furnace_build(&f, 0.5f, 0.7f, max_depth);
 		f.ctx.hide_emitters = variant % 2 == 1;
-		for (n = 1; n <= 70; n += 23) {
+		for (n = 1; n <= 300; n += 23) {
 			for (i = 0; i < n; i++) {
 				struct pm_rng rc;
 
@@ -423,7 +424,7 @@ test_path_batch_equals_single(void **state)
 				    0.0f, INFINITY, &rc);
 			}
 			{
-				struct pm_rgb want[70];
+				struct pm_rgb want[300];
 
 				for (i = 0; i < n; i++) {
 					want[i] = smp[i].L;
