@@ -712,9 +712,9 @@ emit(const struct pm_shooter *sh, enum pm_map_pass pass, struct pm_rng *rng,
 	    o, d, flux, medium);
 }
 
-/* Bounces a path's diffuse directions are warped ahead for (emit_batch):
- * in the Cornell box two cover 1.25 of the 1.85 bounces a path (its
- * photons of depth 0 and 1, of all depths). */
+/* Bounces a path's diffuse directions are warped ahead for (emit_batch,
+ * paths traced one at a time): in the Cornell box two cover 1.25 of the
+ * 1.85 bounces a path (its photons of depth 0 and 1, of all depths). */
 #define PRE_BOUNCES 2
 
 /* A photon path's start: its random numbers' state after the emission,
@@ -1321,8 +1321,8 @@ tag_photon(uint8_t **tag, size_t *tag_cap, size_t i, uint8_t path)
 
 /* Bounce k of the round's diffuse ones: what diffuse_lanes reads, and
  * its random numbers drawn in bounce's order (the photon's dither, u1,
- * which a diffuse sample does not use, u2 and u3, which diffuse_warp
- * turns into the direction). */
+ * which a diffuse sample does not use, then u2 and u3, which
+ * trace_paths warps into the direction with the round's others). */
 static void
 diffuse_take(struct diffuse_round *r, int k, const struct pm_scene *s,
     const struct pm_hit *h, struct photon_state *st, uint8_t path)
