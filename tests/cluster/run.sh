@@ -203,17 +203,29 @@ check "...which all complete" waitjobs $(ids "$tmp/g3.jobs")
 check "...into the same map and images" same_files "$tmp/g" "$tmp/c" $FILES
 
 # A shard task cancelled while it runs: no shard, no temporary, a word in
-# its log.
-check "submit one big shard" status 0 sh $submit --shards 1 --photons 4000000 --spp 2 \
+# its log.  The cancel goes out as soon as a pm-shoot process is running
+# (its output is an unnamed O_TMPFILE until done, so there is no file to
+# wait for), and the shard is big enough (16M paths, some 3 s on two of
+# today's cores) that the shoot cannot end first on a faster machine.  A
+# fixed wait (1 s after the start, as this test had) stopped holding once
+# pm-shoot shot 4M paths in 0.8 s.
+# shooting: whether a pm-shoot process runs on this (the only) node
+shooting() {
+	for _c in /proc/[0-9]*/comm; do
+		read -r _n <"$_c" 2>/dev/null && [ "$_n" = pm-shoot ] && return 0
+	done
+	return 1
+}
+check "submit one big shard" status 0 sh $submit --shards 1 --photons 16000000 --spp 2 \
     --size 32x32 --cameras "$tmp/cams" -o "$tmp/k" $scene
 sj=$(awk '$1 == "shoot" { print $2 }' "$tmp/out")
 i=0
-while ! grep -q '+ pm-shoot' "$tmp/k/logs/shoot-${sj}_1.out" 2>/dev/null && [ $i -lt 40 ]; do
-	sleep 0.25
+while ! shooting && [ $i -lt 400 ]; do
+	sleep 0.05
 	i=$((i + 1))
 done
-sleep 1
 scancel "$sj"
+check "...while pm-shoot runs" test $i -lt 400
 check "...cancelled while shooting" waitjobs $(ids "$tmp/out")
 check "...its log says so" grep -q 'shoot: cancelled, shards/shard-001.pmap not written' \
     "$tmp/k/logs/shoot-${sj}_1.out"
