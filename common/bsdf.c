@@ -333,11 +333,10 @@ md_visible(const struct pm_bsdf *b)
 
 /* ---- per type ---- */
 
-static struct pm_rgb
-plastic_diffuse(const struct pm_bsdf *b, float fi, float fo)
+struct pm_rgb
+pm_plastic_base(const struct pm_bsdf *b)
 {
 	struct pm_rgb d = b->diffuse;
-	float s = (1.0f - fi) * (1.0f - fo) / (b->ior * b->ior);
 
 	/* internal bounces between coating and base: a geometric series */
 	if (b->nonlinear) {
@@ -346,7 +345,15 @@ plastic_diffuse(const struct pm_bsdf *b, float fi, float fo)
 		d.b /= 1.0f - d.b * b->fdr_int;
 	} else
 		d = pm_rgb_scale(d, 1.0f / (1.0f - b->fdr_int));
-	return pm_rgb_scale(d, s);
+	return d;
+}
+
+static struct pm_rgb
+plastic_diffuse(const struct pm_bsdf *b, float fi, float fo)
+{
+	float s = (1.0f - fi) * (1.0f - fo) / (b->ior * b->ior);
+
+	return pm_rgb_scale(pm_plastic_base(b), s);
 }
 
 /* Probability that plastic's sampler picks the specular coating. */

@@ -317,6 +317,10 @@ static inline bool pm_bsdf_passes_photons(const struct pm_bsdf *b)
  * (inside); returns R and, in *cos_t, the signed cosine of the refracted
  * direction (0 at total internal reflection). */
 float pm_fresnel_dielectric(float cos_i, float eta, float *cos_t);
+/* Plastic's diffuse base after the light's bounces between coating and
+ * base (a geometric series): its diffuse lobe is this times (1 - Fi)
+ * (1 - Fo) / eta^2 (pm-shoot's lanes take it from here, to the bit). */
+struct pm_rgb pm_plastic_base(const struct pm_bsdf *b);
 /* Fresnel reflectance of a conductor with complex IOR eta + i k, per channel. */
 struct pm_rgb pm_fresnel_conductor(float cos_i, struct pm_rgb eta, struct pm_rgb k);
 

@@ -72,6 +72,31 @@ pm_frame4(__m128 nx, __m128 ny, __m128 nz, __m128 s[3], __m128 t[3])
 	t[2] = _mm_xor_ps(ny, sign);
 }
 
+/* pm_fresnel_dielectric(cos_i, eta, NULL) lane by lane, its operations
+ * in its order (bsdf.c) */
+static inline __m128
+pm_fresnel4(__m128 cos_i, __m128 eta)
+{
+	const __m128 one = _mm_set1_ps(1.0f), zero = _mm_setzero_ps();
+	__m128 eta_it = pm_sel4(_mm_cmpge_ps(cos_i, zero), eta,
+	    _mm_div_ps(one, eta));
+	__m128 eta_ti = _mm_div_ps(one, eta_it);
+	__m128 ci = _mm_andnot_ps(_mm_set1_ps(-0.0f), cos_i);
+	__m128 ct2 = _mm_sub_ps(one, _mm_mul_ps(_mm_mul_ps(_mm_sub_ps(one,
+	    _mm_mul_ps(ci, ci)), eta_ti), eta_ti));
+	__m128 ct = _mm_sqrt_ps(pm_max4(ct2, zero));
+	__m128 ec = _mm_mul_ps(eta_it, ct), ei = _mm_mul_ps(eta_it, ci);
+	__m128 as = _mm_div_ps(_mm_sub_ps(ci, ec), _mm_add_ps(ci, ec));
+	__m128 ap = _mm_div_ps(_mm_sub_ps(ct, ei), _mm_add_ps(ct, ei));
+	__m128 r = _mm_mul_ps(_mm_set1_ps(0.5f), _mm_add_ps(_mm_mul_ps(as, as),
+	    _mm_mul_ps(ap, ap)));
+	__m128 matched = _mm_cmpeq_ps(eta, one);
+
+	/* index matched: nothing reflects; grazing: everything does */
+	return pm_sel4(_mm_or_ps(matched, _mm_cmpeq_ps(ci, zero)),
+	    _mm_andnot_ps(matched, one), r);
+}
+
 /* pm_offset_origin_scaled's distance for hit points p with scale */
 static inline __m128
 pm_offset_eps4(const __m128 p[3], __m128 scale)

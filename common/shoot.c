@@ -1177,45 +1177,62 @@ trace_path(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
  * direction and normal, whether the BSDF's sample succeeds, and the
  * path's next flux, direction and origin.
  */
-#define DIFFUSE_LANES 256
+/*
+ * A round's bounces in lanes: at plain diffuse surfaces from lane 0 up,
+ * at smooth plastic ones (a diffuse base under a dielectric coating) from
+ * the last lane down, each side in whole groups of four: room for a
+ * round's paths and the padding of both sides.
+ */
+#define DIFFUSE_LANES 264
+/* the lane of the round's plastic bounce c */
+#define COAT_LANE(c) (DIFFUSE_LANES - 1 - (c))
 
 struct diffuse_round {
 	float p[3][DIFFUSE_LANES], ng[3][DIFFUSE_LANES], ns[3][DIFFUSE_LANES];
 	float d[3][DIFFUSE_LANES], flux[3][DIFFUSE_LANES];
+	/* the diffuse albedo, or plastic's base (pm_plastic_base) */
 	float alb[3][DIFFUSE_LANES], v[3][DIFFUSE_LANES];
 	float u2[DIFFUSE_LANES], u3[DIFFUSE_LANES];	/* v, unwarped */
 	float dither[DIFFUSE_LANES], scale[DIFFUSE_LANES];
+	/* plastic's: the lobe's number, the coating's specular reflectance,
+	 * its index and its sampling weight */
+	float u1[DIFFUSE_LANES], spec[3][DIFFUSE_LANES];
+	float ior[DIFFUSE_LANES], ssw[DIFFUSE_LANES];
 	int32_t tw[DIFFUSE_LANES];
 	uint8_t path[DIFFUSE_LANES];
-	/* results */
+	/* results; coat_spec: plastic's coating sampled, not its base */
 	int32_t power[4][DIFFUSE_LANES], dir[2][DIFFUSE_LANES];
 	int32_t normal[2][DIFFUSE_LANES], ok[DIFFUSE_LANES];
+	int32_t coat_spec[DIFFUSE_LANES];
 	float nflux[3][DIFFUSE_LANES], nd[3][DIFFUSE_LANES];
 	float no[3][DIFFUSE_LANES], q[DIFFUSE_LANES];
 };
 
 #if PM_LANES
 /*
- * diffuse_lanes: bounce's arithmetic at a plain diffuse surface, four
- * bounces at a time in SSE lanes, its operations in its order (IEEE
- * division and square root are exact in SIMD as in scalar code,
- * -ffp-contract=off fuses nothing): the frame, the photon's packing
- * (pm_rgbe_pack, pm_dir_pack), the BSDF's sample, the roulette's
- * probability, the next flux, direction and origin.  m is a multiple of
- * 4, the lanes past the round's bounces set but unused.
+ * surface_lanes: bounce's arithmetic at a plain diffuse surface, or with
+ * coat at a smooth plastic one (sample_plastic's), four bounces at a time
+ * in SSE lanes, its operations in its order (IEEE division and square
+ * root are exact in SIMD as in scalar code, -ffp-contract=off fuses
+ * nothing): the frame, the photon's packing (pm_rgbe_pack, pm_dir_pack),
+ * the BSDF's sample, the roulette's probability, the next flux, direction
+ * and origin.  Lanes j0 .. j1 - 1, in whole groups of four, those past
+ * the round's bounces set but unused.  coat is a constant where this is
+ * inlined (diffuse_lanes, coat_lanes): diffuse bounces pay nothing for
+ * plastic's.
  */
-static void
-diffuse_lanes(struct diffuse_round *r, size_t m)
+static inline __attribute__((always_inline)) void
+surface_lanes(struct diffuse_round *r, size_t j0, size_t j1, bool coat)
 {
 	const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f);
 	const __m128 sign = _mm_set1_ps(-0.0f), inv_pi = _mm_set1_ps(PM_INV_PI);
 	size_t j;
 	int c;
 
-	for (j = 0; j < m; j += 4) {
+	for (j = j0; j < j1; j += 4) {
 		__m128 p[3], g[3], n[3], d[3], f[3], a[3], v[3], s[3], t[3];
-		__m128 wiz, flip, pdf, ok, q, iq, w[3], dd, l, keep;
-		__m128 gd, o[3];
+		__m128 wi[3], wt[3], wiz, flip, pdf, ok, q, iq, w[3], dd, l;
+		__m128 keep, gd, o[3];
 
 		for (c = 0; c < 3; c++) {
 			p[c] = _mm_loadu_ps(r->p[c] + j);
@@ -1225,13 +1242,13 @@ diffuse_lanes(struct diffuse_round *r, size_t m)
 			f[c] = _mm_loadu_ps(r->flux[c] + j);
 			a[c] = _mm_loadu_ps(r->alb[c] + j);
 			v[c] = _mm_loadu_ps(r->v[c] + j);
+			wi[c] = _mm_xor_ps(d[c], sign);
 		}
 		/* the photon: pm_rgbe_pack(flux, dither), pm_dir_pack */
 		pm_rgbe_pack4(f[0], f[1], f[2], _mm_loadu_ps(r->dither + j),
 		    r->power[0] + j, r->power[1] + j, r->power[2] + j,
 		    r->power[3] + j);
-		pm_dir_pack4(_mm_xor_ps(d[0], sign), _mm_xor_ps(d[1], sign),
-		    _mm_xor_ps(d[2], sign), r->dir[0] + j, r->dir[1] + j);
+		pm_dir_pack4(wi[0], wi[1], wi[2], r->dir[0] + j, r->dir[1] + j);
 		gd = _mm_cmplt_ps(pm_dot4(g[0], g[1], g[2], d[0], d[1], d[2]),
 		    zero);
 		pm_dir_pack4(pm_sel4(gd, n[0], _mm_xor_ps(n[0], sign)),
@@ -1240,24 +1257,64 @@ diffuse_lanes(struct diffuse_round *r, size_t m)
 		    r->normal[0] + j, r->normal[1] + j);
 		/* pm_frame_from_normal(ns) and wi's z in it */
 		pm_frame4(n[0], n[1], n[2], s, t);
-		wiz = pm_dot4(_mm_xor_ps(d[0], sign), _mm_xor_ps(d[1], sign),
-		    _mm_xor_ps(d[2], sign), n[0], n[1], n[2]);
-		/* the BSDF's sample (pm_bsdf_sample_v, plain diffuse) */
+		wiz = pm_dot4(wi[0], wi[1], wi[2], n[0], n[1], n[2]);
+		/* the BSDF's sample (pm_bsdf_sample_v), twosided's flip */
 		flip = _mm_and_ps(pm_mask4(r->tw + j), _mm_cmplt_ps(wiz, zero));
 		wiz = _mm_xor_ps(wiz, _mm_and_ps(flip, sign));
 		pdf = _mm_and_ps(_mm_cmpgt_ps(v[2], zero), _mm_mul_ps(v[2],
 		    inv_pi));
-		ok = _mm_andnot_ps(_mm_cmple_ps(wiz, zero), _mm_cmpgt_ps(pdf,
-		    zero));
+		if (!coat) {
+			/* plain diffuse: v, weighted by the albedo */
+			ok = _mm_cmpgt_ps(pdf, zero);
+			for (c = 0; c < 3; c++)
+				wt[c] = a[c];
+		} else {
+			/* sample_plastic: the coating with probability ps
+			 * (plastic_prob_specular), its mirror direction
+			 * weighted by specular Fi / ps; else the base's v,
+			 * by plastic_diffuse / (1 - ps) */
+			__m128 eta = _mm_loadu_ps(r->ior + j);
+			__m128 ssw = _mm_loadu_ps(r->ssw + j);
+			__m128 fi = pm_fresnel4(wiz, eta), fo, ps, pd, den, spec;
+			__m128 sf, ipd, fis, wix, wiy;
+
+			ps = _mm_mul_ps(fi, ssw);
+			den = _mm_add_ps(ps, _mm_mul_ps(_mm_sub_ps(one, fi),
+			    _mm_sub_ps(one, ssw)));
+			ps = pm_sel4(_mm_cmpgt_ps(den, zero), _mm_div_ps(ps, den),
+			    fi);
+			pd = _mm_sub_ps(one, ps);
+			spec = _mm_cmplt_ps(_mm_loadu_ps(r->u1 + j), ps);
+			pdf = _mm_mul_ps(pd, pdf);
+			fo = pm_fresnel4(v[2], eta);
+			sf = _mm_div_ps(_mm_mul_ps(_mm_sub_ps(one, fi),
+			    _mm_sub_ps(one, fo)), _mm_mul_ps(eta, eta));
+			ipd = _mm_div_ps(one, pd);
+			fis = _mm_div_ps(fi, ps);
+			for (c = 0; c < 3; c++)
+				wt[c] = pm_sel4(spec, _mm_mul_ps(_mm_loadu_ps(
+				    r->spec[c] + j), fis), _mm_mul_ps(_mm_mul_ps(
+				    a[c], sf), ipd));
+			ok = _mm_or_ps(spec, _mm_cmpgt_ps(pdf, zero));
+			/* reflect_z(wi) where the coating was sampled */
+			wix = pm_dot4(wi[0], wi[1], wi[2], s[0], s[1], s[2]);
+			wiy = pm_dot4(wi[0], wi[1], wi[2], t[0], t[1], t[2]);
+			v[0] = pm_sel4(spec, _mm_xor_ps(wix, sign), v[0]);
+			v[1] = pm_sel4(spec, _mm_xor_ps(wiy, sign), v[1]);
+			v[2] = pm_sel4(spec, wiz, v[2]);
+			_mm_storeu_si128((__m128i *)(r->coat_spec + j),
+			    _mm_castps_si128(spec));
+		}
+		ok = _mm_andnot_ps(_mm_cmple_ps(wiz, zero), ok);
 		_mm_storeu_si128((__m128i *)(r->ok + j), _mm_castps_si128(ok));
 		v[2] = _mm_xor_ps(v[2], _mm_and_ps(flip, sign));
 		/* the roulette's probability and the next flux */
-		q = pm_min4(pm_max4(a[0], pm_max4(a[1], a[2])), one);
+		q = pm_min4(pm_max4(wt[0], pm_max4(wt[1], wt[2])), one);
 		_mm_storeu_ps(r->q + j, q);
 		iq = _mm_div_ps(one, q);
 		for (c = 0; c < 3; c++)
 			_mm_storeu_ps(r->nflux[c] + j, _mm_mul_ps(_mm_mul_ps(f[c],
-			    a[c]), iq));
+			    wt[c]), iq));
 		/* pm_normalize(pm_to_world(frame, wo)) */
 		for (c = 0; c < 3; c++)
 			w[c] = _mm_add_ps(_mm_add_ps(_mm_mul_ps(s[c], v[0]),
@@ -1277,6 +1334,18 @@ diffuse_lanes(struct diffuse_round *r, size_t m)
 			_mm_storeu_ps(r->no[c] + j, o[c]);
 	}
 }
+
+static void
+diffuse_lanes(struct diffuse_round *r, size_t j0, size_t j1)
+{
+	surface_lanes(r, j0, j1, false);
+}
+
+static void
+coat_lanes(struct diffuse_round *r, size_t j0, size_t j1)
+{
+	surface_lanes(r, j0, j1, true);
+}
 #endif
 
 /* A photon path's bounce at the diffuse surface h as diffuse_lanes can
@@ -1292,6 +1361,23 @@ diffuse_bounce(const struct pm_scene *s, const struct pm_shoot_opts *opts,
 	    st->depth < max_depth && pm_bsdf_plain_diffuse(b) &&
 	    !pm_bsdf_textured(b) && !pm_bsdf_needs_tangent(b) &&
 	    bsdf_has_nonspecular(b) && !bsdf_has_specular(b) &&
+	    pm_rgb_is_finite(st->flux);
+}
+
+/* A photon path's bounce at the smooth plastic surface h as coat_lanes
+ * can take it (bounce's result the same): the global pass, an untextured
+ * isotropic plastic with both its lobes, a finite flux, bounces left.
+ * Without lanes (PM_LANES 0), bounce takes them all. */
+static inline bool
+coat_bounce(const struct pm_scene *s, const struct pm_shoot_opts *opts,
+    const struct pm_hit *h, const struct photon_state *st, int max_depth)
+{
+	const struct pm_bsdf *b = &s->bsdfs[s->shapes[h->shape].bsdf];
+
+	return PM_LANES && opts->pass == PM_PASS_GLOBAL &&
+	    st->depth < max_depth && b->type == PM_BSDF_PLASTIC &&
+	    !b->perturbed && b->only == 0 && !pm_bsdf_textured(b) &&
+	    !pm_bsdf_needs_tangent(b) && bsdf_has_nonspecular(b) &&
 	    pm_rgb_is_finite(st->flux);
 }
 
@@ -1319,19 +1405,23 @@ tag_photon(uint8_t **tag, size_t *tag_cap, size_t i, uint8_t path)
 	return true;
 }
 
-/* Bounce k of the round's diffuse ones: what diffuse_lanes reads, and
- * its random numbers drawn in bounce's order (the photon's dither, u1,
- * which a diffuse sample does not use, then u2 and u3, which
- * trace_paths warps into the direction with the round's others). */
-static void
-diffuse_take(struct diffuse_round *r, int k, const struct pm_scene *s,
-    const struct pm_hit *h, struct photon_state *st, uint8_t path)
+/* Bounce k of the round's diffuse ones (coat: plastic ones): what
+ * surface_lanes reads, and its random numbers drawn in bounce's order
+ * (the photon's dither, u1, which only plastic uses, then u2 and u3,
+ * which trace_paths warps into the direction with the round's others). */
+static inline __attribute__((always_inline)) void
+lane_take(struct diffuse_round *r, int k, const struct pm_scene *s,
+    const struct pm_hit *h, struct photon_state *st, uint8_t path, bool coat)
 {
 	const struct pm_bsdf *b = &s->bsdfs[s->shapes[h->shape].bsdf];
+	struct pm_rgb alb = coat ? pm_plastic_base(b) : b->diffuse;
 	int c;
 
 	r->dither[k] = pm_rng_float(&st->rng);
-	(void)pm_rng_float(&st->rng);		/* u1 */
+	if (coat)
+		r->u1[k] = pm_rng_float(&st->rng);
+	else
+		(void)pm_rng_float(&st->rng);
 	r->u2[k] = pm_rng_float(&st->rng);
 	r->u3[k] = pm_rng_float(&st->rng);
 	for (c = 0; c < 3; c++) {
@@ -1343,39 +1433,50 @@ diffuse_take(struct diffuse_round *r, int k, const struct pm_scene *s,
 	r->flux[0][k] = st->flux.r;
 	r->flux[1][k] = st->flux.g;
 	r->flux[2][k] = st->flux.b;
-	r->alb[0][k] = b->diffuse.r;
-	r->alb[1][k] = b->diffuse.g;
-	r->alb[2][k] = b->diffuse.b;
+	r->alb[0][k] = alb.r;
+	r->alb[1][k] = alb.g;
+	r->alb[2][k] = alb.b;
+	if (coat) {
+		r->spec[0][k] = b->specular.r;
+		r->spec[1][k] = b->specular.g;
+		r->spec[2][k] = b->specular.b;
+		r->ior[k] = b->ior;
+		r->ssw[k] = b->specular_sampling_weight;
+	}
 	r->scale[k] = h->scale;
 	r->tw[k] = b->twosided ? -1 : 0;
 	r->path[k] = path;
 }
 
-/* Lanes nd.. up to a multiple of 4 set, so that they compute on numbers */
+/* Lanes k0 .. k1 - 1, past a side's bounces up to its group of four, set
+ * so that they compute on numbers */
 static void
-diffuse_pad(struct diffuse_round *r, int nd)
+lane_pad(struct diffuse_round *r, int k0, int k1)
 {
 	int k, c;
 
-	for (k = nd; k % 4 != 0; k++) {
+	for (k = k0; k < k1; k++) {
 		for (c = 0; c < 3; c++) {
 			r->p[c][k] = r->ng[c][k] = r->d[c][k] = 0.0f;
-			r->flux[c][k] = r->alb[c][k] = 0.0f;
+			r->flux[c][k] = r->alb[c][k] = r->spec[c][k] = 0.0f;
 			r->ns[c][k] = c == 2 ? 1.0f : 0.0f;
 		}
 		r->dither[k] = r->scale[k] = r->u2[k] = r->u3[k] = 0.0f;
+		r->u1[k] = r->ssw[k] = 0.0f;
+		r->ior[k] = 1.5f;
 		r->tw[k] = 0;
 	}
 }
 
 #if !PM_LANES
-/* diffuse_lanes where the compiler has no SSE2: bounce's own calls */
+/* diffuse_lanes where the compiler has no SSE2: bounce's own calls
+ * (coat_bounce takes no bounce there) */
 static void
-diffuse_lanes(struct diffuse_round *r, size_t m)
+diffuse_lanes(struct diffuse_round *r, size_t j0, size_t j1)
 {
 	size_t k;
 
-	for (k = 0; k < m; k++) {
+	for (k = j0; k < j1; k++) {
 		struct pm_vec3 p = pm_v3(r->p[0][k], r->p[1][k], r->p[2][k]);
 		struct pm_vec3 ng = pm_v3(r->ng[0][k], r->ng[1][k], r->ng[2][k]);
 		struct pm_vec3 ns = pm_v3(r->ns[0][k], r->ns[1][k], r->ns[2][k]);
@@ -1427,10 +1528,10 @@ diffuse_lanes(struct diffuse_round *r, size_t m)
 
 /* Bounce k's photon into out, and its path moved on if the sample and
  * the roulette let it: bounce's result for it (1 on, 0 ended, -1 out of
- * memory). */
-static int
-diffuse_give(const struct diffuse_round *r, int k, struct photon_state *st,
-    struct pm_photon_buf *out)
+ * memory).  coat: a plastic bounce. */
+static inline __attribute__((always_inline)) int
+lane_give(const struct diffuse_round *r, int k, struct photon_state *st,
+    struct pm_photon_buf *out, bool coat)
 {
 	struct pm_photon *ph = buf_slot(out);
 	float q;
@@ -1457,8 +1558,11 @@ diffuse_give(const struct diffuse_round *r, int k, struct photon_state *st,
 	if (!(q > 0.0f) || pm_rng_float(&st->rng) >= q)
 		return 0;
 	st->flux = pm_rgb(r->nflux[0][k], r->nflux[1][k], r->nflux[2][k]);
-	st->specular_only = false;
-	st->via_diffuse = true;
+	if (!coat || !r->coat_spec[k]) {
+		/* a diffuse lobe, not plastic's coating */
+		st->specular_only = false;
+		st->via_diffuse = true;
+	}
 	st->d = pm_v3(r->nd[0][k], r->nd[1][k], r->nd[2][k]);
 	st->o = pm_v3(r->no[0][k], r->no[1][k], r->no[2][k]);
 	st->depth++;
@@ -1471,7 +1575,8 @@ diffuse_give(const struct diffuse_round *r, int k, struct photon_state *st,
  * cast as Embree packets (pm_accel_intersect_n), the bounces at plain
  * diffuse surfaces four at a time (diffuse_lanes, 1.05-1.14x more; their
  * directions warped together, not guessed ahead at the emission, another
- * 1.03-1.07x, stop 35), the others as trace_path's.  Their photons go to
+ * 1.03-1.07x, stop 35), those at smooth plastic ones too (coat_lanes:
+ * data/bunny.xml 1.01-1.03x, stop 36), the others as trace_path's.  Their photons go to
  * rd->tmp tagged with their path (rd->tag) and are put back in path order
  * at the end, so the chunk's photons are trace_path's, in its order, to
  * the bit.  The packets cast a round's rays 1.23x faster than one at a
@@ -1484,9 +1589,10 @@ diffuse_give(const struct diffuse_round *r, int k, struct photon_state *st,
  * (cornell-box 1.04-1.06x, bunny 1.02-1.03x, stop 35).
  */
 #define PHOTON_LANES 256
-_Static_assert(PHOTON_LANES % 4 == 0 && PHOTON_LANES <= DIFFUSE_LANES &&
-    PHOTON_LANES <= 256, "a round's diffuse bounces fill whole groups of "
-    "four lanes, and a byte tags a photon with its path");
+_Static_assert(PHOTON_LANES % 4 == 0 && DIFFUSE_LANES % 4 == 0 &&
+    PHOTON_LANES + 6 <= DIFFUSE_LANES && PHOTON_LANES <= 256, "a round's "
+    "diffuse and plastic bounces fill whole groups of four lanes from "
+    "either end, and a byte tags a photon with its path");
 
 /* A thread's working memory for trace_paths, on the heap: a round's
  * paths, rays, hits and diffuse lanes are about 120 KB, more than a
@@ -1521,7 +1627,7 @@ trace_paths(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 	bool *hitf = rd->hitf;
 	uint8_t *idx = rd->idx;
 	size_t cnt[PHOTON_LANES + 1], i;
-	int max_depth = path_max_depth(opts), k, na, m, b, nd, c;
+	int max_depth = path_max_depth(opts), k, na, m, b, nd, nc, c, j, j2;
 
 	for (b = 0; b < n; b += EMIT_LANES)
 		emit_batch(sh, opts, first + (uint64_t)b,
@@ -1542,14 +1648,22 @@ trace_paths(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 			rays[k].tmax = INFINITY;
 		}
 		pm_accel_intersect_n(sh->accel, rays, (size_t)na, hits, hitf);
-		for (k = m = nd = 0; k < na; k++) {
+		for (k = m = nd = nc = 0; k < na; k++) {
 			struct photon_state *p = &st[idx[k]];
 			size_t before = tmp->n;
 			int r;
 
 			if (hitf[k] && diffuse_bounce(s, opts, &hits[k], p,
 			    max_depth)) {
-				diffuse_take(dr, nd++, s, &hits[k], p, idx[k]);
+				lane_take(dr, nd++, s, &hits[k], p, idx[k], false);
+				continue;
+			}
+			if (hitf[k] && coat_bounce(s, opts, &hits[k], p,
+			    max_depth)) {
+				if (p->depth == 0)
+					co->paths_specular++;	/* as bounce */
+				lane_take(dr, COAT_LANE(nc++), s, &hits[k], p,
+				    idx[k], true);
 				continue;
 			}
 			r = hitf[k] ? bounce(sh, opts, &ps[idx[k]], max_depth,
@@ -1562,23 +1676,48 @@ trace_paths(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 			if (r > 0)
 				idx[m++] = idx[k];
 		}
+		/*
+		 * The round's directions warped together: a bounce's warp
+		 * alone is one long chain of dependent arithmetic
+		 * (emit_batch), side by side in SIMD a short one.  The
+		 * diffuse bounces in lanes [0, j), plastic ones in [j2,
+		 * DIFFUSE_LANES).
+		 */
+		j = (nd + 3) / 4 * 4;
+		j2 = DIFFUSE_LANES - (nc + 3) / 4 * 4;
 		if (nd > 0) {
-			diffuse_pad(dr, nd);
-			/* The round's directions warped together: a bounce's
-			 * warp alone is one long chain of dependent arithmetic
-			 * (emit_batch), side by side in SIMD a short one. */
+			lane_pad(dr, nd, j);
 			pm_square_to_cosine_hemisphere_n(dr->u2, dr->u3, dr->v[0],
-			    dr->v[1], dr->v[2], (size_t)(nd + 3) / 4 * 4);
-			diffuse_lanes(dr, (size_t)(nd + 3) / 4 * 4);
-			for (c = 0; c < nd; c++) {
-				int r = diffuse_give(dr, c, &st[dr->path[c]], tmp);
+			    dr->v[1], dr->v[2], (size_t)j);
+			diffuse_lanes(dr, 0, (size_t)j);
+		}
+#if PM_LANES
+		if (nc > 0) {
+			lane_pad(dr, j2, COAT_LANE(nc) + 1);
+			pm_square_to_cosine_hemisphere_n(dr->u2 + j2, dr->u3 + j2,
+			    dr->v[0] + j2, dr->v[1] + j2, dr->v[2] + j2,
+			    (size_t)(DIFFUSE_LANES - j2));
+			coat_lanes(dr, (size_t)j2, DIFFUSE_LANES);
+		}
+#endif
+		for (c = 0; c < nd; c++) {
+			int r = lane_give(dr, c, &st[dr->path[c]], tmp, false);
 
-				if (r < 0 || !tag_photon(tag, tag_cap, tmp->n - 1,
-				    dr->path[c]))
-					return false;
-				if (r > 0)
-					idx[m++] = dr->path[c];
-			}
+			if (r < 0 || !tag_photon(tag, tag_cap, tmp->n - 1,
+			    dr->path[c]))
+				return false;
+			if (r > 0)
+				idx[m++] = dr->path[c];
+		}
+		for (c = 0; c < nc; c++) {
+			int l = COAT_LANE(c);
+			int r = lane_give(dr, l, &st[dr->path[l]], tmp, true);
+
+			if (r < 0 || !tag_photon(tag, tag_cap, tmp->n - 1,
+			    dr->path[l]))
+				return false;
+			if (r > 0)
+				idx[m++] = dr->path[l];
 		}
 		na = m;
 	}

@@ -4,7 +4,9 @@
  * fluxes over forty binades, with dithers that push the maximum up to 256
  * (the exponent's carry), zeros, values below the cut-off, and NaN;
  * pm_dir_pack4 against pm_dir_pack on random directions of every octant,
- * the axes, the zero vector and unnormalised ones.  Where the compiler
+ * the axes, the zero vector and unnormalised ones; pm_fresnel4 against
+ * pm_fresnel_dielectric on cosines of both signs and indices of
+ * refraction on either side of one, and one.  Where the compiler
  * has no SSE2 (PM_LANES 0) there are no lanes to test.
  */
 #include <math.h>
@@ -16,6 +18,7 @@
 
 #include <cmocka.h>
 
+#include "../../common/bsdf.h"
 #include "../../common/lanes.h"
 #include "../../common/photon.h"
 #include "../../common/rng.h"
@@ -118,7 +121,49 @@ test_dir_pack4(void **state)
 		}
 	}
 }
+
+/* pm_fresnel4 against pm_fresnel_dielectric, bit for bit: cosines of
+ * both signs, zero (grazing), one and near one; indices of refraction
+ * below and above one, and one itself (index matched). */
+static void
+test_fresnel4(void **state)
+{
+	static const float etas[] = { 1.5f, 1.33f, 1.0f, 0.75f, 2.4f,
+	    1.000277f };
+	struct pm_rng r = pm_rng_seed(7, 5, 6);
+	int i, k, inside = 0;
+
+	(void)state;
+	for (i = 0; i < 400000; i += 4) {
+		float c[4], e[4], o[4];
+
+		for (k = 0; k < 4; k++) {
+			c[k] = 2.0f * pm_rng_float(&r) - 1.0f;
+			if (i % 89 == 0)
+				c[k] = k == 0 ? 0.0f : k == 1 ? -0.0f : k == 2 ?
+				    1.0f : -1.0f;
+			if (i % 53 == 4)	/* near the normal */
+				c[k] = 1.0f - 0x1p-24f * (float)(1 + (int)(64 *
+				    pm_rng_float(&r)));
+			e[k] = etas[(i / 4 + k) % 6];
+			inside += c[k] < 0.0f;
+		}
+		_mm_storeu_ps(o, pm_fresnel4(_mm_loadu_ps(c), _mm_loadu_ps(e)));
+		for (k = 0; k < 4; k++) {
+			float want = pm_fresnel_dielectric(c[k], e[k], NULL);
+
+			assert_memory_equal(&o[k], &want, sizeof(want));
+		}
+	}
+	assert_true(inside > 100000);
+}
 #else
+static void
+test_fresnel4(void **state)
+{
+	(void)state;
+}
+
 static void
 test_rgbe_pack4(void **state)
 {
@@ -139,6 +184,7 @@ main(void)
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_rgbe_pack4),
 		cmocka_unit_test(test_dir_pack4),
+		cmocka_unit_test(test_fresnel4),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);

@@ -227,10 +227,11 @@ reference_path(const struct world *w, uint64_t seed, uint64_t i,
 }
 
 /* Every photon pm_shoot stores is reference_path's, in order: in the
- * furnace with a diffuse and then a plastic enclosure (whose diffuse
- * lobe takes the directions warped ahead), with a mirror sphere beside
- * the light, where a path's numbers shift and the guess made ahead must
- * be refused. */
+ * furnace with a diffuse, then a plastic enclosure, then a twosided one
+ * seen from its back (twosided's flip) with the nonlinear base and a
+ * coloured coating (pm_shoot takes plastic's bounces in SIMD lanes too),
+ * with a mirror sphere beside the light, where a path's numbers shift and
+ * the guess made ahead must be refused. */
 static void
 test_paths_are_the_definition(void **state)
 {
@@ -239,7 +240,7 @@ test_paths_are_the_definition(void **state)
 	int variant;
 
 	(void)state;
-	for (variant = 0; variant < 2; variant++) {
+	for (variant = 0; variant < 3; variant++) {
 		struct world w;
 		struct pm_scene *s = &w.scene;
 		struct pm_photon_buf b = {NULL, 0, 0};
@@ -254,18 +255,25 @@ test_paths_are_the_definition(void **state)
 
 		pm_scene_init(s);
 		wall = add_diffuse(s, 0.8f);
-		if (variant == 1) {
+		if (variant >= 1) {
 			s->bsdfs[wall].type = PM_BSDF_PLASTIC;
 			s->bsdfs[wall].diffuse = pm_rgb(0.7f, 0.5f, 0.3f);
 			s->bsdfs[wall].specular = pm_rgb1(1.0f);
 			s->bsdfs[wall].ior = 1.5f;
+		}
+		if (variant == 2) {
+			s->bsdfs[wall].twosided = true;
+			s->bsdfs[wall].nonlinear = true;
+			s->bsdfs[wall].diffuse = pm_rgb(0.9f, 0.8f, 0.7f);
+			s->bsdfs[wall].specular = pm_rgb(0.9f, 0.6f, 1.2f);
+			s->bsdfs[wall].ior = 1.33f;
 		}
 		mirror = add_diffuse(s, 0.0f);
 		s->bsdfs[mirror].type = PM_BSDF_CONDUCTOR;
 		s->bsdfs[mirror].specular = pm_rgb1(0.9f);
 		s->bsdfs[mirror].eta = pm_rgb1(0.0f);
 		s->bsdfs[mirror].k = pm_rgb1(1.0f);
-		add_sphere(s, pm_v3(0, 0, 0), 10.0f, wall, true);
+		add_sphere(s, pm_v3(0, 0, 0), 10.0f, wall, variant != 2);
 		add_sphere(s, pm_v3(4, 0, 0), 2.5f, mirror, false);
 		sh = add_sphere(s, pm_v3(0, 0, 0), 1.0f, add_diffuse(s, 0.0f),
 		    false);
