@@ -229,6 +229,29 @@ buf_push(struct pm_photon_buf *b, const struct pm_photon *p)
 
 static int light_medium(const struct pm_shooter *sh, size_t li);
 
+/*
+ * How a round (trace_paths) takes a global photon's bounces at a shape,
+ * given bounces left and a finite flux: in diffuse_lanes at an untextured
+ * isotropic plain diffuse BSDF, in coat_lanes at such a smooth plastic
+ * with both its lobes (where there are lanes: PM_LANES), else one by one
+ * (bounce).  Either way the result is bounce's.
+ */
+enum lane_kind { LANE_NONE, LANE_DIFFUSE, LANE_COAT };
+
+static enum lane_kind
+lane_kind(const struct pm_bsdf *b)
+{
+	if (pm_bsdf_textured(b) || pm_bsdf_needs_tangent(b) ||
+	    !bsdf_has_nonspecular(b))
+		return LANE_NONE;
+	if (pm_bsdf_plain_diffuse(b) && !bsdf_has_specular(b))
+		return LANE_DIFFUSE;
+	if (PM_LANES && b->type == PM_BSDF_PLASTIC && !b->perturbed &&
+	    b->only == 0)
+		return LANE_COAT;
+	return LANE_NONE;
+}
+
 enum pm_err
 pm_shooter_init(struct pm_shooter *sh, const struct pm_scene *s,
     const struct pm_accel *a, const struct pm_lights *ls, struct pm_error *err)
@@ -250,10 +273,14 @@ pm_shooter_init(struct pm_shooter *sh, const struct pm_scene *s,
 	}
 	sh->aim_center = calloc(s->nshapes + 1, sizeof(*sh->aim_center));
 	sh->aim_radius = calloc(s->nshapes + 1, sizeof(*sh->aim_radius));
-	if (sh->aim_center == NULL || sh->aim_radius == NULL) {
+	sh->lane = calloc(s->nshapes + 1, sizeof(*sh->lane));
+	if (sh->aim_center == NULL || sh->aim_radius == NULL ||
+	    sh->lane == NULL) {
 		pm_shooter_free(sh);
 		return pm_fail(err, PM_ERR_NOMEM, "no memory for caustic targets");
 	}
+	for (i = 0; i < s->nshapes; i++)
+		sh->lane[i] = (uint8_t)lane_kind(&s->bsdfs[s->shapes[i].bsdf]);
 	for (i = 0; i < s->nshapes; i++) {
 		const struct pm_shape *shp = &s->shapes[i];
 		struct pm_vec3 lo, hi, c;
@@ -291,6 +318,7 @@ void
 pm_shooter_free(struct pm_shooter *sh)
 {
 	free(sh->light_medium);
+	free(sh->lane);
 	sh->light_medium = NULL;
 	free(sh->aim_center);
 	free(sh->aim_radius);
@@ -1348,39 +1376,6 @@ coat_lanes(struct diffuse_round *r, size_t j0, size_t j1)
 }
 #endif
 
-/* A photon path's bounce at the diffuse surface h as diffuse_lanes can
- * take it (bounce's result the same): the global pass, an untextured
- * isotropic plain diffuse BSDF, a finite flux, bounces left. */
-static inline bool
-diffuse_bounce(const struct pm_scene *s, const struct pm_shoot_opts *opts,
-    const struct pm_hit *h, const struct photon_state *st, int max_depth)
-{
-	const struct pm_bsdf *b = &s->bsdfs[s->shapes[h->shape].bsdf];
-
-	return opts->pass == PM_PASS_GLOBAL &&
-	    st->depth < max_depth && pm_bsdf_plain_diffuse(b) &&
-	    !pm_bsdf_textured(b) && !pm_bsdf_needs_tangent(b) &&
-	    bsdf_has_nonspecular(b) && !bsdf_has_specular(b) &&
-	    pm_rgb_is_finite(st->flux);
-}
-
-/* A photon path's bounce at the smooth plastic surface h as coat_lanes
- * can take it (bounce's result the same): the global pass, an untextured
- * isotropic plastic with both its lobes, a finite flux, bounces left.
- * Without lanes (PM_LANES 0), bounce takes them all. */
-static inline bool
-coat_bounce(const struct pm_scene *s, const struct pm_shoot_opts *opts,
-    const struct pm_hit *h, const struct photon_state *st, int max_depth)
-{
-	const struct pm_bsdf *b = &s->bsdfs[s->shapes[h->shape].bsdf];
-
-	return PM_LANES && opts->pass == PM_PASS_GLOBAL &&
-	    st->depth < max_depth && b->type == PM_BSDF_PLASTIC &&
-	    !b->perturbed && b->only == 0 && !pm_bsdf_textured(b) &&
-	    !pm_bsdf_needs_tangent(b) && bsdf_has_nonspecular(b) &&
-	    pm_rgb_is_finite(st->flux);
-}
-
 /* Room in *tag for index i; false without memory. */
 static __attribute__((noinline)) bool
 tag_grow(uint8_t **tag, size_t *tag_cap, size_t i)
@@ -1628,6 +1623,8 @@ trace_paths(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 	uint8_t *idx = rd->idx;
 	size_t cnt[PHOTON_LANES + 1], i;
 	int max_depth = path_max_depth(opts), k, na, m, b, nd, nc, c, j, j2;
+	/* the global pass's bounces in lanes (lane_kind) */
+	const uint8_t *lane = opts->pass == PM_PASS_GLOBAL ? sh->lane : NULL;
 
 	for (b = 0; b < n; b += EMIT_LANES)
 		emit_batch(sh, opts, first + (uint64_t)b,
@@ -1653,13 +1650,14 @@ trace_paths(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 			size_t before = tmp->n;
 			int r;
 
-			if (hitf[k] && diffuse_bounce(s, opts, &hits[k], p,
-			    max_depth)) {
-				lane_take(dr, nd++, s, &hits[k], p, idx[k], false);
-				continue;
-			}
-			if (hitf[k] && coat_bounce(s, opts, &hits[k], p,
-			    max_depth)) {
+			if (hitf[k] && lane != NULL && lane[hits[k].shape] !=
+			    LANE_NONE && p->depth < max_depth &&
+			    pm_rgb_is_finite(p->flux)) {
+				if (lane[hits[k].shape] == LANE_DIFFUSE) {
+					lane_take(dr, nd++, s, &hits[k], p,
+					    idx[k], false);
+					continue;
+				}
 				if (p->depth == 0)
 					co->paths_specular++;	/* as bounce */
 				lane_take(dr, COAT_LANE(nc++), s, &hits[k], p,

@@ -123,6 +123,9 @@ struct pm_shooter {
 	/* Per light, the medium its photons start in (an index into
 	 * scene.media, -1: vacuum); NULL in a scene without media. */
 	int *light_medium;
+	/* Per shape, which SIMD lanes take a global photon's bounces there
+	 * (shoot.c's enum lane_kind), found once rather than at every hit. */
+	uint8_t *lane;
 };
 
 enum pm_err pm_shooter_init(struct pm_shooter *sh, const struct pm_scene *s,
