@@ -34,6 +34,7 @@
 # BENCH_BIG (10000000 photons), BENCH_QUERIES (20000 per k),
 # BENCH_SPEEDUP_RUNS (3: the speed-up rows take the best of as many),
 # BENCH_PATH_RUNS (3: so do both sides of the camera-paths rows),
+# BENCH_SHOOT_RUNS (3: and of the rows of photons against the ceiling),
 # BENCH_FLANN_FILE_ORDER_MAX (2000000: FLANN's build on the file's order,
 # the input pm's build gets, is timed up to this many photons; 1e7 adds
 # the 10M row, at 7 s to 27 s of FLANN).
@@ -73,13 +74,30 @@ $X range "$OUT/big.pmap" 1000000 50,200 "$Q" | while read -r line; do
 done
 rm -f "$OUT/big.pmap"
 
-# Photon tracing against the ray-cast ceiling, one core each.
+# Photon tracing against the ray-cast ceiling, one core each: each side
+# the best of BENCH_SHOOT_RUNS runs, in turns (pm-shoot, the ceiling for
+# a second, ...), as for the speed-ups below; one run each read the
+# bunny's row 0.59 and 0.64 in two runs of the bench at one commit.
+SR=${BENCH_SHOOT_RUNS:-3}
 for s in cornell-box bunny; do
-	$B/pm-shoot -v -f -t 1 --photons 1000000 -o "$OUT/s1.pmap" data/$s.xml \
-	    2>"$OUT/shoot.log"
-	pps=$(sed -n 's/.*global map: .* (\([0-9.]*\) paths\/s), \([0-9]*\) photons stored.*/\1/p' "$OUT/shoot.log")
+	pps=0
+	rays=
+	best=0
+	i=0
+	while [ "$i" -lt "$SR" ]; do
+		$B/pm-shoot -v -f -t 1 --photons 1000000 -o "$OUT/s1.pmap" \
+		    data/$s.xml 2>"$OUT/shoot.log"
+		p=$(sed -n 's/.*global map: .* (\([0-9.]*\) paths\/s), \([0-9]*\) photons stored.*/\1/p' "$OUT/shoot.log")
+		pps=$(awk -v a="$pps" -v b="$p" 'BEGIN { print (b > a ? b : a) }')
+		x=$($X rays data/$s.xml 1)
+		v=$(printf '%s\n' "$x" | sed -n 's/.*"rays_per_s": \([0-9.]*\).*/\1/p')
+		if awk -v a="$best" -v b="$v" 'BEGIN { exit !(b > a) }'; then
+			best=$v
+			rays=$x
+		fi
+		i=$((i + 1))
+	done
 	stored=$(key "$OUT/s1.pmap" global.photons)
-	rays=$($X rays data/$s.xml 2)
 	# The same pass's own rays cast alone, in the same calls (packets of
 	# a round's rays): how much of it is Embree's, and what the row
 	# above would read if pm's own work cost nothing.
