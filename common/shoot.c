@@ -1521,18 +1521,20 @@ diffuse_lanes(struct diffuse_round *r, size_t j0, size_t j1)
 }
 #endif
 
-/* Bounce k's photon into out, and its path moved on if the sample and
- * the roulette let it: bounce's result for it (1 on, 0 ended, -1 out of
- * memory).  coat: a plastic bounce. */
+/* Bounce k's photon into out, tagged with its path in *tag, and the path
+ * (its state in sts) moved on if the sample and the roulette let it:
+ * bounce's result for it (1 on, 0 ended, -1 out of memory).  coat: a
+ * plastic bounce. */
 static inline __attribute__((always_inline)) int
-lane_give(const struct diffuse_round *r, int k, struct photon_state *st,
-    struct pm_photon_buf *out, bool coat)
+lane_give(const struct diffuse_round *r, int k, struct photon_state *sts,
+    struct pm_photon_buf *out, uint8_t **tag, size_t *tag_cap, bool coat)
 {
+	struct photon_state *st = &sts[r->path[k]];
 	struct pm_photon *ph = buf_slot(out);
 	float q;
 	int c;
 
-	if (ph == NULL)
+	if (ph == NULL || !tag_photon(tag, tag_cap, out->n - 1, r->path[k]))
 		return -1;
 	for (c = 0; c < 3; c++)
 		ph->pos[c] = r->p[c][k];
@@ -1562,6 +1564,28 @@ lane_give(const struct diffuse_round *r, int k, struct photon_state *st,
 	st->o = pm_v3(r->no[0][k], r->no[1][k], r->no[2][k]);
 	st->depth++;
 	return 1;
+}
+
+/* lane_give for a side's n bounces (coat: the plastic ones, from the
+ * last lane down), the paths that go on appended to idx[*m..]; false
+ * without memory. */
+static inline __attribute__((always_inline)) bool
+lanes_give(const struct diffuse_round *r, int n, bool coat,
+    struct photon_state *sts, struct pm_photon_buf *out, uint8_t **tag,
+    size_t *tag_cap, uint8_t *idx, int *m)
+{
+	int c;
+
+	for (c = 0; c < n; c++) {
+		int l = coat ? COAT_LANE(c) : c;
+		int g = lane_give(r, l, sts, out, tag, tag_cap, coat);
+
+		if (g < 0)
+			return false;
+		if (g > 0)
+			idx[(*m)++] = r->path[l];
+	}
+	return true;
 }
 
 /*
@@ -1622,7 +1646,7 @@ trace_paths(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 	bool *hitf = rd->hitf;
 	uint8_t *idx = rd->idx;
 	size_t cnt[PHOTON_LANES + 1], i;
-	int max_depth = path_max_depth(opts), k, na, m, b, nd, nc, c, j, j2;
+	int max_depth = path_max_depth(opts), k, na, m, b, nd, nc, j, j2;
 	/* the global pass's bounces in lanes (lane_kind) */
 	const uint8_t *lane = opts->pass == PM_PASS_GLOBAL ? sh->lane : NULL;
 
@@ -1698,25 +1722,9 @@ trace_paths(const struct pm_shooter *sh, const struct pm_shoot_opts *opts,
 			coat_lanes(dr, (size_t)j2, DIFFUSE_LANES);
 		}
 #endif
-		for (c = 0; c < nd; c++) {
-			int r = lane_give(dr, c, &st[dr->path[c]], tmp, false);
-
-			if (r < 0 || !tag_photon(tag, tag_cap, tmp->n - 1,
-			    dr->path[c]))
-				return false;
-			if (r > 0)
-				idx[m++] = dr->path[c];
-		}
-		for (c = 0; c < nc; c++) {
-			int l = COAT_LANE(c);
-			int r = lane_give(dr, l, &st[dr->path[l]], tmp, true);
-
-			if (r < 0 || !tag_photon(tag, tag_cap, tmp->n - 1,
-			    dr->path[l]))
-				return false;
-			if (r > 0)
-				idx[m++] = dr->path[l];
-		}
+		if (!lanes_give(dr, nd, false, st, tmp, tag, tag_cap, idx, &m) ||
+		    !lanes_give(dr, nc, true, st, tmp, tag, tag_cap, idx, &m))
+			return false;
 		na = m;
 	}
 	/* back in path order: a counting sort by path, stable */
