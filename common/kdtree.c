@@ -17,9 +17,10 @@
  * selection moves records exactly as it would move photons, so the tree is
  * the same either way.  Subtrees are
  * independent once their parent is split, so large ones (inside compact
- * subtrees too) are handed to idle threads; each range is processed by the
- * same deterministic code whichever thread runs it, so the result does not
- * depend on the thread count.
+ * subtrees too) are handed to idle threads, and the bracketing pass of a
+ * range of 2^19 photons or more runs in two halves, the second lent too;
+ * each range is processed by the same deterministic code whichever thread
+ * runs it, so the result does not depend on the thread count.
  *
  * Queries descend iteratively with a small stack of deferred far children
  * and scan small ranges (contiguous records) linearly, which is faster than
@@ -640,6 +641,94 @@ build_compact(struct build_ctx *c, size_t lo, size_t hi,
 }
 
 /*
+ * The top levels' selections are where one thread works while the others
+ * wait: on 1M photons the first level's pass was 8.3 of the build's 130
+ * ms, and all of it serial.  So a range of SPLIT_MIN photons or more is
+ * narrowed around its sampled keys in two halves, each partitioned on
+ * its own (by an idle thread when there is one), then the halves' parts
+ * exchanged into place: [< a | in [a, b] | > b] of each half makes the
+ * whole range's.  Every range that large is split so, whatever the
+ * thread count, so the tree stays the same bits on any number of
+ * threads.
+ */
+#ifndef SPLIT_MIN
+#define SPLIT_MIN	(1 << 19)
+#endif
+/* A larger sample for these (FR_SAMPLE's 256 left 16% of 1M photons
+ * between the keys, a serial pass of their own after the split): the
+ * same 2.5 sigma either side, 1.25 sqrt(SPLIT_SAMPLE) ranks, leaves 4%. */
+#define SPLIT_SAMPLE	4096
+#define SPLIT_GAP	80
+
+struct split_job {
+	struct pm_photon *p;
+	ptrdiff_t lo, hi, lt, gt;
+	float a, b;
+	int ax;
+};
+
+static void *
+split_thread(void *arg)
+{
+	struct split_job *j = arg;
+
+	partition_ab_ph(j->p, j->lo, j->hi, j->a, j->b, j->ax, &j->lt, &j->gt);
+	return NULL;
+}
+
+/* The blocks [s, s + x) and [s + x, s + x + y), each of one kind, as
+ * the second's records then the first's, in min(x, y) swaps: the order
+ * within a block is not kept. */
+static void
+exchange(struct pm_photon *p, ptrdiff_t s, ptrdiff_t x, ptrdiff_t y)
+{
+	if (y <= x)
+		swap_blocks_ph(p, s, s + x, y);
+	else
+		swap_blocks_ph(p, s, s + y, x);
+}
+
+static void
+narrow_split(struct build_ctx *c, ptrdiff_t *lo, ptrdiff_t *hi, ptrdiff_t k,
+    int ax)
+{
+	struct pm_photon *p = c->p;
+	struct split_job j[2];
+	float smp[SPLIT_SAMPLE];
+	ptrdiff_t mid = *lo + (*hi - *lo) / 2, la, ma, ha, lb, mb, lt, gt;
+	pthread_t t;
+	bool lent = false;
+	float a, b;
+
+	bracket_ph(p, *lo, *hi, k, ax, smp, SPLIT_SAMPLE, SPLIT_GAP, &a, &b);
+	j[0] = (struct split_job){ p, *lo, mid, 0, 0, a, b, ax };
+	j[1] = (struct split_job){ p, mid, *hi, 0, 0, a, b, ax };
+	if (take_thread(c)) {
+		lent = pthread_create(&t, NULL, split_thread, &j[1]) == 0;
+		if (!lent)
+			atomic_fetch_add(&c->idle, 1);
+	}
+	split_thread(&j[0]);
+	if (lent) {
+		pthread_join(t, NULL);
+		atomic_fetch_add(&c->idle, 1);
+	} else
+		split_thread(&j[1]);
+	/* [LA MA HA | LB MB HB] -> [LA LB MA MB HA HB] */
+	la = j[0].lt - *lo;
+	ma = j[0].gt - j[0].lt;
+	ha = mid - j[0].gt;
+	lb = j[1].lt - mid;
+	mb = j[1].gt - j[1].lt;
+	exchange(p, *lo + la + ma, ha, lb);		/* LA MA LB HA MB HB */
+	exchange(p, *lo + la, ma, lb);			/* LA LB MA HA MB HB */
+	exchange(p, *lo + la + lb + ma, ha, mb);	/* LA LB MA MB HA HB */
+	lt = *lo + la + lb;
+	gt = lt + ma + mb;
+	narrow_to_ph(lo, hi, k, lt, gt);
+}
+
+/*
  * Builds the subtree over [lo, hi), lending its left half to another
  * thread when one is idle.  Recursion depth is the tree height, at most
  * 33.  Every range is split by the same code whichever thread runs it, so
@@ -654,9 +743,16 @@ build_range(struct build_ctx *c, size_t lo, size_t hi,
 	while (hi - lo > COMPACT_MAX) {
 		size_t m = lo + (hi - lo) / 2;
 		int ax = widest_axis_ph(p, lo, hi);
+		ptrdiff_t l = (ptrdiff_t)lo, h = (ptrdiff_t)hi, w;
 
-		select_kth_ph(p, (ptrdiff_t)lo, (ptrdiff_t)hi, (ptrdiff_t)m,
-		    ax);
+		/* select_kth's narrowing, in halves; a sample that does not
+		 * halve the range (many equal keys) leaves it to select_kth */
+		while ((w = h - l) >= SPLIT_MIN) {
+			narrow_split(c, &l, &h, (ptrdiff_t)m, ax);
+			if (h - l > w / 2)
+				break;
+		}
+		select_kth_ph(p, l, h, (ptrdiff_t)m, ax);
 		set_axis(&p[m], ax);
 		if (build_lend(c, NULL, 0, lo, m, hi, sc))
 			return;

@@ -719,6 +719,53 @@ test_threads_identical(void **state)
 	}
 }
 
+/*
+ * Ranges of SPLIT_MIN (2^19) photons and more are narrowed in two halves,
+ * the second by another thread when one is idle (kdtree.c): a build of
+ * more than that, on one thread or several, is the same bytes, a valid
+ * tree, and answers as brute force does.
+ */
+static void
+test_threads_identical_split(void **state)
+{
+	static const enum set_kind kinds[] = { SET_UNIFORM, SET_DUPLICATES,
+	    SET_GRID, SET_POINT };
+	size_t n = 600000, k, i;
+	struct pm_knn *all = malloc(n * sizeof(*all)), out[50];
+	unsigned char *seen = malloc(n);
+
+	(void)state;
+	assert_non_null(all);
+	assert_non_null(seen);
+	for (k = 0; k < sizeof(kinds) / sizeof(kinds[0]); k++) {
+		struct pm_photon *a = make_set(kinds[k], n, 41 + k);
+		struct pm_photon *b = copy_set(a, n);
+		struct pm_photon *c = copy_set(a, n);
+		struct pm_rng g = pm_rng_seed(77, k, 0);
+
+		build_ok(a, n, 1);
+		build_ok(b, n, 2);
+		build_ok(c, n, 3);
+		assert_memory_equal(a, b, n * sizeof(*a));
+		assert_memory_equal(a, c, n * sizeof(*a));
+		/* near photons, within a radius that keeps brute force's
+		 * sort short (all of SET_POINT is within any) */
+		for (i = 0; i < 4 && kinds[k] != SET_POINT; i++) {
+			const struct pm_photon *r =
+			    &a[(size_t)(pm_rng_float(&g) * (float)n) % n];
+			float q[3] = { r->pos[0] + 0.01f, r->pos[1],
+			    r->pos[2] - 0.01f };
+
+			check_knn(a, n, q, 50, 0.0025f, 0, 0, all, out, seen);
+		}
+		free(a);
+		free(b);
+		free(c);
+	}
+	free(all);
+	free(seen);
+}
+
 static void
 swap_photons(struct pm_photon *p, size_t i, size_t j)
 {
@@ -856,6 +903,7 @@ main(void)
 		cmocka_unit_test(test_empty_and_degenerate_args),
 		cmocka_unit_test(test_build_layout),
 		cmocka_unit_test(test_threads_identical),
+		cmocka_unit_test(test_threads_identical_split),
 		cmocka_unit_test(test_degenerate_large),
 		cmocka_unit_test(test_verify_detects),
 		cmocka_unit_test(test_knn_sort),
