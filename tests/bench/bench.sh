@@ -7,7 +7,8 @@
 #     the same photons (pm_knn_check, one thread each, the queries given
 #     to both as one batch; pm also one query a call), as ratios; FLANN's
 #     build both on pm's tree order (pm_knn_check's) and on the file's
-#     order, which is what pm's build gets;
+#     order, which is what pm's build gets; and the build's speed-up from
+#     one thread to every core;
 #   - fixed-radius queries per second (the walk of progressive passes) on
 #     1M photons, with the radii of the 50th and 200th neighbours;
 #   - photon paths and stored photons per second per core (pm-shoot -t 1)
@@ -32,7 +33,8 @@
 # One table on stdout, every figure as JSON in out/bench/bench.json.  No
 # figure passes or fails: the machine decides them.  Knobs (environment):
 # BENCH_BIG (10000000 photons), BENCH_QUERIES (20000 per k),
-# BENCH_SPEEDUP_RUNS (3: the speed-up rows take the best of as many),
+# BENCH_SPEEDUP_RUNS (3: the speed-up rows, the kd-tree build's too, take
+# the best of as many, run in turns),
 # BENCH_PATH_RUNS (3: so do both sides of the camera-paths rows),
 # BENCH_SHOOT_RUNS (3: and of the rows of photons against the ceiling),
 # BENCH_FLANN_FILE_ORDER_MAX (2000000: FLANN's build on the file's order,
@@ -261,6 +263,10 @@ for r in rows:
             print("%-52s %14s %14s %8s" % (
                 "kd-tree build, %s photons, %d threads" % (n, r["threads"]),
                 "%.4g s" % r["pm_build_all_cores_s"], "-", "-"))
+            if "pm_build_best_s" in r:
+                row("kd-tree build speed-up, %s, 1 -> %d threads" % (
+                    n, r["threads"]), r["pm_build_best_s"],
+                    r["pm_build_all_cores_best_s"], " s")
         row("k=%d queries/s, %s photons (FLANN)" % (r["k"], n),
             r["pm_qps"], r["flann_qps"])
         if "pm_qps_single" in r:
