@@ -662,6 +662,28 @@ pm_irradiance_setup_r2(const struct pm_map *g,
  * shrinking along the schedule pm-render's --pass follows, so that the
  * records' blur averages away over passes.
  */
+bool
+pm_pmap_irradiance_entry(const struct pm_pmap *m,
+    const struct pm_irradiance_setup *s, struct pm_map *r)
+{
+	const struct pm_map *g = NULL;
+	int i;
+
+	for (i = 0; i < m->nmaps; i++)
+		if (m->maps[i].kind == PM_MAP_IRRADIANCE)
+			return false;
+		else if (m->maps[i].kind == PM_MAP_GLOBAL)
+			g = &m->maps[i];
+	if (s->stride == 0 || g == NULL || g->count == 0 || g->emitted == 0 ||
+	    m->nmaps >= NSLOTS)
+		return false;
+	memset(r, 0, sizeof(*r));
+	r->kind = PM_MAP_IRRADIANCE;
+	r->radius = sqrtf(pm_irradiance_setup_r2(g, s));
+	r->balanced = true;
+	return true;
+}
+
 enum pm_err
 pm_pmap_add_irradiance(struct pm_pmap *m, const struct pm_irradiance_setup *s,
     struct pm_error *err)
@@ -672,8 +694,8 @@ pm_pmap_add_irradiance(struct pm_pmap *m, const struct pm_irradiance_setup *s,
 	enum pm_err e;
 	size_t n = 0;
 
-	if (s->stride == 0 || g == NULL || g->count == 0 || g->emitted == 0 ||
-	    pm_pmap_find(m, PM_MAP_IRRADIANCE) != NULL || m->nmaps >= NSLOTS)
+	r = &m->maps[m->nmaps < NSLOTS ? m->nmaps : 0];
+	if (!pm_pmap_irradiance_entry(m, s, r))
 		return PM_OK;
 	o.stride = s->stride;
 	o.k = s->k;
@@ -684,10 +706,6 @@ pm_pmap_add_irradiance(struct pm_pmap *m, const struct pm_irradiance_setup *s,
 	 * more, so it counts one bounce fewer. */
 	o.max_depth = m->max_depth > 0 ? (int)m->max_depth - 1 : -1;
 	o.threads = s->threads;
-	r = &m->maps[m->nmaps];
-	memset(r, 0, sizeof(*r));
-	r->kind = PM_MAP_IRRADIANCE;
-	r->radius = sqrtf(o.max_r2);
 	if ((e = pm_irradiance_records(g->photons, (size_t)g->count,
 	    1.0f / (float)g->emitted, &o, &r->photons, &n, &inner)) != PM_OK ||
 	    (e = pm_kdtree_build(r->photons, n, s->threads, &inner)) !=

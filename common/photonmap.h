@@ -201,6 +201,12 @@ float pm_irradiance_setup_r2(const struct pm_map *g,
 enum pm_err pm_pmap_add_irradiance(struct pm_pmap *m,
     const struct pm_irradiance_setup *s, struct pm_error *err);
 
+/* Whether pm_pmap_add_irradiance would add a map to m; if so, its entry
+ * in *r as it will be but for its records and count (pm_pmap_write_begin's
+ * last map). */
+bool pm_pmap_irradiance_entry(const struct pm_pmap *m,
+    const struct pm_irradiance_setup *s, struct pm_map *r);
+
 /* --- Statistics -------------------------------------------------------- */
 
 struct pm_map_stats {

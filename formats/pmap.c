@@ -20,6 +20,7 @@
 #include <fcntl.h>
 #include <inttypes.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdatomic.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -2050,6 +2051,105 @@ fail:
 	free(h);
 	pm_pmap_writer_abort(w);
 	return r;
+}
+
+/* --- Writing on a thread while the last map is made --- */
+
+struct pm_pmap_bgwrite {
+	struct pm_pmap_writer *w;	/* NULL once an error freed it */
+	struct pm_pmap m;		/* the maps the thread writes, as
+					 * begun: the caller's may grow */
+	pthread_t t;
+	bool started;			/* t runs; else its work is left to
+					 * pm_pmap_write_end */
+	enum pm_err r;			/* the thread's result */
+	struct pm_error err;
+};
+
+static void *
+bg_worker(void *arg)
+{
+	struct pm_pmap_bgwrite *b = arg;
+	int i;
+
+	b->r = PM_OK;
+	for (i = 0; i < b->m.nmaps && b->r == PM_OK; i++)
+		if ((b->r = pm_pmap_writer_add(b->w, i, b->m.maps[i].photons,
+		    (size_t)b->m.maps[i].count, &b->err)) != PM_OK)
+			b->w = NULL;	/* freed by the writer */
+	return NULL;
+}
+
+enum pm_err
+pm_pmap_write_begin(struct pm_pmap_bgwrite **bp, const char *path,
+    const struct pm_pmap *m, const struct pm_map *last, struct pm_error *err)
+{
+	struct pm_pmap_bgwrite *b;
+	struct pm_pmap h;
+	enum pm_err r;
+	int i;
+
+	*bp = NULL;
+	if (m->nmaps < 0 || m->nmaps >= PMAP_MAXMAPS)
+		return pm_fail(err, PM_ERR_INVALID, "%s: %d maps and one more "
+		    "(at most %d)", path, m->nmaps, PMAP_MAXMAPS);
+	/* The header's maps: m's and last, none with records yet. */
+	h = *m;
+	h.maps[h.nmaps++] = *last;
+	for (i = 0; i < h.nmaps; i++) {
+		h.maps[i].count = 0;
+		h.maps[i].photons = NULL;
+	}
+	if ((b = calloc(1, sizeof(*b))) == NULL)
+		return pm_fail(err, PM_ERR_NOMEM, "%s: out of memory", path);
+	if ((r = pm_pmap_writer_open(&b->w, path, &h, err)) != PM_OK) {
+		free(b);
+		return r;
+	}
+	b->m = *m;
+	b->started = pthread_create(&b->t, NULL, bg_worker, b) == 0;
+	*bp = b;
+	return PM_OK;
+}
+
+/* Waits for the thread, or does its work when none could start. */
+static void
+bg_wait(struct pm_pmap_bgwrite *b)
+{
+	if (b->started)
+		pthread_join(b->t, NULL);
+	else
+		bg_worker(b);
+}
+
+enum pm_err
+pm_pmap_write_end(struct pm_pmap_bgwrite *b, const struct pm_map *last,
+    struct pm_error *err)
+{
+	enum pm_err r;
+	int i = b->m.nmaps;
+
+	bg_wait(b);
+	if ((r = b->r) != PM_OK) {
+		*err = b->err;
+		free(b);
+		return r;
+	}
+	if ((r = pm_pmap_writer_add(b->w, i, last->photons,
+	    (size_t)last->count, err)) == PM_OK)
+		r = pm_pmap_writer_close(b->w, err);
+	free(b);
+	return r;
+}
+
+void
+pm_pmap_write_cancel(struct pm_pmap_bgwrite *b)
+{
+	if (b == NULL)
+		return;
+	bg_wait(b);
+	pm_pmap_writer_abort(b->w);
+	free(b);
 }
 
 /* Appends "key=value\n" to m->info; the value is made one valid line. */

@@ -52,6 +52,25 @@ enum pm_err pm_pmap_writer_close(struct pm_pmap_writer *w,
     struct pm_error *err);
 
 /*
+ * m's maps written on a thread of their own while the caller makes one map
+ * more, to follow them (pm-balance's irradiance records, made on its other
+ * threads), so that the write does not wait for them nor they for it.
+ * pm_pmap_write_begin opens path for m's maps and `last`, whose entry it
+ * takes but for its records and count (as pm_pmap_writer_open does), and
+ * starts writing m's records; pm_pmap_write_end waits for that, appends
+ * last's records, now made, and puts the file in place.  The bytes are
+ * pm_pmap_write's for m's maps followed by last.  m's records must not
+ * change until the end.  After an error from either nothing is left to
+ * free and no file is left; pm_pmap_write_cancel gives up a write begun.
+ */
+struct pm_pmap_bgwrite;
+enum pm_err pm_pmap_write_begin(struct pm_pmap_bgwrite **b, const char *path,
+    const struct pm_pmap *m, const struct pm_map *last, struct pm_error *err);
+enum pm_err pm_pmap_write_end(struct pm_pmap_bgwrite *b,
+    const struct pm_map *last, struct pm_error *err);
+void pm_pmap_write_cancel(struct pm_pmap_bgwrite *b);
+
+/*
  * Records summarised apart from a writer: their crc32 in file order, their
  * bounds, and whether the writer would refuse one.  A producer on many
  * threads summarises each run on the thread that made it; what is left for

@@ -130,6 +130,9 @@ main(int argc, char *argv[])
 	struct pm_pmap *in = NULL, out;
 	struct pm_shard *shards = NULL;
 	struct pm_irradiance_setup irr;
+	struct pm_pmap_bgwrite *bg = NULL;
+	struct pm_map last;
+	enum pm_err r;
 	struct pm_cli_opts co;
 	const char *output;
 	bool force, compress = false;
@@ -318,7 +321,19 @@ main(int argc, char *argv[])
 
 	t = pm_cli_now();
 	k = out.nmaps;
+	/* With threads to spare, the photon maps are written while the
+	 * irradiance records are made (the same bytes): written after
+	 * them, on one thread, they took 25 of 384 ms on two threads
+	 * (1M cornell-box paths), the others idle. */
+	if (!compress && threads > 1 && strcmp(output, "-") != 0 &&
+	    pm_pmap_irradiance_entry(&out, &irr, &last) &&
+	    pm_pmap_write_begin(&bg, output, &out, &last, &err) != PM_OK) {
+		fprintf(stderr, "%s: %s\n", PROG, err.msg);
+		goto done;
+	}
 	if (pm_pmap_add_irradiance(&out, &irr, &err) != PM_OK) {
+		pm_pmap_write_cancel(bg);
+		bg = NULL;
 		fprintf(stderr, "%s: %s: %s\n", PROG, output, err.msg);
 		goto done;
 	}
@@ -331,8 +346,10 @@ main(int argc, char *argv[])
 		    PM_MAP_GLOBAL), &irr)), pm_cli_now() - t);
 
 	t = pm_cli_now();
-	if (pm_pmap_write_threads(output, &out, compress, (int)threads, &err) !=
-	    PM_OK) {
+	r = bg != NULL ? pm_pmap_write_end(bg, &out.maps[k], &err) :
+	    pm_pmap_write_threads(output, &out, compress, (int)threads, &err);
+	bg = NULL;
+	if (r != PM_OK) {
 		pm_cli_progress_hold(prog);
 		fprintf(stderr, "%s: %s\n", PROG, err.msg);
 		goto done;
@@ -347,6 +364,7 @@ main(int argc, char *argv[])
 	status = 0;
 
 done:
+	pm_pmap_write_cancel(bg);
 	if (prog != NULL) {
 		/* Held: the line was cleared for an error message. */
 		pm_cli_progress_release(prog);

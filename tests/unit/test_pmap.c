@@ -1778,6 +1778,97 @@ test_writer(void **state)
 	pm_pmap_free(&m);
 }
 
+/* m's maps but the last written on a thread while the caller makes the
+ * last and adds it to the same struct, as pm-balance does
+ * (pm_pmap_write_begin, then _end); the file's length in buf. */
+static size_t
+bg_bytes(const struct pm_pmap *m, unsigned char *buf)
+{
+	struct pm_pmap_bgwrite *b;
+	struct pm_pmap g = *m;
+	struct pm_map last = m->maps[m->nmaps - 1];
+	struct pm_error err;
+	char p[PATHCAP];
+	size_t n;
+
+	g.nmaps--;
+	memset(&g.maps[g.nmaps], 0, sizeof(g.maps[g.nmaps]));
+	/* the entry begin takes: none of the records */
+	last.photons = NULL;
+	last.count = 0;
+	tpath(p, "bg.pmap");
+	if (pm_pmap_write_begin(&b, p, &g, &last, &err) != PM_OK)
+		fail_msg("%s", err.msg);
+	g.maps[g.nmaps++] = m->maps[m->nmaps - 1];
+	if (pm_pmap_write_end(b, &g.maps[g.nmaps - 1], &err) != PM_OK)
+		fail_msg("%s", err.msg);
+	n = slurp(p, buf, BUFCAP);
+	unlink(p);
+	return n;
+}
+
+/* Writing the first maps on a thread while the last is made gives
+ * pm_pmap_write's bytes, with empty maps anywhere; a bad record in the
+ * maps the thread writes, an entry the header refuses and a write given
+ * up leave no file. */
+static void
+test_write_begin_end(void **state)
+{
+	static const size_t sizes[][3] = {
+		{300, 40, 20}, {0, 40, 20}, {300, 0, 20}, {300, 40, 0},
+		{0, 0, 0}, {25000, 1, 5000},
+	};
+	static unsigned char a[BUFCAP], b[BUFCAP];
+	struct pm_pmap_bgwrite *bg;
+	struct pm_pmap m, first;
+	struct pm_map last;
+	struct pm_error err;
+	char p[PATHCAP];
+	size_t s, na, nb;
+	int nmaps, before;
+
+	(void)state;
+	for (nmaps = 1; nmaps <= 3; nmaps++)
+		for (s = 0; s < sizeof(sizes) / sizeof(sizes[0]); s++) {
+			make_pmap(&m, nmaps, sizes[s][0], sizes[s][1],
+			    sizes[s][2]);
+			na = write_bytes(&m, false, a);
+			nb = bg_bytes(&m, b);
+			assert_int_equal(na, nb);
+			assert_memory_equal(a, b, na);
+			pm_pmap_free(&m);
+		}
+	tpath(p, "refused.pmap");
+	before = count_files();
+	make_pmap(&m, 3, 300, 40, 20);
+	first = m;
+	first.nmaps = 2;
+	last = m.maps[2];
+	last.photons = NULL;
+	last.count = 0;
+	/* a bad record in the thread's maps: found at the end */
+	m.maps[1].photons[17].pos[2] = NAN;
+	assert_int_equal(pm_pmap_write_begin(&bg, p, &first, &last, &err),
+	    PM_OK);
+	assert_int_equal(pm_pmap_write_end(bg, &m.maps[2], &err),
+	    PM_ERR_INVALID);
+	assert_non_null(strstr(err.msg, "photon 17 of the caustic map"));
+	assert_int_equal(count_files(), before);
+	m.maps[1].photons[17].pos[2] = 0.5f;
+	/* given up while the thread writes */
+	assert_int_equal(pm_pmap_write_begin(&bg, p, &first, &last, &err),
+	    PM_OK);
+	pm_pmap_write_cancel(bg);
+	assert_int_equal(count_files(), before);
+	/* a last map the header cannot hold */
+	last.radius = -1.0f;
+	assert_int_equal(pm_pmap_write_begin(&bg, p, &first, &last, &err),
+	    PM_ERR_INVALID);
+	assert_null(bg);
+	assert_int_equal(count_files(), before);
+	pm_pmap_free(&m);
+}
+
 /* The whole file at path, in a new buffer of *n bytes. */
 static unsigned char *
 slurp_all(const char *path, size_t *n)
@@ -1961,6 +2052,7 @@ main(void)
 		cmocka_unit_test(test_stdout),
 		cmocka_unit_test(test_write_errors),
 		cmocka_unit_test(test_writer),
+		cmocka_unit_test(test_write_begin_end),
 		cmocka_unit_test(test_write_threads),
 		cmocka_unit_test(test_large_offsets),
 	};
