@@ -1670,8 +1670,38 @@ stream_bytes(const struct pm_pmap *m, size_t piece, unsigned char *buf)
 	return n;
 }
 
-/* m streamed in runs of 1, 7, 64, 1000 records and a map at a time gives
- * pm_pmap_write's bytes. */
+/* m's maps but the last written on a thread while the caller makes the
+ * last and adds it to the same struct, as pm-balance does
+ * (pm_pmap_write_begin, then _end); the file's length in buf. */
+static size_t
+bg_bytes(const struct pm_pmap *m, unsigned char *buf)
+{
+	struct pm_pmap_bgwrite *b;
+	struct pm_pmap g = *m;
+	struct pm_map last = m->maps[m->nmaps - 1];
+	struct pm_error err;
+	char p[PATHCAP];
+	size_t n;
+
+	g.nmaps--;
+	memset(&g.maps[g.nmaps], 0, sizeof(g.maps[g.nmaps]));
+	/* the entry begin takes: none of the records */
+	last.photons = NULL;
+	last.count = 0;
+	tpath(p, "bg.pmap");
+	if (pm_pmap_write_begin(&b, p, &g, &last, &err) != PM_OK)
+		fail_msg("%s", err.msg);
+	g.maps[g.nmaps++] = m->maps[m->nmaps - 1];
+	if (pm_pmap_write_end(b, &g.maps[g.nmaps - 1], &err) != PM_OK)
+		fail_msg("%s", err.msg);
+	n = slurp(p, buf, BUFCAP);
+	unlink(p);
+	return n;
+}
+
+/* m streamed in runs of 1, 7, 64, 1000 records and a map at a time, and
+ * its maps but the last on a thread (bg_bytes), give pm_pmap_write's
+ * bytes. */
 static void
 check_streamed(const struct pm_pmap *m)
 {
@@ -1681,6 +1711,11 @@ check_streamed(const struct pm_pmap *m)
 
 	for (q = 0; q < sizeof(pieces) / sizeof(pieces[0]); q++) {
 		nb = stream_bytes(m, pieces[q], b);
+		assert_int_equal(na, nb);
+		assert_memory_equal(a, b, na);
+	}
+	if (m->nmaps > 0) {
+		nb = bg_bytes(m, b);
 		assert_int_equal(na, nb);
 		assert_memory_equal(a, b, na);
 	}
@@ -1778,66 +1813,24 @@ test_writer(void **state)
 	pm_pmap_free(&m);
 }
 
-/* m's maps but the last written on a thread while the caller makes the
- * last and adds it to the same struct, as pm-balance does
- * (pm_pmap_write_begin, then _end); the file's length in buf. */
-static size_t
-bg_bytes(const struct pm_pmap *m, unsigned char *buf)
-{
-	struct pm_pmap_bgwrite *b;
-	struct pm_pmap g = *m;
-	struct pm_map last = m->maps[m->nmaps - 1];
-	struct pm_error err;
-	char p[PATHCAP];
-	size_t n;
-
-	g.nmaps--;
-	memset(&g.maps[g.nmaps], 0, sizeof(g.maps[g.nmaps]));
-	/* the entry begin takes: none of the records */
-	last.photons = NULL;
-	last.count = 0;
-	tpath(p, "bg.pmap");
-	if (pm_pmap_write_begin(&b, p, &g, &last, &err) != PM_OK)
-		fail_msg("%s", err.msg);
-	g.maps[g.nmaps++] = m->maps[m->nmaps - 1];
-	if (pm_pmap_write_end(b, &g.maps[g.nmaps - 1], &err) != PM_OK)
-		fail_msg("%s", err.msg);
-	n = slurp(p, buf, BUFCAP);
-	unlink(p);
-	return n;
-}
-
 /* Writing the first maps on a thread while the last is made gives
- * pm_pmap_write's bytes, with empty maps anywhere; a bad record in the
- * maps the thread writes, an entry the header refuses and a write given
- * up leave no file. */
+ * pm_pmap_write's bytes (check_streamed, in test_writer, for the rest);
+ * a bad record in the maps the thread writes, an entry the header
+ * refuses and a write given up leave no file. */
 static void
 test_write_begin_end(void **state)
 {
-	static const size_t sizes[][3] = {
-		{300, 40, 20}, {0, 40, 20}, {300, 0, 20}, {300, 40, 0},
-		{0, 0, 0}, {25000, 1, 5000},
-	};
-	static unsigned char a[BUFCAP], b[BUFCAP];
 	struct pm_pmap_bgwrite *bg;
 	struct pm_pmap m, first;
 	struct pm_map last;
 	struct pm_error err;
 	char p[PATHCAP];
-	size_t s, na, nb;
-	int nmaps, before;
+	int before;
 
 	(void)state;
-	for (nmaps = 1; nmaps <= 3; nmaps++)
-		for (s = 0; s < sizeof(sizes) / sizeof(sizes[0]); s++) {
-			make_pmap(&m, nmaps, sizes[s][0], sizes[s][1],
-			    sizes[s][2]);
-			na = write_bytes(&m, false, a);
-			nb = bg_bytes(&m, b);
-			assert_int_equal(na, nb);
-			assert_memory_equal(a, b, na);
-			pm_pmap_free(&m);
-		}
+	make_pmap(&m, 3, 25000, 1, 5000);
+	check_streamed(&m);
+	pm_pmap_free(&m);
 	tpath(p, "refused.pmap");
 	before = count_files();
 	make_pmap(&m, 3, 300, 40, 20);
