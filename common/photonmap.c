@@ -657,10 +657,11 @@ pm_irradiance_setup_r2(const struct pm_map *g,
 }
 
 /*
- * The records' radius is a fraction of the global map's half-diagonal:
- * the k-nearest cap, or with a progressive pass the fixed radius,
- * shrinking along the schedule pm-render's --pass follows, so that the
- * records' blur averages away over passes.
+ * The records' map entry.  Their radius is a fraction of the global map's
+ * half-diagonal: the k-nearest cap, or with a progressive pass the fixed
+ * radius, shrinking along the schedule pm-render's --pass follows, so that
+ * the records' blur averages away over passes.  (A loop rather than
+ * pm_pmap_find, which takes a map it may change.)
  */
 bool
 pm_pmap_irradiance_entry(const struct pm_pmap *m,
@@ -689,14 +690,15 @@ pm_pmap_add_irradiance(struct pm_pmap *m, const struct pm_irradiance_setup *s,
     struct pm_error *err)
 {
 	struct pm_error inner = {PM_OK, ""};
-	struct pm_map *g = pm_pmap_find(m, PM_MAP_GLOBAL), *r;
+	struct pm_map *g = pm_pmap_find(m, PM_MAP_GLOBAL), *r, entry;
 	struct pm_irradiance_opts o;
 	enum pm_err e;
 	size_t n = 0;
 
-	r = &m->maps[m->nmaps < NSLOTS ? m->nmaps : 0];
-	if (!pm_pmap_irradiance_entry(m, s, r))
+	if (!pm_pmap_irradiance_entry(m, s, &entry))
 		return PM_OK;
+	r = &m->maps[m->nmaps];
+	*r = entry;
 	o.stride = s->stride;
 	o.k = s->k;
 	o.max_r2 = pm_irradiance_setup_r2(g, s);
@@ -715,7 +717,6 @@ pm_pmap_add_irradiance(struct pm_pmap *m, const struct pm_irradiance_setup *s,
 		return pm_fail(err, e, "irradiance records: %s", inner.msg);
 	}
 	r->count = n;
-	r->balanced = true;
 	m->nmaps++;
 	return PM_OK;
 }

@@ -146,7 +146,9 @@ bench_knn(const char *path, size_t n, const char *ks, size_t queries)
 	 * commit). */
 	runs = getenv("BENCH_SPEEDUP_RUNS") != NULL ?
 	    atoi(getenv("BENCH_SPEEDUP_RUNS")) : 3;
-	for (i = 0; i < (runs < 1 ? 1 : runs); i++) {
+	if (runs < 1)
+		runs = 1;
+	for (i = 0; i < runs; i++) {
 		double a, b;
 
 		memcpy(p, m->photons, n * sizeof(*p));
@@ -188,8 +190,7 @@ bench_knn(const char *path, size_t n, const char *ks, size_t queries)
 		    "\"pm_qps\": %.1f, \"pm_qps_single\": %.1f, "
 		    "\"flann_qps\": %.1f, "
 		    "\"mismatches\": %zu, \"ties\": %zu}\n",
-		    n, k, r.queries, t1, tn, b1, bn, runs < 1 ? 1 : runs,
-		    threads, r.flann_build_s, tf, r.pm_qps,
+		    n, k, r.queries, t1, tn, b1, bn, runs, threads, r.flann_build_s, tf, r.pm_qps,
 		    r.pm_qps_single, r.flann_qps, r.mismatches, r.ties);
 		fflush(stdout);
 	}
